@@ -1,0 +1,37 @@
+# Front door. Every target sets up what it needs in .venv/, idempotently.
+SHELL := /bin/bash
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV := .venv
+VENV_ABS := $(abspath $(VENV))
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.cdpr-setup
+PACKAGES := cdpr_msgs_py cdpr_control cdpr_twin cdpr_fdi cdpr_bringup
+PACKAGE_FILES := $(foreach p,$(PACKAGES),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
+
+# What rclpy needs in a venv, and DDS discovery kept on this machine unless told otherwise.
+export AMENT_PREFIX_PATH := $(VENV_ABS)$(if $(AMENT_PREFIX_PATH),:$(AMENT_PREFIX_PATH))
+export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
+export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
+
+.PHONY: setup demo test bench clean
+
+setup: $(STAMP)
+
+$(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.txt
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps $(foreach p,$(PACKAGES),-e src/$(p))
+	grep -q 'cdpr environment' $(VENV)/bin/activate || cat tools/venv-activate.sh >> $(VENV)/bin/activate
+	touch $(STAMP)
+
+demo: setup
+	$(VENV)/bin/cdpr-robot --config src/cdpr_bringup/config/paper_robot.yaml
+
+test: setup
+	$(PY) -m pytest
+
+bench: setup
+	$(VENV)/bin/cdpr-bench model
+
+clean:
+	rm -rf $(VENV) build install log .pytest_cache

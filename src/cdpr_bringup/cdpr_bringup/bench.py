@@ -1,0 +1,83 @@
+"""cdpr-bench: benchmarks of the project, each printing medians (and JSON on request)."""
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import os
+import time
+
+import numpy as np
+
+from cdpr_control.dynamics import direct_dynamics, inverse_dynamics
+from cdpr_control.kinematics import forward_kinematics, inverse_kinematics, structure_matrix
+from cdpr_control.robot import load_robot
+from cdpr_control.tension_distribution import METHODS, make_tension_distribution
+
+from .paths import DEFAULT_ROBOT, config_file
+
+REPEATS = 31
+CALLS_PER_REPEAT = 200
+
+
+def median_us(call, *args) -> float:
+    """Median over REPEATS batches of the mean time (µs) of one call."""
+    samples = []
+    for _ in range(REPEATS):
+        start = time.perf_counter()
+        for _ in range(CALLS_PER_REPEAT):
+            call(*args)
+        samples.append((time.perf_counter() - start) / CALLS_PER_REPEAT * 1e6)
+    return float(np.median(samples))
+
+
+def bench_model(config: str) -> dict:
+    """µs per call of the model functions at a pose in the middle of a motion."""
+    robot = load_robot(config_file(config))
+    position = robot.home_position_m + np.array([0.11, -0.07, 0.05])
+    velocity = np.array([0.2, -0.3, 0.1])
+    acceleration = np.array([0.5, 0.4, -0.3])
+    angles = inverse_kinematics(robot, position)
+    all_cables = robot.cable_mask()
+    after_failure = robot.cable_mask([robot.cable_count - 1])
+    structure, _ = structure_matrix(robot, position)
+    wrench = robot.mass_kg * (acceleration - robot.gravity_m_s2)
+    pseudo_inverse = make_tension_distribution('pseudo_inverse', robot.tension_min_n,
+                                               robot.tension_max_n)
+    torque = inverse_dynamics(robot, pseudo_inverse, position, velocity, acceleration)
+    figures = {
+        'inverse_kinematics_us': median_us(inverse_kinematics, robot, position),
+        'forward_kinematics_us': median_us(forward_kinematics, robot, angles, all_cables),
+        'forward_kinematics_after_failure_us': median_us(forward_kinematics, robot, angles,
+                                                         after_failure),
+    }
+    for name in METHODS:
+        method = make_tension_distribution(name, robot.tension_min_n, robot.tension_max_n)
+        figures[f'tension_{name}_us'] = median_us(method.distribute, structure, wrench)
+    figures['inverse_dynamics_us'] = median_us(inverse_dynamics, robot, pseudo_inverse, position,
+                                               velocity, acceleration)
+    figures['direct_dynamics_us'] = median_us(direct_dynamics, robot, position, velocity,
+                                              torque.torque_nm, torque.joint_velocity_rad_s)
+    return figures
+
+
+def machine() -> str:
+    return f'{platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}'
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument('suite', choices=['model'], help='what to measure')
+    parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
+    parser.add_argument('--json', action='store_true', help='print one JSON object last')
+    args = parser.parse_args(argv)
+    figures = bench_model(args.config)
+    print(f'cdpr-bench {args.suite} on {machine()}; median of {REPEATS} x {CALLS_PER_REPEAT} calls')
+    for key, value in figures.items():
+        print(f'  {key:<40} {value:9.2f}')
+    if args.json:
+        print(json.dumps(figures))
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,28 @@
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'cdpr_bringup'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
+    ],
+    install_requires=['setuptools', 'numpy', 'PyYAML', 'matplotlib', 'rosbags'],
+    zip_safe=True,
+    maintainer='cdpr maintainers',
+    maintainer_email='cdpr-maintainers@example.org',
+    description='Robot and scenario configs, the scripts that start the cdpr graph, bag recording, scenario runner, reports and benchmarks.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'cdpr-robot = cdpr_bringup.robot_summary:main',
+            'cdpr-bench = cdpr_bringup.bench:main',
+        ],
+    },
+)

@@ -1,0 +1,1 @@
+"""Cable robot model (kinematics, tension distribution, dynamics), trajectories and the PD + feed-forward controller."""

@@ -1,0 +1,120 @@
+"""Loading YAML configuration with errors that name the key and the file."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import yaml
+
+
+class ConfigError(ValueError):
+    """A configuration value is missing or invalid; the message names key and file."""
+
+    def __init__(self, path: str | Path, key: str, problem: str):
+        self.path = str(path)
+        self.key = key
+        super().__init__(f"{self.path}: '{key}' {problem}")
+
+
+def load_yaml(path: str | Path) -> dict:
+    """Read a YAML mapping from `path`; anything else is a ConfigError."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as err:
+        raise ConfigError(path, '<file>', f'cannot be read: {err.strerror}') from err
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise ConfigError(path, '<file>', f'is not valid YAML: {err}') from err
+    if not isinstance(data, dict):
+        raise ConfigError(path, '<file>', 'must hold a YAML mapping at the top level')
+    return data
+
+
+class Section:
+    """A view on one mapping of a config file that reports dotted key paths."""
+
+    def __init__(self, data: Mapping[str, Any], path: str | Path, prefix: str = ''):
+        if not isinstance(data, Mapping):
+            raise ConfigError(path, prefix or '<root>', 'must be a mapping')
+        self.data = data
+        self.path = str(path)
+        self.prefix = prefix
+
+    def key(self, name: str) -> str:
+        return f'{self.prefix}.{name}' if self.prefix else name
+
+    def error(self, name: str, problem: str) -> ConfigError:
+        return ConfigError(self.path, self.key(name), problem)
+
+    def has(self, name: str) -> bool:
+        return name in self.data
+
+    def raw(self, name: str, default: Any = ...) -> Any:
+        if name not in self.data:
+            if default is ...:
+                raise self.error(name, 'is missing')
+            return default
+        return self.data[name]
+
+    def section(self, name: str) -> 'Section':
+        return Section(self.raw(name), self.path, self.key(name))
+
+    def number(self, name: str, default: Any = ..., *, positive: bool = False,
+               non_negative: bool = False) -> float:
+        value = self.raw(name, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.error(name, f'must be a number, got {value!r}')
+        value = float(value)
+        if not np.isfinite(value):
+            raise self.error(name, f'must be finite, got {value!r}')
+        if positive and value <= 0.0:
+            raise self.error(name, f'must be positive, got {value!r}')
+        if non_negative and value < 0.0:
+            raise self.error(name, f'must not be negative, got {value!r}')
+        return value
+
+    def integer(self, name: str, default: Any = ..., *, minimum: int | None = None) -> int:
+        value = self.raw(name, default)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.error(name, f'must be an integer, got {value!r}')
+        if minimum is not None and value < minimum:
+            raise self.error(name, f'must be at least {minimum}, got {value!r}')
+        return value
+
+    def string(self, name: str, default: Any = ..., *, choices: tuple[str, ...] = ()) -> str:
+        value = self.raw(name, default)
+        if not isinstance(value, str):
+            raise self.error(name, f'must be a string, got {value!r}')
+        if choices and value not in choices:
+            raise self.error(name, f'must be one of {", ".join(choices)}, got {value!r}')
+        return value
+
+    def vector(self, name: str, length: int, default: Any = ...) -> np.ndarray:
+        return self._array(self.key(name), self.raw(name, default), (length,))
+
+    def matrix(self, name: str, columns: int) -> np.ndarray:
+        value = self.raw(name)
+        if not isinstance(value, (list, tuple)) or not value:
+            raise self.error(name, 'must be a non-empty list of rows')
+        rows = [self._array(f'{self.key(name)}[{i}]', row, (columns,))
+                for i, row in enumerate(value)]
+        return np.array(rows)
+
+    def _array(self, key: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
+        try:
+            array = np.array(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigError(self.path, key, f'must be a list of {shape[0]} numbers, got {value!r}')
+        if array.shape != shape:
+            raise ConfigError(self.path, key, f'must be a list of {shape[0]} numbers, got {value!r}')
+        if not np.all(np.isfinite(array)):
+            raise ConfigError(self.path, key, f'must hold finite numbers, got {value!r}')
+        return array
+
+
+def load_section(path: str | Path, name: str) -> Section:
+    """The top-level section `name` of the YAML file at `path`."""
+    return Section(load_yaml(path), path).section(name)

@@ -1,0 +1,69 @@
+"""The paper's named motions (Tables 4 and 6, the circle) read from a scenario YAML."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .config import Section, load_section
+from .trajectories import Circle, Hold, Sequence, StraightLine, quintic_time_at_fraction
+
+MOTION_TYPES = ('line', 'circle')
+
+
+@dataclass
+class Motion:
+    """A rest → move → rest reference: the move is the middle segment of `trajectory`."""
+
+    name: str
+    trajectory: Sequence
+
+    @property
+    def move(self):
+        return self.trajectory.segments[1]
+
+    @property
+    def move_start_s(self) -> float:
+        return self.trajectory.segment_start_s(1)
+
+    @property
+    def move_end_s(self) -> float:
+        return self.trajectory.segment_start_s(2)
+
+    def time_at_fraction(self, fraction: float) -> float:
+        """Time (s) when the move has covered `fraction` of its path (0.5: the midpoint)."""
+        return self.move_start_s + quintic_time_at_fraction(fraction, self.move.duration_s)
+
+
+def motion_from_section(name: str, motion: Section, defaults: Section, reverse: bool = False) -> Motion:
+    """Build the named motion; `reverse` runs its path from the end back to the start."""
+    speed = motion.number('peak_speed_m_s', defaults.number('peak_speed_m_s', positive=True),
+                          positive=True)
+    kind = motion.string('type', choices=MOTION_TYPES)
+    if kind == 'line':
+        move = StraightLine.with_peak_speed(motion.vector('start', 3), motion.vector('goal', 3), speed)
+    else:
+        move = Circle.with_peak_speed(
+            motion.vector('centre', 3), motion.number('radius_m', positive=True),
+            np.radians(motion.number('start_angle_deg')), np.radians(motion.number('sweep_deg')),
+            speed)
+    if reverse:
+        move = move.reversed()
+    before = defaults.number('rest_before_s', non_negative=True)
+    after = defaults.number('rest_after_s', non_negative=True)
+    trajectory = Sequence([Hold(move.start, before), move, Hold(move.end, after)])
+    return Motion(name + (' (reversed)' if reverse else ''), trajectory)
+
+
+def motion_names(path: str | Path) -> list[str]:
+    return list(load_section(path, 'motions').data)
+
+
+def load_motion(path: str | Path, name: str, reverse: bool = False) -> Motion:
+    """The motion `name` of the `motions` section of the YAML file at `path`."""
+    motions = load_section(path, 'motions')
+    if not motions.has(name):
+        raise motions.error(name, f'is not a known motion; choose one of {", ".join(motions.data)}')
+    return motion_from_section(name, motions.section(name), load_section(path, 'motion_defaults'),
+                               reverse)

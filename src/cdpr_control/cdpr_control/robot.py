@@ -1,0 +1,140 @@
+"""The robot model: geometry, end-effector and motors of a cable-suspended robot.
+
+Described in YAML (section `robot`, see config/paper_robot.yaml of cdpr_bringup),
+separate from the analyses and controllers that use it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .config import ConfigError, Section, load_section
+
+MIN_CABLES = 4
+
+
+@dataclass(frozen=True)
+class Motor:
+    """One winch: motor, drum and the friction the model knows about."""
+
+    inertia_kg_m2: float
+    drum_radius_m: float
+    viscous_friction_nm_s_rad: float
+    static_friction_nm: float
+    nominal_torque_nm: float
+    nominal_speed_rad_s: float
+    torque_limit_nm: float
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A point-mass cable-suspended robot with m cables.
+
+    Cable i runs from exit point A_i to the end-effector; indices are 0-based in code
+    (motor_1 is index 0). Joint angle θ_i grows as cable i pays out:
+    l_i = l_i0 + ρ θ_i with θ = 0 at `home_position_m`.
+    """
+
+    name: str
+    exit_points_m: np.ndarray
+    mass_kg: float
+    gravity_m_s2: np.ndarray
+    motor: Motor
+    tension_min_n: float
+    tension_max_n: float
+    workspace_min_m: np.ndarray
+    workspace_max_m: np.ndarray
+    home_position_m: np.ndarray
+    cable_length_offset_m: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        offset = np.linalg.norm(self.exit_points_m - self.home_position_m, axis=1)
+        object.__setattr__(self, 'cable_length_offset_m', offset)
+        for array in (self.exit_points_m, self.gravity_m_s2, self.workspace_min_m,
+                      self.workspace_max_m, self.home_position_m, offset):
+            array.setflags(write=False)
+
+    @property
+    def cable_count(self) -> int:
+        return self.exit_points_m.shape[0]
+
+    @property
+    def weight_wrench_n(self) -> np.ndarray:
+        """External wrench w_e = m_e g on the end-effector (N)."""
+        return self.mass_kg * self.gravity_m_s2
+
+    def joint_names(self) -> list[str]:
+        return [f'motor_{i + 1}' for i in range(self.cable_count)]
+
+    def cable_mask(self, broken=()) -> np.ndarray:
+        """Boolean mask of the cables still attached, given 0-based broken indices."""
+        mask = np.ones(self.cable_count, dtype=bool)
+        for index in broken:
+            if not 0 <= index < self.cable_count:
+                raise IndexError(f'cable index {index} outside 0..{self.cable_count - 1}')
+            mask[index] = False
+        return mask
+
+
+def robot_from_section(section: Section) -> Robot:
+    """Build and validate a Robot from the `robot` section of a config file."""
+    exit_points = section.matrix('exit_points_m', 3)
+    if exit_points.shape[0] < MIN_CABLES:
+        raise section.error('exit_points_m', f'must list at least {MIN_CABLES} cables to keep '
+                            f'3 DOF controllable after one failure, got {exit_points.shape[0]}')
+    end_effector = section.section('end_effector')
+    mass = end_effector.number('mass_kg', positive=True)
+    gravity = section.vector('gravity_m_s2', 3, [0.0, 0.0, -9.81])
+    if gravity[2] >= 0.0:
+        raise section.error('gravity_m_s2', 'must point down (negative z) for a suspended robot')
+
+    workspace = section.section('workspace_m')
+    low = workspace.vector('min', 3)
+    high = workspace.vector('max', 3)
+    if np.any(high <= low):
+        raise workspace.error('max', f'must exceed workspace_m.min on every axis, got {high}')
+    for i, point in enumerate(exit_points):
+        if point[2] <= high[2]:
+            raise ConfigError(section.path, f'{section.key("exit_points_m")}[{i}]',
+                              f'must lie above the workspace (z > {high[2]} m), got z = {point[2]} m')
+    home = section.vector('home_position_m', 3)
+    if np.any(home < low) or np.any(home > high):
+        raise section.error('home_position_m', f'must lie inside the workspace, got {home}')
+
+    motors = section.section('motor')
+    nominal_speed_rpm = motors.number('nominal_speed_rpm', positive=True)
+    motor = Motor(
+        inertia_kg_m2=motors.number('inertia_kg_m2', positive=True),
+        drum_radius_m=motors.number('drum_radius_m', positive=True),
+        viscous_friction_nm_s_rad=motors.number('viscous_friction_nm_s_rad', non_negative=True),
+        static_friction_nm=motors.number('static_friction_nm', non_negative=True),
+        nominal_torque_nm=motors.number('nominal_torque_nm', positive=True),
+        nominal_speed_rad_s=nominal_speed_rpm * 2.0 * np.pi / 60.0,
+        torque_limit_nm=motors.number('torque_limit_nm', positive=True),
+    )
+
+    cables = section.section('cables')
+    tension_min = cables.number('tension_min_n', non_negative=True)
+    tension_max = cables.number('tension_max_n', positive=True)
+    if tension_max <= tension_min:
+        raise cables.error('tension_max_n', f'must exceed tension_min_n ({tension_min} N)')
+
+    return Robot(
+        name=section.string('name'),
+        exit_points_m=exit_points,
+        mass_kg=mass,
+        gravity_m_s2=gravity,
+        motor=motor,
+        tension_min_n=tension_min,
+        tension_max_n=tension_max,
+        workspace_min_m=low,
+        workspace_max_m=high,
+        home_position_m=home,
+    )
+
+
+def load_robot(path: str | Path) -> Robot:
+    """Load the `robot` section of the YAML file at `path`."""
+    return robot_from_section(load_section(path, 'robot'))

@@ -1,0 +1,55 @@
+"""Static equilibrium of the end-effector under gravity with a set of cables."""
+from __future__ import annotations
+
+from itertools import combinations
+
+import numpy as np
+
+from .kinematics import cable_vectors
+from .robot import Robot
+from .tension_distribution import minimum_norm
+
+SINGULAR_TOLERANCE = 1e-12
+
+
+def static_tensions(robot: Robot, position_m, attached) -> np.ndarray:
+    """t = S_R⁺ (−m_e g) (paper eq. 22): tensions (N) holding the end-effector still.
+
+    Entries of detached cables are 0. Negative entries mean the pose is outside the
+    static-equilibrium workspace of the attached cables.
+    """
+    u, _ = cable_vectors(robot.exit_points_m[attached], position_m)
+    tensions = np.zeros(robot.cable_count)
+    tensions[attached] = minimum_norm(u.T, -robot.weight_wrench_n)
+    return tensions
+
+
+def in_static_equilibrium(robot: Robot, position_m, attached, tolerance: float = 1e-9) -> bool:
+    """True when non-negative tensions of the `attached` cables balance gravity at p.
+
+    −m_e g must lie in the cone spanned by the unit vectors u_i; by Carathéodory's
+    theorem it does iff it lies in the cone of some 3 of them (or fewer, which a
+    triple containing them also covers).
+    """
+    u, _ = cable_vectors(robot.exit_points_m[attached], position_m)
+    load = -robot.weight_wrench_n
+    for triple in combinations(range(u.shape[0]), 3):
+        basis = u[list(triple)].T
+        if abs(np.linalg.det(basis)) < SINGULAR_TOLERANCE:
+            continue
+        coefficients = np.linalg.solve(basis, load)
+        if np.min(coefficients) >= -tolerance * np.linalg.norm(load):
+            return True
+    return _in_planar_cone(u, load, tolerance)
+
+
+def _in_planar_cone(u: np.ndarray, load: np.ndarray, tolerance: float) -> bool:
+    """Cone membership when every triple is singular (the cables span a plane or less)."""
+    for size in (1, 2):
+        for subset in combinations(range(u.shape[0]), size):
+            basis = u[list(subset)].T
+            coefficients, *_ = np.linalg.lstsq(basis, load, rcond=None)
+            if (np.min(coefficients) >= -tolerance * np.linalg.norm(load)
+                    and np.linalg.norm(basis @ coefficients - load) <= tolerance * np.linalg.norm(load)):
+                return True
+    return False

@@ -1,0 +1,21 @@
+"""Tension distribution methods behind one interface (one module per method)."""
+from .base import InfeasibleTensionError, TensionDistribution, minimum_norm
+from .bounded_minimum_norm import BoundedMinimumNorm
+from .pseudo_inverse import PseudoInverse
+
+METHODS = {method.name: method for method in (PseudoInverse, BoundedMinimumNorm)}
+
+
+def make_tension_distribution(name: str, tension_min_n: float, tension_max_n: float,
+                              **options) -> TensionDistribution:
+    """The method called `name` (one of METHODS) with the given bounds."""
+    try:
+        method = METHODS[name]
+    except KeyError:
+        raise ValueError(f'unknown tension distribution {name!r}; choose one of '
+                         f'{", ".join(METHODS)}') from None
+    return method(tension_min_n, tension_max_n, **options)
+
+
+__all__ = ['InfeasibleTensionError', 'TensionDistribution', 'PseudoInverse',
+           'BoundedMinimumNorm', 'METHODS', 'make_tension_distribution', 'minimum_norm']

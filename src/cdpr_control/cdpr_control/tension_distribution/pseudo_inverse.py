@@ -1,0 +1,15 @@
+"""The paper's tension distribution: τ = S⁺ w (minimum 2-norm), checked against bounds."""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import TensionDistribution, minimum_norm
+
+
+class PseudoInverse(TensionDistribution):
+    """τ = S⁺ w. Never returns a tension outside the bounds: that is an error instead."""
+
+    name = 'pseudo_inverse'
+
+    def distribute(self, structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
+        return self._check_bounds(minimum_norm(structure, wrench_n))

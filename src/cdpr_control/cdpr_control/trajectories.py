@@ -1,0 +1,161 @@
+"""Cartesian reference trajectories that start and end at rest.
+
+Every trajectory gives position (m), velocity (m/s) and acceleration (m/s²) at time t
+(s) from its start; before 0 and after `duration_s` it rests at its ends.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+# Peak of the quintic rest-to-rest profile's speed, in units of (distance / duration).
+QUINTIC_PEAK_SPEED_RATIO = 1.875
+
+
+def quintic_profile(t: float, duration_s: float):
+    """s, ṡ, s̈ of s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, τ = t / T clipped to [0, 1]."""
+    tau = min(max(t / duration_s, 0.0), 1.0)
+    tau2 = tau * tau
+    s = tau2 * tau * (10.0 - 15.0 * tau + 6.0 * tau2)
+    s_dot = 30.0 * tau2 * (1.0 - tau) ** 2 / duration_s
+    s_ddot = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / duration_s ** 2
+    return s, s_dot, s_ddot
+
+
+def quintic_time_at_fraction(fraction: float, duration_s: float) -> float:
+    """Time (s) at which the quintic profile of duration T reaches s = fraction."""
+    if not 0.0 <= fraction <= 1.0:
+        raise ValueError(f'fraction must be within [0, 1], got {fraction}')
+    low, high = 0.0, duration_s
+    for _ in range(60):
+        middle = 0.5 * (low + high)
+        if quintic_profile(middle, duration_s)[0] < fraction:
+            low = middle
+        else:
+            high = middle
+    return 0.5 * (low + high)
+
+
+class Trajectory(ABC):
+
+    duration_s: float
+
+    @abstractmethod
+    def sample(self, t: float):
+        """(p, ṗ, p̈) at time t (s)."""
+
+    @abstractmethod
+    def reversed(self) -> 'Trajectory':
+        """The same path run from its end back to its start."""
+
+    @property
+    def start(self) -> np.ndarray:
+        return self.sample(0.0)[0]
+
+    @property
+    def end(self) -> np.ndarray:
+        return self.sample(self.duration_s)[0]
+
+
+class StraightLine(Trajectory):
+    """A straight segment with a quintic (rest-to-rest) time law."""
+
+    def __init__(self, start_m, goal_m, duration_s: float):
+        if duration_s <= 0.0:
+            raise ValueError(f'duration must be positive, got {duration_s}')
+        self.start_m = np.array(start_m, dtype=float)
+        self.goal_m = np.array(goal_m, dtype=float)
+        self.duration_s = float(duration_s)
+
+    @classmethod
+    def with_peak_speed(cls, start_m, goal_m, peak_speed_m_s: float) -> 'StraightLine':
+        length = float(np.linalg.norm(np.subtract(goal_m, start_m)))
+        if length == 0.0:
+            raise ValueError('start and goal coincide')
+        return cls(start_m, goal_m, QUINTIC_PEAK_SPEED_RATIO * length / peak_speed_m_s)
+
+    def sample(self, t: float):
+        s, s_dot, s_ddot = quintic_profile(t, self.duration_s)
+        delta = self.goal_m - self.start_m
+        return self.start_m + s * delta, s_dot * delta, s_ddot * delta
+
+    def reversed(self) -> 'StraightLine':
+        return StraightLine(self.goal_m, self.start_m, self.duration_s)
+
+
+class Circle(Trajectory):
+    """A horizontal arc whose angle follows a quintic law (smooth start and stop)."""
+
+    def __init__(self, centre_m, radius_m: float, start_angle_rad: float, sweep_rad: float,
+                 duration_s: float):
+        if radius_m <= 0.0 or duration_s <= 0.0 or sweep_rad == 0.0:
+            raise ValueError('radius, duration and sweep must be non-zero and positive')
+        self.centre_m = np.array(centre_m, dtype=float)
+        self.radius_m = float(radius_m)
+        self.start_angle_rad = float(start_angle_rad)
+        self.sweep_rad = float(sweep_rad)
+        self.duration_s = float(duration_s)
+
+    @classmethod
+    def with_peak_speed(cls, centre_m, radius_m, start_angle_rad, sweep_rad,
+                        peak_speed_m_s: float) -> 'Circle':
+        arc = abs(sweep_rad) * radius_m
+        return cls(centre_m, radius_m, start_angle_rad, sweep_rad,
+                   QUINTIC_PEAK_SPEED_RATIO * arc / peak_speed_m_s)
+
+    def sample(self, t: float):
+        s, s_dot, s_ddot = quintic_profile(t, self.duration_s)
+        angle = self.start_angle_rad + s * self.sweep_rad
+        rate = s_dot * self.sweep_rad
+        angular_acceleration = s_ddot * self.sweep_rad
+        radial = np.array([np.cos(angle), np.sin(angle), 0.0])
+        tangent = np.array([-np.sin(angle), np.cos(angle), 0.0])
+        r = self.radius_m
+        position = self.centre_m + r * radial
+        velocity = r * rate * tangent
+        acceleration = r * angular_acceleration * tangent - r * rate ** 2 * radial
+        return position, velocity, acceleration
+
+    def reversed(self) -> 'Circle':
+        return Circle(self.centre_m, self.radius_m, self.start_angle_rad + self.sweep_rad,
+                      -self.sweep_rad, self.duration_s)
+
+
+class Hold(Trajectory):
+    """Rest at one point."""
+
+    def __init__(self, position_m, duration_s: float):
+        self.position_m = np.array(position_m, dtype=float)
+        self.duration_s = float(duration_s)
+
+    def sample(self, t: float):
+        return self.position_m.copy(), np.zeros(3), np.zeros(3)
+
+    def reversed(self) -> 'Hold':
+        return Hold(self.position_m, self.duration_s)
+
+
+class Sequence(Trajectory):
+    """Segments one after the other; each must start where the previous one ends."""
+
+    def __init__(self, segments):
+        self.segments = list(segments)
+        if not self.segments:
+            raise ValueError('a sequence needs at least one segment')
+        for before, after in zip(self.segments, self.segments[1:]):
+            if not np.allclose(before.end, after.start, atol=1e-9):
+                raise ValueError(f'segment starts at {after.start}, previous ends at {before.end}')
+        self.starts_s = np.cumsum([0.0] + [s.duration_s for s in self.segments[:-1]])
+        self.duration_s = float(sum(s.duration_s for s in self.segments))
+
+    def sample(self, t: float):
+        index = int(np.searchsorted(self.starts_s, t, side='right')) - 1
+        index = min(max(index, 0), len(self.segments) - 1)
+        return self.segments[index].sample(t - self.starts_s[index])
+
+    def reversed(self) -> 'Sequence':
+        return Sequence([s.reversed() for s in reversed(self.segments)])
+
+    def segment_start_s(self, index: int) -> float:
+        return float(self.starts_s[index])

@@ -1,0 +1,1 @@
+"""Sensorless cable-failure detection and identification, safe points and recovery planning."""

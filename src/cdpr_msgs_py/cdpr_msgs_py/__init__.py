@@ -1,0 +1,1 @@
+"""The cdpr interface contract in Python: topic names, QoS profiles, mode names, message <-> numpy conversions and validation."""

@@ -1,0 +1,1 @@
+"""The digital twin (healthy rigid model with its own controller) and the plant simulator with failure injection."""

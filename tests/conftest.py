@@ -1,0 +1,58 @@
+"""Shared fixtures: the shipped robot configs, and a private ROS domain per session."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from cdpr_control.robot import load_robot
+
+REPO = Path(__file__).resolve().parents[1]
+CONFIG_DIR = REPO / 'src' / 'cdpr_bringup' / 'config'
+PAPER_ROBOT = CONFIG_DIR / 'paper_robot.yaml'
+EIGHT_CABLE_ROBOT = CONFIG_DIR / 'eight_cable_robot.yaml'
+MOTIONS = CONFIG_DIR / 'motions.yaml'
+
+
+def pytest_configure(config):
+    # One DDS domain per test session so parallel sessions never see each other's graph.
+    os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 101))
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+
+
+@pytest.fixture(scope='session')
+def paper_robot():
+    return load_robot(PAPER_ROBOT)
+
+
+@pytest.fixture(scope='session', params=[PAPER_ROBOT, EIGHT_CABLE_ROBOT], ids=['paper', 'eight_cable'])
+def robot(request):
+    """Every model test runs on the paper robot and on an irregular 8-cable robot."""
+    return load_robot(request.param)
+
+
+# ---- shared helpers for the model tests -------------------------------------------
+
+@pytest.fixture
+def rng():
+    """A seeded generator, fresh for every test, so failures reproduce."""
+    import numpy as np
+    return np.random.default_rng(20240611)
+
+
+def random_positions(robot, rng, count, margin_m=0.1):
+    """`count` points drawn uniformly in the robot's workspace box shrunk by `margin_m`.
+
+    Every such point lies below all exit points (the config loader enforces it).
+    """
+    import numpy as np
+    low = robot.workspace_min_m + margin_m
+    high = robot.workspace_max_m - margin_m
+    return low + (high - low) * rng.random((count, 3))
+
+
+def random_unit_vectors(rng, count):
+    import numpy as np
+    v = rng.normal(size=(count, 3))
+    return v / np.linalg.norm(v, axis=1)[:, None]
