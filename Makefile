@@ -25,7 +25,8 @@ $(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
 	touch $(STAMP)
 
 demo: setup
-	$(VENV)/bin/cdpr-robot --config src/cdpr_bringup/config/paper_robot.yaml
+	$(VENV)/bin/cdpr-robot --config paper_robot.yaml
+	$(VENV)/bin/cdpr-scenario --motion circle --engine graph --quiet --out runs/demo
 
 test: setup
 	$(PY) -m pytest

@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from cdpr_control.robot import load_robot
@@ -37,7 +38,6 @@ def robot(request):
 @pytest.fixture
 def rng():
     """A seeded generator, fresh for every test, so failures reproduce."""
-    import numpy as np
     return np.random.default_rng(20240611)
 
 
@@ -46,13 +46,23 @@ def random_positions(robot, rng, count, margin_m=0.1):
 
     Every such point lies below all exit points (the config loader enforces it).
     """
-    import numpy as np
     low = robot.workspace_min_m + margin_m
     high = robot.workspace_max_m - margin_m
     return low + (high - low) * rng.random((count, 3))
 
 
 def random_unit_vectors(rng, count):
-    import numpy as np
     v = rng.normal(size=(count, 3))
     return v / np.linalg.norm(v, axis=1)[:, None]
+
+
+@pytest.fixture(scope='session')
+def eight_cable_robot():
+    return load_robot(EIGHT_CABLE_ROBOT)
+
+
+def cable_masks(robot):
+    """(label, attached mask): every cable, then each single cable broken in turn."""
+    yield 'all', np.ones(robot.cable_count, dtype=bool)
+    for broken in range(robot.cable_count):
+        yield f'cable {broken + 1} broken', robot.cable_mask([broken])

@@ -23,6 +23,9 @@ setup(
         'console_scripts': [
             'cdpr-robot = cdpr_bringup.robot_summary:main',
             'cdpr-bench = cdpr_bringup.bench:main',
+            'cdpr-graph = cdpr_bringup.graph:main',
+            'cdpr-scenario = cdpr_bringup.scenario:main',
+            'bag_recorder = cdpr_bringup.bag_recorder_node:main',
         ],
     },
 )

@@ -17,6 +17,9 @@ setup(
     description='Cable robot model (kinematics, tension distribution, dynamics), trajectories and the PD + feed-forward controller.',
     license='Apache-2.0',
     entry_points={
-        'console_scripts': [],
+        'console_scripts': [
+            'trajectory_generator = cdpr_control.trajectory_generator_node:main',
+            'controller = cdpr_control.controller_node:main',
+        ],
     },
 )

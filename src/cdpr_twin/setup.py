@@ -17,6 +17,9 @@ setup(
     description='The digital twin (healthy rigid model with its own controller) and the plant simulator with failure injection.',
     license='Apache-2.0',
     entry_points={
-        'console_scripts': [],
+        'console_scripts': [
+            'digital_twin = cdpr_twin.digital_twin_node:main',
+            'plant_simulator = cdpr_twin.plant_simulator_node:main',
+        ],
     },
 )

@@ -118,3 +118,24 @@ class Section:
 def load_section(path: str | Path, name: str) -> Section:
     """The top-level section `name` of the YAML file at `path`."""
     return Section(load_yaml(path), path).section(name)
+
+
+def resolve_config(name_or_path: str | Path) -> Path:
+    """An existing path as given, else the config of that name shipped with cdpr_bringup.
+
+    Looked up beside the sources of a checkout, then in the ament index (an install
+    space, or a venv whose AMENT_PREFIX_PATH names it).
+    """
+    path = Path(name_or_path)
+    if path.exists():
+        return path
+    folders = [Path(__file__).resolve().parents[2] / 'cdpr_bringup' / 'config']
+    try:
+        from ament_index_python.packages import get_package_share_directory
+        folders.append(Path(get_package_share_directory('cdpr_bringup')) / 'config')
+    except (ImportError, LookupError, OSError):
+        pass
+    for folder in folders:
+        if (folder / path.name).exists():
+            return folder / path.name
+    raise FileNotFoundError(f'no config {name_or_path!s} (looked in {", ".join(map(str, folders))})')

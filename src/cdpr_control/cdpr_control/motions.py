@@ -35,6 +35,13 @@ class Motion:
         """Time (s) when the move has covered `fraction` of its path (0.5: the midpoint)."""
         return self.move_start_s + quintic_time_at_fraction(fraction, self.move.duration_s)
 
+    def failure_time(self, at_s: float | None = None, at_fraction: float | None = None) -> float:
+        """When a scheduled failure happens: at `at_s`, else at `at_fraction` of the move
+        (the midpoint when neither is given, as in the paper's Tables 4 and 6)."""
+        if at_s is not None:
+            return float(at_s)
+        return self.time_at_fraction(0.5 if at_fraction is None else at_fraction)
+
 
 def motion_from_section(name: str, motion: Section, defaults: Section, reverse: bool = False) -> Motion:
     """Build the named motion; `reverse` runs its path from the end back to the start."""

@@ -70,4 +70,4 @@ def safe_point(robot: Robot, attached, height_m: float) -> np.ndarray:
 def contains(polygon: np.ndarray, point_xy) -> bool:
     """True when `point_xy` lies inside or on the counter-clockwise convex `polygon`."""
     following = np.roll(polygon, -1, axis=0)
-    return all(_cross(a, b, point_xy) >= -1e-12 for a, b in zip(polygon, following))
+    return all(_cross(a, b, point_xy) >= -1e-9 for a, b in zip(polygon, following))

@@ -1,0 +1,212 @@
+"""cdpr-graph: start the node graph, each node its own OS process, as `ros2 run` would.
+
+Waits until every node is up, streams their logs with node prefixes, stops them all
+cleanly on Ctrl-C, and stops the graph with a clear message when a node dies. The
+plant simulator ending with code 0 means the run is complete.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+
+from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
+
+STOP_TIMEOUT_S = 5.0
+UP_TIMEOUT_S = 30.0
+
+
+class GraphError(RuntimeError):
+    """A node died or did not come up; the message names it."""
+
+
+@dataclass
+class NodeSpec:
+    package: str
+    executable: str
+    parameters: dict = field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        return self.executable
+
+
+def executable_command(package: str, executable: str) -> list[str]:
+    """`ros2 run` where there is a ros2 CLI; else the installed entry point itself."""
+    if shutil.which('ros2'):
+        return ['ros2', 'run', package, executable]
+    candidates = [Path(sys.prefix) / 'bin' / executable]
+    for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)):
+        candidates.append(Path(prefix) / 'lib' / package / executable)
+    for candidate in candidates:
+        if candidate.is_file() and os.access(candidate, os.X_OK):
+            return [str(candidate)]
+    raise GraphError(f'no executable {executable} of package {package} '
+                     f'(looked in {", ".join(map(str, candidates))})')
+
+
+def node_environment() -> dict:
+    """The caller's environment, plus what nodes from a venv need and localhost discovery."""
+    environment = dict(os.environ, PYTHONUNBUFFERED='1')
+    environment.setdefault('AMENT_PREFIX_PATH', sys.prefix)
+    environment.setdefault('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')
+    environment.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    return environment
+
+
+class Graph:
+    """A set of node processes in one namespace, started and stopped together."""
+
+    def __init__(self, nodes: list[NodeSpec], namespace: str = DEFAULT_NAMESPACE,
+                 completion: str | None = None, log=print):
+        self.nodes = nodes
+        self.namespace = namespace
+        self.completion = completion
+        self.log = log
+        self.processes: dict[str, subprocess.Popen] = {}
+        self.threads: list[threading.Thread] = []
+        self.folder = Path(tempfile.mkdtemp(prefix='cdpr-graph-'))
+
+    def start(self) -> None:
+        for spec in self.nodes:
+            params = self.folder / f'{spec.name}.yaml'
+            params.write_text(yaml.safe_dump({'/**': {'ros__parameters': spec.parameters}}))
+            command = executable_command(spec.package, spec.executable) + [
+                '--ros-args', '-r', f'__ns:={self.namespace}', '--params-file', str(params)]
+            process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                       stdin=subprocess.DEVNULL, text=True, start_new_session=True,
+                                       env=node_environment())
+            self.processes[spec.name] = process
+            thread = threading.Thread(target=self._stream, args=(spec.name, process), daemon=True)
+            thread.start()
+            self.threads.append(thread)
+
+    def _stream(self, name: str, process: subprocess.Popen) -> None:
+        for line in process.stdout:
+            self.log(f'[{name}] {line.rstrip()}')
+
+    def wait_until_up(self, timeout_s: float = UP_TIMEOUT_S) -> None:
+        """Block until every node is visible in the ROS graph."""
+        import rclpy
+        context = rclpy.Context()
+        rclpy.init(context=context)
+        try:
+            probe = rclpy.create_node('cdpr_graph_probe', context=context)
+            deadline = time.monotonic() + timeout_s
+            wanted = {spec.name for spec in self.nodes}
+            while True:
+                self.check()
+                names = {name for name, namespace in probe.get_node_names_and_namespaces()
+                         if namespace == self.namespace}
+                if wanted <= names:
+                    break
+                if time.monotonic() > deadline:
+                    raise GraphError(f'nodes not up after {timeout_s:.0f} s: '
+                                     f'{", ".join(sorted(wanted - names))}')
+                time.sleep(0.05)
+            probe.destroy_node()
+        finally:
+            rclpy.shutdown(context=context)
+
+    def check(self) -> bool:
+        """True when the completion node has finished; GraphError if any node died."""
+        for name, process in self.processes.items():
+            code = process.poll()
+            if code is None:
+                continue
+            if name == self.completion and code == 0:
+                return True
+            raise GraphError(f'node {name} died (exit code {code}); stopping the graph')
+        return False
+
+    def wait(self, timeout_s: float | None = None) -> None:
+        """Until the completion node finishes (or forever without one)."""
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        while not self.check():
+            if deadline is not None and time.monotonic() > deadline:
+                raise GraphError(f'the run did not complete within {timeout_s:.0f} s')
+            time.sleep(0.02)
+
+    def stop(self) -> dict[str, int]:
+        """SIGINT every node, then SIGTERM and SIGKILL those that linger; exit codes."""
+        for process in self.processes.values():
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGINT)
+        deadline = time.monotonic() + STOP_TIMEOUT_S
+        for name, process in self.processes.items():
+            try:
+                process.wait(timeout=max(deadline - time.monotonic(), 0.1))
+            except subprocess.TimeoutExpired:
+                self.log(f'[cdpr-graph] {name} ignored SIGINT; killing it')
+                os.killpg(process.pid, signal.SIGKILL)
+                process.wait()
+        for thread in self.threads:
+            thread.join(timeout=1.0)
+        shutil.rmtree(self.folder, ignore_errors=True)
+        return {name: process.returncode for name, process in self.processes.items()}
+
+    def __enter__(self):
+        self.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.stop()
+
+
+def graph_nodes(parameters: dict, bag_path: str | None = None) -> list[NodeSpec]:
+    """The closed loop: generator, controller, twin, plant, and a recorder when asked."""
+    nodes = [
+        NodeSpec('cdpr_control', 'trajectory_generator', dict(parameters)),
+        NodeSpec('cdpr_control', 'controller', dict(parameters)),
+        NodeSpec('cdpr_twin', 'digital_twin', dict(parameters)),
+    ]
+    subscribers = 2
+    if bag_path is not None:
+        nodes.append(NodeSpec('cdpr_bringup', 'bag_recorder', dict(parameters, bag_path=bag_path)))
+        subscribers += 1
+    nodes.append(NodeSpec('cdpr_twin', 'plant_simulator',
+                          dict(parameters, expected_subscribers=subscribers)))
+    return nodes
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument('--config', default='paper_robot.yaml', help='robot YAML')
+    parser.add_argument('--motion', default='circle', help='named motion')
+    parser.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')
+    parser.add_argument('--namespace', default=DEFAULT_NAMESPACE)
+    parser.add_argument('--bag', help='record every topic into this bag folder')
+    args = parser.parse_args(argv)
+    parameters = {'config_file': str(Path(args.config).resolve()) if Path(args.config).exists()
+                  else args.config, 'motion': args.motion, 'clock_mode': args.clock}
+    graph = Graph(graph_nodes(parameters, args.bag), args.namespace, completion='plant_simulator')
+    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    code = 0
+    try:
+        graph.start()
+        graph.wait_until_up()
+        print('[cdpr-graph] all nodes up', flush=True)
+        graph.wait()
+        print('[cdpr-graph] run complete', flush=True)
+    except KeyboardInterrupt:
+        print('[cdpr-graph] stopping on request', flush=True)
+    except GraphError as err:
+        print(f'[cdpr-graph] {err}', flush=True)
+        code = 1
+    finally:
+        graph.stop()
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,52 @@
+"""The joint-space reference of a Cartesian trajectory, tabulated at the control period."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .dynamics import inverse_dynamics
+from .kinematics import inverse_kinematics
+from .robot import Robot
+from .tension_distribution import TensionDistribution
+from .trajectories import Trajectory
+
+
+@dataclass
+class ReferenceTable:
+    """Reference at t_k = k · period: pose (m), θ_d (rad), θ̇_d (rad/s), c_ID (N·m)."""
+
+    period_s: float
+    position_m: np.ndarray
+    velocity_m_s: np.ndarray
+    angle_rad: np.ndarray
+    angular_velocity_rad_s: np.ndarray
+    feedforward_nm: np.ndarray
+
+    def __len__(self) -> int:
+        return self.position_m.shape[0]
+
+    def index_at(self, time_s: float) -> int:
+        """The sample at or before `time_s`, held at the ends."""
+        return min(max(int(np.floor(time_s / self.period_s + 1e-9)), 0), len(self) - 1)
+
+
+def tabulate_reference(robot: Robot, tension_distribution: TensionDistribution,
+                       trajectory: Trajectory, period_s: float, start_s: float = 0.0,
+                       duration_s: float | None = None) -> ReferenceTable:
+    """Sample `trajectory` from `start_s` every `period_s` and compute IK and the feed-forward."""
+    duration_s = trajectory.duration_s - start_s if duration_s is None else duration_s
+    count = int(round(duration_s / period_s)) + 1
+    columns = {name: np.empty((count, size)) for name, size in
+               (('p', 3), ('v', 3), ('q', robot.cable_count), ('qd', robot.cable_count),
+                ('c', robot.cable_count))}
+    for k in range(count):
+        position, velocity, acceleration = trajectory.sample(start_s + k * period_s)
+        dynamics = inverse_dynamics(robot, tension_distribution, position, velocity, acceleration)
+        columns['p'][k] = position
+        columns['v'][k] = velocity
+        columns['q'][k] = inverse_kinematics(robot, position)
+        columns['qd'][k] = dynamics.joint_velocity_rad_s
+        columns['c'][k] = dynamics.torque_nm
+    return ReferenceTable(period_s, columns['p'], columns['v'], columns['q'], columns['qd'],
+                          columns['c'])

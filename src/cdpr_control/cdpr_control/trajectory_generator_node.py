@@ -1,0 +1,100 @@
+"""trajectory_generator: /cdpr/reference (θ_d, θ̇_d, c_ID) and /cdpr/reference/pose.
+
+Time comes from the stamps of /cdpr/joint_states (sim time in lockstep, the robot's
+clock in realtime); each reference is published `reference_lead_cycles` ahead, so the
+controller and the twin never wait for it. A goal on /cdpr/goal is reached by a
+straight quintic move that starts when the current motion has come to rest.
+"""
+from __future__ import annotations
+
+import numpy as np
+from geometry_msgs.msg import PointStamped
+from sensor_msgs.msg import JointState
+
+from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.conversions import (InvalidMessage, joint_state, point_from_message,
+                                      point_stamped, stamp_to_ns)
+from cdpr_msgs_py.runtime import CdprNode, run
+
+from .config import load_section, resolve_config
+from .motions import load_motion
+from .reference import ReferenceTable, tabulate_reference
+from .robot import load_robot
+from .tension_distribution import make_tension_distribution
+from .trajectories import Hold, Sequence, StraightLine
+
+
+class TrajectoryGeneratorNode(CdprNode):
+
+    def __init__(self):
+        super().__init__('trajectory_generator')
+        config = resolve_config(self.get_parameter('config_file').value)
+        motions = resolve_config(self.parameter('motions_file', 'motions.yaml'))
+        self.robot = load_robot(config)
+        control = load_section(config, 'control')
+        self.period_s = control.number('period_s', positive=True)
+        self.period_ns = int(round(self.period_s * 1e9))
+        self.lead = control.integer('reference_lead_cycles', minimum=1)
+        self.distribution = make_tension_distribution(
+            control.string('tension_distribution'), self.robot.tension_min_n, self.robot.tension_max_n)
+        self.goal_speed_m_s = load_section(motions, 'motion_defaults').number('peak_speed_m_s', positive=True)
+        motion = load_motion(motions, self.parameter('motion', 'circle'), self.parameter('reverse', False))
+        self.segments: list[tuple[int, ReferenceTable]] = [
+            (0, tabulate_reference(self.robot, self.distribution, motion.trajectory, self.period_s))]
+        self.names = contract.joint_names(self.robot.cable_count)
+        self.origin_ns: int | None = None
+        self.next_index = 0
+        self.reference = self.create_publisher(JointState, contract.REFERENCE, qos.STREAM)
+        self.pose = self.create_publisher(PointStamped, contract.REFERENCE_POSE, qos.STREAM)
+        self.create_subscription(JointState, contract.JOINT_STATES, self.on_state, qos.STREAM)
+        self.create_subscription(PointStamped, contract.GOAL, self.on_goal, qos.STREAM)
+
+    def sample(self, index: int):
+        start, table = next((s, t) for s, t in reversed(self.segments) if s <= index)
+        return table, min(index - start, len(table) - 1)
+
+    def on_state(self, message: JointState) -> None:
+        stamp = stamp_to_ns(message.header.stamp)
+        if self.origin_ns is None:
+            self.origin_ns = stamp
+        tick = (stamp - self.origin_ns) // self.period_ns
+        while self.next_index <= tick + self.lead:
+            self.publish(self.next_index)
+            self.next_index += 1
+
+    def publish(self, index: int) -> None:
+        table, row = self.sample(index)
+        stamp = self.origin_ns + index * self.period_ns
+        self.reference.publish(joint_state(
+            self.names, stamp, table.angle_rad[row], table.angular_velocity_rad_s[row],
+            table.feedforward_nm[row]))
+        self.pose.publish(point_stamped(stamp, table.position_m[row]))
+        self.diagnostics.count('references')
+
+    def on_goal(self, message: PointStamped) -> None:
+        try:
+            goal = point_from_message(message)
+        except InvalidMessage as err:
+            self.diagnostics.reject(contract.GOAL, str(err))
+            return
+        start, table = self.segments[-1]
+        begin = max(start + len(table), self.next_index)
+        here = table.position_m[-1]
+        if np.any(goal < self.robot.workspace_min_m) or np.any(goal > self.robot.workspace_max_m):
+            self.diagnostics.reject(contract.GOAL, f'goal {goal} outside the workspace')
+            return
+        if np.allclose(goal, here):
+            return
+        move = StraightLine.with_peak_speed(here, goal, self.goal_speed_m_s)
+        trajectory = Sequence([move, Hold(goal, self.period_s)])
+        self.segments.append((begin, tabulate_reference(self.robot, self.distribution, trajectory,
+                                                         self.period_s)))
+        self.get_logger().info(f'goal {goal} planned: {move.duration_s:.2f} s from tick {begin}')
+
+
+def main(args=None):
+    return run(TrajectoryGeneratorNode, args)
+
+
+if __name__ == '__main__':
+    main()

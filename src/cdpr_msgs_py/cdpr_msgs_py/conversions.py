@@ -1,0 +1,77 @@
+"""Message ⇄ numpy conversions with validation: bad input is rejected, never guessed."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PointStamped
+from sensor_msgs.msg import JointState
+
+NANOSECONDS = 1_000_000_000
+
+
+class InvalidMessage(ValueError):
+    """A message that must not reach the core (wrong size, names, NaN)."""
+
+
+@dataclass
+class Joints:
+    """One JointState as arrays: stamp (ns), θ (rad), θ̇ (rad/s), effort (N·m or N)."""
+
+    stamp_ns: int
+    position: np.ndarray
+    velocity: np.ndarray
+    effort: np.ndarray
+
+
+def stamp_to_ns(stamp: Time) -> int:
+    return stamp.sec * NANOSECONDS + stamp.nanosec
+
+
+def ns_to_stamp(stamp_ns: int) -> Time:
+    return Time(sec=stamp_ns // NANOSECONDS, nanosec=stamp_ns % NANOSECONDS)
+
+
+def joint_state(names: list[str], stamp_ns: int, position=(), velocity=(), effort=(),
+                frame_id: str = '') -> JointState:
+    message = JointState()
+    message.header.stamp = ns_to_stamp(stamp_ns)
+    message.header.frame_id = frame_id
+    message.name = names
+    message.position = np.asarray(position, dtype=float).tolist()
+    message.velocity = np.asarray(velocity, dtype=float).tolist()
+    message.effort = np.asarray(effort, dtype=float).tolist()
+    return message
+
+
+def joints_from_message(message: JointState, names: list[str],
+                        fields: tuple[str, ...] = ('position', 'velocity', 'effort')) -> Joints:
+    """Arrays of the required `fields`, in `names` order; InvalidMessage otherwise."""
+    if list(message.name) != names:
+        raise InvalidMessage(f'joint names {list(message.name)} differ from {names}')
+    arrays = {}
+    for field in ('position', 'velocity', 'effort'):
+        values = np.asarray(getattr(message, field), dtype=float)
+        if field in fields:
+            if values.shape != (len(names),):
+                raise InvalidMessage(f'{field} has {values.size} values, expected {len(names)}')
+            if not np.all(np.isfinite(values)):
+                raise InvalidMessage(f'{field} holds a non-finite value')
+        arrays[field] = values
+    return Joints(stamp_to_ns(message.header.stamp), **arrays)
+
+
+def point_stamped(stamp_ns: int, point, frame_id: str = 'world') -> PointStamped:
+    message = PointStamped()
+    message.header.stamp = ns_to_stamp(stamp_ns)
+    message.header.frame_id = frame_id
+    message.point.x, message.point.y, message.point.z = (float(v) for v in point)
+    return message
+
+
+def point_from_message(message: PointStamped) -> np.ndarray:
+    point = np.array([message.point.x, message.point.y, message.point.z])
+    if not np.all(np.isfinite(point)):
+        raise InvalidMessage('point holds a non-finite value')
+    return point

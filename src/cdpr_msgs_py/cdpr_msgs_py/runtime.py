@@ -1,0 +1,147 @@
+"""Running a node: the fastest executor here, clean shutdown, and /diagnostics."""
+from __future__ import annotations
+
+import signal
+import time
+from collections import Counter
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+from . import contract, qos
+
+SPIN_TIMEOUT_S = 0.05
+# On a stop request a node keeps handling what is queued until it has been quiet this
+# long (s), at most DRAIN_LIMIT_S, so the last ticks still reach the twin and the bag.
+DRAIN_QUIET_S = 0.3
+DRAIN_LIMIT_S = 3.0
+
+
+def make_executor():
+    """The events executor: ~0.22 ms per hop here, against ~0.3 ms for the single-threaded one."""
+    from rclpy.experimental import EventsExecutor
+    return EventsExecutor()
+
+
+def run(node_class, args=None) -> int:
+    """Create `node_class`, spin it until a stop request or until it sets `finished`."""
+    rclpy.init(args=args)
+    stopping = []
+
+    def request_stop(signum, _frame):
+        stopping.append(signum)
+
+    signal.signal(signal.SIGINT, request_stop)
+    signal.signal(signal.SIGTERM, request_stop)
+    node = node_class()
+    executor = make_executor()
+    executor.add_node(node)
+    try:
+        while rclpy.ok() and not stopping and not node.finished:
+            executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+            node.idle()
+        drain(executor, node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:
+        node.get_logger().fatal('node failed', throttle_duration_sec=0)
+        raise
+    finally:
+        node.close()
+        executor.shutdown(timeout_sec=0.5)
+        node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return 0
+
+
+def drain(executor, node) -> None:
+    """Spin until nothing has happened for DRAIN_QUIET_S (at most DRAIN_LIMIT_S)."""
+    deadline = time.monotonic() + DRAIN_LIMIT_S
+    quiet_since = time.monotonic()
+    seen = node.diagnostics.activity
+    while rclpy.ok() and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+        if node.diagnostics.activity != seen:
+            seen = node.diagnostics.activity
+            quiet_since = time.monotonic()
+        elif time.monotonic() - quiet_since > DRAIN_QUIET_S:
+            break
+
+
+class Diagnostics:
+    """Counts of what a node did and rejected, published on /diagnostics once a second."""
+
+    def __init__(self, node: Node, period_s: float = 1.0):
+        self.node = node
+        self.counts: Counter = Counter()
+        self.rejected: Counter = Counter()
+        self.values: dict[str, str] = {}
+        self.activity = 0
+        self.period_s = period_s
+        self.last_publish = time.monotonic()
+        self.publisher = node.create_publisher(DiagnosticArray, contract.DIAGNOSTICS, qos.DIAGNOSTICS)
+
+    def count(self, key: str) -> None:
+        """One more handled `key` (a message, a tick)."""
+        self.counts[key] += 1
+        self.activity += 1
+
+    def reject(self, topic: str, reason: str) -> None:
+        self.rejected[topic] += 1
+        self.activity += 1
+        self.node.get_logger().warning(f'rejected a message on {topic}: {reason}',
+                                       throttle_duration_sec=1.0)
+
+    def maybe_publish(self) -> None:
+        now = time.monotonic()
+        if now - self.last_publish >= self.period_s:
+            self.publish(now - self.last_publish)
+            self.last_publish = now
+
+    def publish(self, elapsed_s: float = 0.0) -> None:
+        status = DiagnosticStatus()
+        status.name = self.node.get_fully_qualified_name()
+        status.hardware_id = 'cdpr'
+        problems = sum(self.rejected.values())
+        status.level = DiagnosticStatus.WARN if problems else DiagnosticStatus.OK
+        status.message = f'{problems} rejected messages' if problems else 'ok'
+        pairs = [(f'{key} count', str(value)) for key, value in self.counts.items()]
+        if elapsed_s > 0:
+            pairs += [(f'{key} rate hz', f'{value / elapsed_s:.1f}') for key, value in self.counts.items()]
+        pairs += [(f'rejected {key}', str(value)) for key, value in self.rejected.items()]
+        pairs += list(self.values.items())
+        status.values = [KeyValue(key=k, value=v) for k, v in pairs]
+        message = DiagnosticArray()
+        message.header.stamp = self.node.get_clock().now().to_msg()
+        message.status = [status]
+        self.publisher.publish(message)
+        self.counts.clear()
+
+
+class CdprNode(Node):
+    """A node of the graph: config file parameter, diagnostics, idle and close hooks."""
+
+    def __init__(self, name: str):
+        super().__init__(name)
+        self.declare_parameter('config_file', 'paper_robot.yaml')
+        self.declare_parameter('clock_mode', 'lockstep')
+        self.clock_mode = self.get_parameter('clock_mode').value
+        if self.clock_mode not in ('lockstep', 'realtime'):
+            raise ValueError(f"parameter clock_mode must be lockstep or realtime, got {self.clock_mode!r}")
+        self.diagnostics = Diagnostics(self)
+        self.finished = False
+
+    def parameter(self, name: str, default):
+        """Declare and read one parameter."""
+        return self.declare_parameter(name, default).value
+
+    def idle(self) -> None:
+        """Called after every spin: periodic work that needs no timer."""
+        self.diagnostics.maybe_publish()
+
+    def close(self) -> None:
+        """Called once on the way out."""
+        self.diagnostics.publish()

@@ -1,0 +1,62 @@
+"""digital_twin: the healthy model and its own controller, fed /cdpr/reference only."""
+from __future__ import annotations
+
+from geometry_msgs.msg import PointStamped
+from sensor_msgs.msg import JointState
+
+from cdpr_control.config import load_section, resolve_config
+from cdpr_control.controller import JointReference, PdGains
+from cdpr_control.kinematics import forward_kinematics
+from cdpr_control.robot import load_robot
+from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.conversions import InvalidMessage, joint_state, joints_from_message, point_stamped
+from cdpr_msgs_py.runtime import CdprNode, run
+
+from .twin import DigitalTwin
+
+
+class DigitalTwinNode(CdprNode):
+
+    def __init__(self):
+        super().__init__('digital_twin')
+        config = resolve_config(self.get_parameter('config_file').value)
+        self.robot = load_robot(config)
+        control = load_section(config, 'control')
+        self.period_s = control.number('period_s', positive=True)
+        self.gains = PdGains.from_section(self.robot, control)
+        self.substeps = load_section(config, 'twin').integer('substeps', minimum=1)
+        self.names = contract.joint_names(self.robot.cable_count)
+        self.twin: DigitalTwin | None = None
+        self.last_stamp_ns = -1
+        self.joints = self.create_publisher(JointState, contract.TWIN_JOINT_STATES, qos.STREAM)
+        self.pose = self.create_publisher(PointStamped, contract.TWIN_POSE, qos.STREAM)
+        self.create_subscription(JointState, contract.REFERENCE, self.on_reference, qos.STREAM)
+
+    def on_reference(self, message: JointState) -> None:
+        try:
+            joints = joints_from_message(message, self.names)
+        except InvalidMessage as err:
+            self.diagnostics.reject(contract.REFERENCE, str(err))
+            return
+        if joints.stamp_ns <= self.last_stamp_ns:
+            self.diagnostics.reject(contract.REFERENCE, 'stamp not after the previous one')
+            return
+        self.last_stamp_ns = joints.stamp_ns
+        if self.twin is None:
+            # The twin starts where the reference starts, at rest.
+            start = forward_kinematics(self.robot, joints.position)
+            self.twin = DigitalTwin(self.robot, self.gains, start, self.substeps)
+        output = self.twin.step(JointReference(joints.position, joints.velocity, joints.effort),
+                                self.period_s)
+        self.joints.publish(joint_state(self.names, joints.stamp_ns, output.angle_rad,
+                                        output.angular_velocity_rad_s, output.torque_nm))
+        self.pose.publish(point_stamped(joints.stamp_ns, output.position_m))
+        self.diagnostics.count('ticks')
+
+
+def main(args=None):
+    return run(DigitalTwinNode, args)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,134 @@
+"""The plant simulator: a stand-in for the hardware, with failure injection.
+
+Fidelity `rigid` is the twin's own model (noise-free, no mismatch); `elastic` has
+spring–damper cables that can go slack, Coulomb friction, resolver noise and
+quantisation, and the plant's parameters off the controller's by configured factors.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from cdpr_control.config import Section
+from cdpr_control.kinematics import forward_kinematics
+from cdpr_control.robot import Robot
+
+from .elastic_model import ElasticCableRobot
+from .rigid_model import RigidCableRobot
+
+FIDELITIES = ('rigid', 'elastic')
+
+
+@dataclass(frozen=True)
+class PlantConfig:
+    fidelity: str
+    substeps: int
+    axial_stiffness_n: float
+    damping_n_s_m: float
+    coulomb_velocity_rad_s: float
+    mass_factor: float
+    inertia_factor: float
+    viscous_friction_factor: float
+    static_friction_factor: float
+    angle_noise_rad: float
+    velocity_noise_rad_s: float
+    counts_per_revolution: int
+    seed: int
+
+    @classmethod
+    def from_section(cls, plant: Section, fidelity: str | None = None,
+                     seed: int | None = None) -> 'PlantConfig':
+        elastic = plant.section('elastic')
+        mismatch = elastic.section('mismatch')
+        resolver = elastic.section('resolver')
+        fidelity = fidelity or plant.string('fidelity', choices=FIDELITIES)
+        if fidelity not in FIDELITIES:
+            raise plant.error('fidelity', f'must be one of {", ".join(FIDELITIES)}, got {fidelity!r}')
+        substeps = (plant.integer('rigid_substeps', minimum=1) if fidelity == 'rigid'
+                    else elastic.integer('substeps', minimum=1))
+        return cls(
+            fidelity=fidelity,
+            substeps=substeps,
+            axial_stiffness_n=elastic.number('cable_axial_stiffness_n', positive=True),
+            damping_n_s_m=elastic.number('cable_damping_n_s_m', non_negative=True),
+            coulomb_velocity_rad_s=elastic.number('coulomb_smoothing_rad_s', positive=True),
+            mass_factor=mismatch.number('mass', positive=True),
+            inertia_factor=mismatch.number('inertia', positive=True),
+            viscous_friction_factor=mismatch.number('viscous_friction', non_negative=True),
+            static_friction_factor=mismatch.number('static_friction', non_negative=True),
+            angle_noise_rad=resolver.number('angle_noise_rad', non_negative=True),
+            velocity_noise_rad_s=resolver.number('velocity_noise_rad_s', non_negative=True),
+            counts_per_revolution=resolver.integer('counts_per_revolution', minimum=1),
+            seed=plant.integer('seed') if seed is None else seed,
+        )
+
+
+def mismatched_robot(robot: Robot, config: PlantConfig) -> Robot:
+    """The robot as the plant really is: the controller's model off by the factors."""
+    motor = dataclasses.replace(
+        robot.motor,
+        inertia_kg_m2=robot.motor.inertia_kg_m2 * config.inertia_factor,
+        viscous_friction_nm_s_rad=robot.motor.viscous_friction_nm_s_rad * config.viscous_friction_factor,
+        static_friction_nm=robot.motor.static_friction_nm * config.static_friction_factor)
+    return dataclasses.replace(robot, mass_kg=robot.mass_kg * config.mass_factor, motor=motor)
+
+
+class PlantSimulator:
+    """Steps the plant under commanded torques, breaks cables on schedule, measures θ, θ̇."""
+
+    def __init__(self, robot: Robot, config: PlantConfig, start_position_m, failures=()):
+        self.robot = robot
+        self.config = config
+        if config.fidelity == 'rigid':
+            self.model = RigidCableRobot(robot, start_position_m, config.substeps)
+        else:
+            true_robot = mismatched_robot(robot, config)
+            self.model = ElasticCableRobot(
+                true_robot, start_position_m, config.substeps, config.axial_stiffness_n,
+                config.damping_n_s_m, true_robot.motor.static_friction_nm,
+                config.coulomb_velocity_rad_s)
+        self.failures = sorted((float(t), int(c)) for t, c in failures)
+        self.broken: list[int] = []
+        self.time_s = 0.0
+        self.rng = np.random.default_rng(config.seed)
+        self.angle_step_rad = 2.0 * np.pi / config.counts_per_revolution
+
+    def inject_failure(self, cable: int) -> None:
+        """Break the 0-based `cable` now."""
+        if cable not in self.broken:
+            self.broken.append(cable)
+            self.model.break_cables([cable])
+
+    def measure(self):
+        """Resolver angle (rad) and speed (rad/s) as the drive reports them."""
+        angle = self.model.angle_rad
+        speed = self.model.angular_velocity_rad_s
+        if self.config.fidelity == 'rigid':
+            return angle.copy(), speed.copy()
+        noise = self.rng.standard_normal((2, self.robot.cable_count))
+        angle = angle + self.config.angle_noise_rad * noise[0]
+        speed = speed + self.config.velocity_noise_rad_s * noise[1]
+        return np.round(angle / self.angle_step_rad) * self.angle_step_rad, speed
+
+    def step(self, torque_nm: np.ndarray, period_s: float) -> None:
+        """Apply `torque_nm` for one period; failures due within it happen at its start."""
+        torque = np.clip(torque_nm, -self.robot.motor.torque_limit_nm, self.robot.motor.torque_limit_nm)
+        for time_s, cable in self.failures:
+            if self.time_s <= time_s < self.time_s + period_s - 1e-12:
+                self.inject_failure(cable)
+        self.model.step(torque, period_s)
+        self.time_s += period_s
+
+    @property
+    def position_m(self) -> np.ndarray:
+        return self.model.position_m
+
+    @property
+    def tension_n(self) -> np.ndarray:
+        return self.model.tension_n
+
+    def estimated_position(self, angle_rad) -> np.ndarray:
+        """End-effector position from measured angles by forward kinematics (m)."""
+        return forward_kinematics(self.robot, angle_rad)

@@ -1,0 +1,140 @@
+"""plant_simulator: the stand-in for the hardware, publishing what a real drive reports.
+
+lockstep: publishes the state of tick k (and /clock), steps only when the command
+stamped with tick k has arrived; bit-for-bit repeatable. realtime: steps on a wall
+clock timer with zero-order hold of the last command, as hardware does. Exits with
+code 0 after `duration_s` of simulated time (the run is complete).
+"""
+from __future__ import annotations
+
+import time
+
+from geometry_msgs.msg import PointStamped
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Int32
+
+from cdpr_control.config import load_section, resolve_config
+from cdpr_control.motions import load_motion
+from cdpr_control.robot import load_robot
+from cdpr_control.statics import static_tensions
+from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.conversions import (InvalidMessage, joint_state, joints_from_message,
+                                      ns_to_stamp, point_stamped)
+from cdpr_msgs_py.runtime import CdprNode, run
+
+from .plant import PlantConfig, PlantSimulator
+
+
+class PlantSimulatorNode(CdprNode):
+
+    def __init__(self):
+        super().__init__('plant_simulator')
+        config = resolve_config(self.get_parameter('config_file').value)
+        motions = resolve_config(self.parameter('motions_file', 'motions.yaml'))
+        self.robot = load_robot(config)
+        self.period_s = load_section(config, 'control').number('period_s', positive=True)
+        self.period_ns = int(round(self.period_s * 1e9))
+        motion = load_motion(motions, self.parameter('motion', 'circle'), self.parameter('reverse', False))
+        fidelity = self.parameter('fidelity', '') or None
+        seed = self.parameter('seed', -1)
+        plant_config = PlantConfig.from_section(load_section(config, 'plant'), fidelity,
+                                                None if seed < 0 else seed)
+        fail_at_s = self.parameter('fail_at_s', -1.0)
+        fail_at_fraction = self.parameter('fail_at_fraction', -1.0)
+        failure_time = motion.failure_time(None if fail_at_s < 0 else fail_at_s,
+                                           None if fail_at_fraction < 0 else fail_at_fraction)
+        failures = [(failure_time, cable - 1) for cable in self.parameter('fail_cables', [0]) if cable > 0]
+        self.plant = PlantSimulator(self.robot, plant_config, motion.trajectory.start, failures)
+        duration = self.parameter('duration_s', -1.0)
+        self.last_tick = int(round((motion.trajectory.duration_s if duration < 0 else duration) / self.period_s))
+        self.expected_subscribers = self.parameter('expected_subscribers', 1)
+        self.resend_s = self.parameter('command_timeout_s', 0.5)
+        self.names = contract.joint_names(self.robot.cable_count)
+        self.tick = 0
+        self.started = False
+        self.sent_at = 0.0
+        # Until the first command arrives, hold the load with its static torques.
+        self.command = -self.robot.motor.drum_radius_m * static_tensions(
+            self.robot, self.plant.position_m, self.robot.cable_mask())
+        self.state = self.create_publisher(JointState, contract.JOINT_STATES, qos.STREAM)
+        self.truth_pose = self.create_publisher(PointStamped, contract.GROUND_TRUTH_POSE, qos.STREAM)
+        self.truth_tensions = self.create_publisher(JointState, contract.GROUND_TRUTH_TENSIONS, qos.STREAM)
+        self.clock = self.create_publisher(Clock, contract.CLOCK, qos.STREAM)
+        self.create_subscription(JointState, contract.EFFORT_COMMAND, self.on_command, qos.STREAM)
+        self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
+        if self.clock_mode == 'realtime':
+            self.timer = None
+
+    def stamp_ns(self) -> int:
+        return self.tick * self.period_ns
+
+    def publish_state(self) -> None:
+        stamp = self.stamp_ns()
+        if self.clock_mode == 'lockstep':
+            self.clock.publish(Clock(clock=ns_to_stamp(stamp)))
+        angle, speed = self.plant.measure()
+        self.state.publish(joint_state(self.names, stamp, angle, speed, self.command))
+        self.truth_pose.publish(point_stamped(stamp, self.plant.position_m))
+        self.truth_tensions.publish(joint_state(self.names, stamp, effort=self.plant.tension_n))
+        self.sent_at = time.monotonic()
+        self.diagnostics.count('states')
+
+    def ready(self) -> bool:
+        return (self.count_subscribers(contract.JOINT_STATES) >= self.expected_subscribers
+                and self.count_publishers(contract.EFFORT_COMMAND) >= 1)
+
+    def idle(self) -> None:
+        super().idle()
+        if not self.started:
+            if self.ready():
+                self.started = True
+                self.get_logger().info(f'starting, {self.clock_mode}, {self.last_tick} ticks')
+                if self.clock_mode == 'lockstep':
+                    self.publish_state()
+                else:
+                    self.timer = self.create_timer(self.period_s, self.realtime_step)
+        elif self.clock_mode == 'lockstep' and time.monotonic() - self.sent_at > self.resend_s:
+            self.diagnostics.count('resent states')
+            self.publish_state()
+
+    def on_command(self, message: JointState) -> None:
+        try:
+            joints = joints_from_message(message, self.names, ('effort',))
+        except InvalidMessage as err:
+            self.diagnostics.reject(contract.EFFORT_COMMAND, str(err))
+            return
+        if self.clock_mode == 'realtime':
+            self.command = joints.effort
+            return
+        if joints.stamp_ns != self.stamp_ns() or not self.started:
+            return
+        self.command = joints.effort
+        self.advance()
+        if not self.finished:
+            self.publish_state()
+
+    def advance(self) -> None:
+        self.plant.step(self.command, self.period_s)
+        self.tick += 1
+        if self.tick > self.last_tick:
+            self.finished = True
+
+    def realtime_step(self) -> None:
+        self.publish_state()
+        self.advance()
+
+    def on_inject(self, message: Int32) -> None:
+        if not 1 <= message.data <= self.robot.cable_count:
+            self.diagnostics.reject(contract.INJECT_FAILURE, f'cable {message.data} out of range')
+            return
+        self.get_logger().warning(f'cable {message.data} breaks now (injected)')
+        self.plant.inject_failure(message.data - 1)
+
+
+def main(args=None):
+    return run(PlantSimulatorNode, args)
+
+
+if __name__ == '__main__':
+    main()

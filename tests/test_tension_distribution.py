@@ -1,0 +1,244 @@
+"""Tension distribution against numpy's pseudo-inverse and scipy's LP/QP solvers."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog, minimize
+
+from cdpr_control.dynamics import inverse_dynamics
+from cdpr_control.kinematics import structure_matrix
+from cdpr_control.tension_distribution import (InfeasibleTensionError, make_tension_distribution,
+                                               minimum_norm)
+from conftest import random_positions, random_unit_vectors
+
+
+def _cases(robot, rng, count, max_acceleration):
+    """(S, w) for random poses and random accelerations up to `max_acceleration` m/s²."""
+    positions = random_positions(robot, rng, count, margin_m=0.05)
+    accelerations = (random_unit_vectors(rng, count)
+                     * max_acceleration * rng.random(count)[:, None])
+    for p, a in zip(positions, accelerations):
+        s, _ = structure_matrix(robot, p)
+        yield p, s, robot.mass_kg * (a - robot.gravity_m_s2)
+
+
+def _lp_feasible(s, w, low, high):
+    result = linprog(np.zeros(s.shape[1]), A_eq=s, b_eq=w, bounds=[(low, high)] * s.shape[1],
+                     method='highs')
+    assert result.status in (0, 2), result.message
+    return result.status == 0
+
+
+def _qp_reference(s, w, low, high, reference):
+    """min ½‖τ − τ_ref‖² s.t. S τ = w, low ≤ τ ≤ high, solved through its dual.
+
+    τ(λ) = clip(τ_ref + Sᵀλ, low, high) minimises the Lagrangian over the box; the dual
+    g(λ) = ½‖τ(λ) − τ_ref‖² − λᵀ(S τ(λ) − w) is concave and C¹ in the 3 unknowns λ with
+    ∇g = w − S τ(λ), so scipy's BFGS finds λ and the primal optimum is τ(λ).
+    """
+    def tensions(lam):
+        return np.clip(reference + s.T @ lam, low, high)
+
+    def negative_dual(lam):
+        t = tensions(lam)
+        return -(0.5 * np.sum((t - reference) ** 2) - lam @ (s @ t - w)), -(w - s @ t)
+
+    result = minimize(negative_dual, np.zeros(3), jac=True, method='BFGS',
+                      options={'gtol': 1e-11, 'maxiter': 2000})
+    t = tensions(result.x)
+    assert np.linalg.norm(s @ t - w) < 1e-6 * max(1.0, np.linalg.norm(w)), result.message
+    return t
+
+
+def _kkt_certificate_exists(s, tensions, low, high, reference, tol=1e-7):
+    """An LP, independent of the method under test: τ − τ_ref = Sᵀλ + μ_lo − μ_hi with
+    μ_lo ≥ 0 only where τ = low and μ_hi ≥ 0 only where τ = high."""
+    count = s.shape[1]
+    at_low = np.abs(tensions - low) < 1e-7
+    at_high = np.abs(tensions - high) < 1e-7
+    # unknowns: λ (3, free), μ_lo (count), μ_hi (count)
+    a_eq = np.hstack([s.T, np.eye(count), -np.eye(count)])
+    b_eq = tensions - reference
+    bounds = ([(None, None)] * 3 + [(0, None if f else 0) for f in at_low]
+              + [(0, None if f else 0) for f in at_high])
+    result = linprog(np.zeros(3 + 2 * count), A_eq=a_eq, b_eq=b_eq, bounds=bounds, method='highs')
+    return result.status == 0
+
+
+@pytest.mark.parametrize('method', ['pseudo_inverse', 'bounded_minimum_norm'])
+def test_tensions_produce_the_wrench(robot, rng, method):
+    distribution = make_tension_distribution(method, 0.0, 1e6)
+    for _, s, w in _cases(robot, rng, 30, 3.0):
+        try:
+            tensions = distribution.distribute(s, w)
+        except InfeasibleTensionError:
+            continue
+        np.testing.assert_allclose(s @ tensions, w, atol=1e-9 * np.linalg.norm(w))
+
+
+def test_pseudo_inverse_equals_numpy_pinv(robot, rng):
+    distribution = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
+    returned = raised = 0
+    for _, s, w in _cases(robot, rng, 60, 8.0):
+        expected = np.linalg.pinv(s) @ w
+        np.testing.assert_allclose(minimum_norm(s, w), expected, atol=1e-10)
+        inside = expected.min() >= robot.tension_min_n and expected.max() <= robot.tension_max_n
+        if inside:
+            np.testing.assert_allclose(distribution.distribute(s, w), expected, atol=1e-10)
+            returned += 1
+        else:
+            # never hands out tensions outside the bounds
+            with pytest.raises(InfeasibleTensionError):
+                distribution.distribute(s, w)
+            raised += 1
+    assert returned > 10 and raised > 0
+
+
+def test_bounded_equals_pseudo_inverse_when_that_is_within_bounds(robot, rng):
+    low, high = robot.tension_min_n, robot.tension_max_n
+    bounded = make_tension_distribution('bounded_minimum_norm', low, high)
+    compared = 0
+    for _, s, w in _cases(robot, rng, 40, 2.0):
+        expected = np.linalg.pinv(s) @ w
+        if expected.min() >= low and expected.max() <= high:
+            np.testing.assert_allclose(bounded.distribute(s, w), expected, atol=1e-10)
+            compared += 1
+    assert compared > 10
+
+
+BOUNDS = {
+    'nominal': lambda robot: (robot.tension_min_n, robot.tension_max_n, 0.0),
+    'raised_minimum': lambda robot: (0.12 * robot.mass_kg * 9.81, robot.tension_max_n, 0.0),
+    'tight_maximum': lambda robot: (robot.tension_min_n, 25.0, 0.0),
+    'mid_reference': lambda robot: (robot.tension_min_n, 60.0, 0.5 * (robot.tension_min_n + 60.0)),
+    'reference_10N': lambda robot: (5.0, 40.0, 10.0),
+}
+
+
+@pytest.mark.parametrize('bounds', list(BOUNDS), ids=list(BOUNDS))
+def test_bounded_is_feasible_optimal_or_truly_infeasible(robot, rng, bounds):
+    low, high, reference = BOUNDS[bounds](robot)
+    distribution = make_tension_distribution('bounded_minimum_norm', low, high,
+                                             reference_tension_n=reference)
+    returned = raised = 0
+    for _, s, w in _cases(robot, rng, 40, 6.0):
+        feasible = _lp_feasible(s, w, low, high)
+        try:
+            tensions = distribution.distribute(s, w)
+        except InfeasibleTensionError as err:
+            assert not feasible, f'raised "{err}" but linprog finds tensions within bounds'
+            raised += 1
+            continue
+        returned += 1
+        assert feasible
+        np.testing.assert_allclose(s @ tensions, w, atol=1e-8 * max(1.0, np.linalg.norm(w)))
+        assert tensions.min() >= low - 1e-9 and tensions.max() <= high + 1e-9
+        ref = np.full(s.shape[1], reference)
+        qp = _qp_reference(s, w, low, high, ref)
+        cost, cost_qp = (0.5 * np.sum((t - ref) ** 2) for t in (tensions, qp))
+        assert cost <= cost_qp + 1e-7 * max(1.0, cost_qp)
+        np.testing.assert_allclose(tensions, qp, atol=1e-5)
+        assert _kkt_certificate_exists(s, tensions, low, high, ref)
+    assert returned > 5, 'the sample never exercised a feasible wrench'
+    assert raised + returned == 40
+
+
+def test_bounded_active_set_engages(paper_robot, rng):
+    """Poses where S⁺w violates the bounds but feasible tensions exist are solved, not refused."""
+    low, high = paper_robot.tension_min_n, paper_robot.tension_max_n
+    bounded = make_tension_distribution('bounded_minimum_norm', low, high)
+    engaged = 0
+    for _, s, w in _cases(paper_robot, rng, 200, 9.0):
+        pinv = np.linalg.pinv(s) @ w
+        if pinv.min() >= low or not _lp_feasible(s, w, low, high):
+            continue
+        tensions = bounded.distribute(s, w)
+        assert tensions.min() >= low - 1e-9
+        np.testing.assert_allclose(s @ tensions, w, atol=1e-8 * np.linalg.norm(w))
+        engaged += 1
+    assert engaged > 3
+
+
+def test_reference_tension_shifts_the_solution(paper_robot, rng):
+    """With τ_ref the result is τ_ref + S⁺(w − S τ_ref) when that is within bounds."""
+    low, high = paper_robot.tension_min_n, paper_robot.tension_max_n
+    for reference in (5.0, 30.0):
+        distribution = make_tension_distribution('bounded_minimum_norm', low, high,
+                                                 reference_tension_n=reference)
+        for _, s, w in _cases(paper_robot, rng, 20, 1.0):
+            ref = np.full(4, reference)
+            expected = ref + np.linalg.pinv(s) @ (w - s @ ref)
+            if expected.min() >= low and expected.max() <= high:
+                np.testing.assert_allclose(distribution.distribute(s, w), expected, atol=1e-9)
+                # and it is the projection of τ_ref on {S τ = w}: the change is in row(S)
+                change = expected - ref
+                np.testing.assert_allclose(np.linalg.pinv(s) @ s @ change, change, atol=1e-9)
+
+
+def test_three_cables_have_one_solution(paper_robot, rng):
+    low, high = paper_robot.tension_min_n, paper_robot.tension_max_n
+    bounded = make_tension_distribution('bounded_minimum_norm', low, high, reference_tension_n=20.0)
+    for _, s, w in _cases(paper_robot, rng, 20, 1.0):
+        s3 = s[:, :3]
+        exact = np.linalg.solve(s3, w)
+        if exact.min() >= low and exact.max() <= high:
+            np.testing.assert_allclose(bounded.distribute(s3, w), exact, atol=1e-9)
+        else:
+            with pytest.raises(InfeasibleTensionError):
+                bounded.distribute(s3, w)
+
+
+@pytest.mark.parametrize('method', ['pseudo_inverse', 'bounded_minimum_norm'])
+def test_cables_spanning_a_plane_are_infeasible(method):
+    distribution = make_tension_distribution(method, 0.0, 100.0)
+    s = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+    with pytest.raises(InfeasibleTensionError):
+        distribution.distribute(s, np.array([0.0, 0.0, 10.0]))
+
+
+def test_bad_names_and_bounds():
+    with pytest.raises(ValueError):
+        make_tension_distribution('no_such_method', 0.0, 1.0)
+    with pytest.raises(ValueError):
+        make_tension_distribution('pseudo_inverse', 5.0, 1.0)
+    with pytest.raises(ValueError):
+        make_tension_distribution('bounded_minimum_norm', -1.0, 1.0)
+
+
+@pytest.mark.parametrize('method', ['pseudo_inverse', 'bounded_minimum_norm'])
+def test_inverse_dynamics_error_names_the_pose(paper_robot, method):
+    distribution = make_tension_distribution(method, paper_robot.tension_min_n, paper_robot.tension_max_n)
+    p = np.array([0.3, 1.2, 1.0])
+    # accelerating down faster than gravity needs pushing cables
+    with pytest.raises(InfeasibleTensionError) as info:
+        inverse_dynamics(paper_robot, distribution, p, np.zeros(3), np.array([0.0, 0.0, -15.0]))
+    message = str(info.value)
+    assert 'p = (' in message
+    assert '(0.3000, 1.2000, 1.0000)' in message
+    np.testing.assert_allclose(info.value.position_m, p)
+
+
+# Wrenches on the 8-cable robot that admit tensions at least 0.1 N inside [2, 120] N
+# (checked by the margin LP below), found by random search.
+NEAR_BORDER_CASES = [
+    ((2.38, 0.73, 2.4), (0.4, -4.0, -3.9)),
+    ((0.69, 2.0, 0.26), (4.7, 0.8, -2.2)),
+]
+
+
+@pytest.mark.parametrize('position, acceleration', NEAR_BORDER_CASES)
+def test_bounded_solves_feasible_wrench_near_the_border(eight_cable_robot, position, acceleration):
+    robot = eight_cable_robot
+    low, high = robot.tension_min_n, robot.tension_max_n
+    s, _ = structure_matrix(robot, np.array(position))
+    w = robot.mass_kg * (np.array(acceleration) - robot.gravity_m_s2)
+    n = s.shape[1]
+    # max margin μ with S τ = w, low + μ ≤ τ ≤ high − μ: unknowns (τ, μ)
+    margin = linprog(np.r_[np.zeros(n), -1.0], A_eq=np.hstack([s, np.zeros((3, 1))]), b_eq=w,
+                     A_ub=np.vstack([np.hstack([-np.eye(n), np.ones((n, 1))]),
+                                     np.hstack([np.eye(n), np.ones((n, 1))])]),
+                     b_ub=np.r_[np.full(n, -low), np.full(n, high)],
+                     bounds=[(None, None)] * (n + 1), method='highs')
+    assert margin.status == 0 and -margin.fun > 0.1
+    tensions = make_tension_distribution('bounded_minimum_norm', low, high).distribute(s, w)
+    np.testing.assert_allclose(tensions, _qp_reference(s, w, low, high, np.zeros(n)), atol=1e-5)
