@@ -163,6 +163,17 @@ class Graph:
         self.stop()
 
 
+def run_to_completion(nodes: list[NodeSpec], namespace: str, timeout_s: float, log=print) -> None:
+    """Start the graph, wait until the plant completes its run, stop every node."""
+    graph = Graph(nodes, namespace, completion='plant_simulator', log=log)
+    try:
+        graph.start()
+        graph.wait_until_up()
+        graph.wait(timeout_s)
+    finally:
+        graph.stop()
+
+
 def graph_nodes(parameters: dict, bag_path: str | None = None) -> list[NodeSpec]:
     """The closed loop: generator, controller, twin, plant, and a recorder when asked."""
     nodes = [

@@ -17,7 +17,7 @@ from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 
 from .bag_io import recording_from_bag
 from .engine import run_inprocess
-from .graph import Graph, GraphError, graph_nodes
+from .graph import GraphError, graph_nodes, run_to_completion
 from .metrics import PAPER_KPI, tracking_error_m, twin_kpis
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
 from .scenario_setup import ScenarioOptions, build_scenario
@@ -68,15 +68,9 @@ def node_parameters(args, scenario) -> dict:
 def run_graph(args, scenario, out: Path):
     bag = out / 'bag'
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
-    graph = Graph(graph_nodes(node_parameters(args, scenario), str(bag)), args.namespace,
-                  completion='plant_simulator', log=log)
     timeout = RUN_TIMEOUT_FACTOR * scenario.cycles * scenario.period_s + 30.0
-    try:
-        graph.start()
-        graph.wait_until_up()
-        graph.wait(timeout)
-    finally:
-        graph.stop()
+    run_to_completion(graph_nodes(node_parameters(args, scenario), str(bag)), args.namespace,
+                      timeout, log)
     return recording_from_bag(bag, args.namespace)
 
 

@@ -50,6 +50,8 @@ class PlantSimulatorNode(CdprNode):
         self.last_tick = int(round((motion.trajectory.duration_s if duration < 0 else duration) / self.period_s))
         self.expected_subscribers = self.parameter('expected_subscribers', 1)
         self.resend_s = self.parameter('command_timeout_s', 0.5)
+        self.start_delay_s = self.parameter('start_delay_s', 1.0)
+        self.ready_since = None
         self.names = contract.joint_names(self.robot.cable_count)
         self.tick = 0
         self.started = False
@@ -74,11 +76,18 @@ class PlantSimulatorNode(CdprNode):
         if self.clock_mode == 'lockstep':
             self.clock.publish(Clock(clock=ns_to_stamp(stamp)))
         angle, speed = self.plant.measure()
-        self.state.publish(joint_state(self.names, stamp, angle, speed, self.command))
+        self.last_state = joint_state(self.names, stamp, angle, speed, self.command)
+        self.state.publish(self.last_state)
         self.truth_pose.publish(point_stamped(stamp, self.plant.position_m))
         self.truth_tensions.publish(joint_state(self.names, stamp, effort=self.plant.tension_n))
         self.sent_at = time.monotonic()
         self.diagnostics.count('states')
+
+    def resend_state(self) -> None:
+        """The same measurement again: a second draw of noise would break repeatability."""
+        self.state.publish(self.last_state)
+        self.sent_at = time.monotonic()
+        self.diagnostics.count('resent states')
 
     def ready(self) -> bool:
         return (self.count_subscribers(contract.JOINT_STATES) >= self.expected_subscribers
@@ -87,7 +96,10 @@ class PlantSimulatorNode(CdprNode):
     def idle(self) -> None:
         super().idle()
         if not self.started:
-            if self.ready():
+            if self.ready_since is None and self.ready():
+                self.ready_since = time.monotonic()
+            # The other endpoints (twin, recorder) discover each other meanwhile.
+            if self.ready_since is not None and time.monotonic() - self.ready_since >= self.start_delay_s:
                 self.started = True
                 self.get_logger().info(f'starting, {self.clock_mode}, {self.last_tick} ticks')
                 if self.clock_mode == 'lockstep':
@@ -95,8 +107,7 @@ class PlantSimulatorNode(CdprNode):
                 else:
                     self.timer = self.create_timer(self.period_s, self.realtime_step)
         elif self.clock_mode == 'lockstep' and time.monotonic() - self.sent_at > self.resend_s:
-            self.diagnostics.count('resent states')
-            self.publish_state()
+            self.resend_state()
 
     def on_command(self, message: JointState) -> None:
         try:

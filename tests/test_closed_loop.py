@@ -1,0 +1,56 @@
+"""The closed loop in one process: twin, plant fidelities and failure injection."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from cdpr_bringup.engine import run_inprocess
+from cdpr_bringup.metrics import tracking_error_m, twin_kpis
+from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+
+
+@pytest.fixture(scope='module')
+def rigid_run():
+    scenario = build_scenario(ScenarioOptions(motion='along-2', fidelity='rigid'))
+    return scenario, run_inprocess(scenario)
+
+
+def test_rigid_plant_is_the_twin_when_nothing_fails(rigid_run):
+    scenario, recording = rigid_run
+    kpi = twin_kpis(scenario.robot, recording)
+    assert kpi['K_j_rad'] == 0.0 and kpi['K_t_nm'] == 0.0 and kpi['K_c_m'] < 1e-12
+    assert tracking_error_m(recording) < 1e-3
+
+
+def test_elastic_plant_tracks_within_5_mm_and_stays_taut():
+    scenario = build_scenario(ScenarioOptions(motion='circle', fidelity='elastic'))
+    recording = run_inprocess(scenario)
+    assert tracking_error_m(recording) < 0.005
+    assert recording.true_tension_n.min() > 0.0
+    kpi = twin_kpis(scenario.robot, recording)
+    # the elastic plant differs from the twin, by about the paper's orders of magnitude
+    assert 1e-4 < kpi['K_c_m'] < 0.05 and 1e-3 < kpi['K_j_rad'] < 0.2 and 0.01 < kpi['K_t_nm'] < 1.0
+
+
+def test_injected_failure_frees_the_motor_but_not_the_twin(rigid_run):
+    healthy_scenario, healthy = rigid_run
+    scenario = build_scenario(ScenarioOptions(motion='along-2', fidelity='rigid', fail_cables=[4]))
+    broken = run_inprocess(scenario)
+    failure = scenario.failure_time_s
+    assert failure == pytest.approx(scenario.motion.time_at_fraction(0.5))
+    after = broken.time_s > failure + scenario.period_s
+    before = broken.time_s <= failure
+    # the twin never sees the plant: identical with and without the failure
+    np.testing.assert_array_equal(broken.twin_torque_nm, healthy.twin_torque_nm)
+    # the plant: identical up to the failure, then cable 4 carries nothing ...
+    np.testing.assert_array_equal(broken.angle_rad[before], healthy.angle_rad[before])
+    assert np.all(broken.true_tension_n[after, 3] == 0.0)
+    # ... and motor 4 is a free rotor: its speed follows J θ̈ = −b θ̇ + c
+    motor = scenario.robot.motor
+    k = int(np.flatnonzero(after)[5])
+    speed, period = broken.angular_velocity_rad_s[:, 3], scenario.period_s
+    predicted = speed[k] + period * (broken.command_nm[k, 3] - motor.viscous_friction_nm_s_rad * speed[k]) / motor.inertia_kg_m2
+    assert speed[k + 1] == pytest.approx(predicted, rel=1e-9)
+    assert np.max(np.abs(broken.command_nm[after] - healthy.command_nm[after])) > 0.1

@@ -1,0 +1,79 @@
+"""The PD + feed-forward controller and its modes, driven by scripted inputs."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cdpr_control.controller import (FAULT, NOMINAL, RECOVERY_TENSION, SAFE_HOLD, JointController,
+                                     JointReference, PdGains)
+
+
+@pytest.fixture
+def controller(paper_robot):
+    return JointController(paper_robot, PdGains.from_bandwidth(paper_robot, 12.0, 0.7))
+
+
+def reference(m, angle=0.1, speed=0.5, feedforward=-0.3):
+    return JointReference(np.full(m, angle), np.full(m, speed), np.full(m, feedforward))
+
+
+def test_gains_place_the_loaded_joint_at_the_requested_frequency(paper_robot):
+    gains = PdGains.from_bandwidth(paper_robot, 12.0, 0.7)
+    inertia = paper_robot.motor.inertia_kg_m2 + paper_robot.mass_kg * paper_robot.motor.drum_radius_m ** 2
+    # J_eff s² + K_d s + K_p: natural frequency and damping ratio of the closed loop
+    omega = np.sqrt(gains.stiffness_nm_rad / inertia)
+    assert omega / (2 * np.pi) == pytest.approx(12.0)
+    assert gains.damping_nm_s_rad / (2 * inertia * omega) == pytest.approx(0.7)
+
+
+def test_nominal_is_feedforward_plus_pd(controller, paper_robot):
+    m = paper_robot.cable_count
+    angle = np.array([0.08, 0.1, 0.12, 0.1])
+    speed = np.array([0.5, 0.4, 0.5, 0.6])
+    torque = controller.command(angle, speed, reference(m))
+    expected = (-0.3 + controller.gains.stiffness_nm_rad * (0.1 - angle)
+                + controller.gains.damping_nm_s_rad * (0.5 - speed))
+    np.testing.assert_allclose(torque, expected)
+
+
+def test_torque_limit_is_enforced(controller, paper_robot):
+    m = paper_robot.cable_count
+    torque = controller.command(np.full(m, -1.0), np.zeros(m), reference(m))
+    assert np.all(torque == paper_robot.motor.torque_limit_nm)
+
+
+def test_broken_motor_gets_zero_torque_in_every_mode(controller, paper_robot):
+    m = paper_robot.cable_count
+    controller.set_broken([3])
+    controller.set_tension_setpoint(np.array([10.0, 12.0, 8.0, 5.0]))
+    for mode in (NOMINAL, RECOVERY_TENSION, SAFE_HOLD, FAULT):
+        controller.set_mode(mode)
+        torque = controller.command(np.full(m, 0.05), np.full(m, 0.2), reference(m))
+        assert torque[3] == 0.0
+        assert np.all(torque[:3] != 0.0)
+
+
+def test_recovery_tension_applies_tension_setpoints(controller, paper_robot):
+    m = paper_robot.cable_count
+    tensions = np.array([10.0, 12.0, 8.0, 5.0])
+    speed = np.array([1.0, -2.0, 0.5, 0.0])
+    controller.set_tension_setpoint(tensions)
+    controller.set_mode(RECOVERY_TENSION)
+    torque = controller.command(np.zeros(m), speed, reference(m))
+    motor = paper_robot.motor
+    np.testing.assert_allclose(torque, -motor.drum_radius_m * tensions + motor.viscous_friction_nm_s_rad * speed)
+
+
+def test_safe_hold_keeps_the_reference_it_entered_with_at_rest(controller, paper_robot):
+    m = paper_robot.cable_count
+    controller.set_mode(SAFE_HOLD)
+    first = controller.command(np.full(m, 0.1), np.zeros(m), reference(m, angle=0.1, speed=0.5))
+    # a later, different reference does not move the hold point
+    later = controller.command(np.full(m, 0.1), np.zeros(m), reference(m, angle=0.9, speed=2.0))
+    np.testing.assert_allclose(first, np.full(m, -0.3))
+    np.testing.assert_allclose(later, first)
+
+
+def test_unknown_mode_is_refused(controller):
+    with pytest.raises(ValueError, match='unknown mode'):
+        controller.set_mode('DANCE')
