@@ -1,8 +1,6 @@
 """The closed loop in one process: twin, plant fidelities and failure injection."""
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 

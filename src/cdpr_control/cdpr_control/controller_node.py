@@ -8,7 +8,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import InvalidMessage, joint_state, joints_from_message
+from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .config import load_section, resolve_config
@@ -38,10 +38,8 @@ class ControllerNode(CdprNode):
         self.create_subscription(JointState, contract.RECOVERY_TENSIONS, self.on_tensions, qos.STREAM)
 
     def on_reference(self, message: JointState) -> None:
-        try:
-            joints = joints_from_message(message, self.names)
-        except InvalidMessage as err:
-            self.diagnostics.reject(contract.REFERENCE, str(err))
+        joints = self.joints_or_reject(message, contract.REFERENCE)
+        if joints is None:
             return
         self.references[joints.stamp_ns] = JointReference(joints.position, joints.velocity,
                                                           joints.effort)
@@ -51,10 +49,8 @@ class ControllerNode(CdprNode):
             self.answer(self.pending)
 
     def on_state(self, message: JointState) -> None:
-        try:
-            joints = joints_from_message(message, self.names, ('position', 'velocity'))
-        except InvalidMessage as err:
-            self.diagnostics.reject(contract.JOINT_STATES, str(err))
+        joints = self.joints_or_reject(message, contract.JOINT_STATES, ('position', 'velocity'))
+        if joints is None:
             return
         self.diagnostics.count('states')
         self.answer(joints)
@@ -94,10 +90,8 @@ class ControllerNode(CdprNode):
             self.diagnostics.reject(contract.MODE, str(err))
 
     def on_tensions(self, message: JointState) -> None:
-        try:
-            joints = joints_from_message(message, self.names, ('effort',))
-        except InvalidMessage as err:
-            self.diagnostics.reject(contract.RECOVERY_TENSIONS, str(err))
+        joints = self.joints_or_reject(message, contract.RECOVERY_TENSIONS, ('effort',))
+        if joints is None:
             return
         self.controller.set_tension_setpoint(joints.effort)
 

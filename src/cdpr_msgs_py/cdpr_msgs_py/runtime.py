@@ -11,6 +11,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 from . import contract, qos
+from .conversions import InvalidMessage, joints_from_message
 
 SPIN_TIMEOUT_S = 0.05
 # On a stop request a node keeps handling what is queued until it has been quiet this
@@ -137,6 +138,15 @@ class CdprNode(Node):
     def parameter(self, name: str, default):
         """Declare and read one parameter."""
         return self.declare_parameter(name, default).value
+
+    def joints_or_reject(self, message, topic: str,
+                         fields: tuple[str, ...] = ('position', 'velocity', 'effort')):
+        """The message's arrays in `self.names` order, or None after counting a rejection."""
+        try:
+            return joints_from_message(message, self.names, fields)
+        except InvalidMessage as err:
+            self.diagnostics.reject(topic, str(err))
+            return None
 
     def idle(self) -> None:
         """Called after every spin: periodic work that needs no timer."""

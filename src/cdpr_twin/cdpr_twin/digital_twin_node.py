@@ -9,7 +9,7 @@ from cdpr_control.controller import JointReference, PdGains
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.robot import load_robot
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import InvalidMessage, joint_state, joints_from_message, point_stamped
+from cdpr_msgs_py.conversions import joint_state, point_stamped
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .twin import DigitalTwin
@@ -33,10 +33,8 @@ class DigitalTwinNode(CdprNode):
         self.create_subscription(JointState, contract.REFERENCE, self.on_reference, qos.STREAM)
 
     def on_reference(self, message: JointState) -> None:
-        try:
-            joints = joints_from_message(message, self.names)
-        except InvalidMessage as err:
-            self.diagnostics.reject(contract.REFERENCE, str(err))
+        joints = self.joints_or_reject(message, contract.REFERENCE)
+        if joints is None:
             return
         if joints.stamp_ns <= self.last_stamp_ns:
             self.diagnostics.reject(contract.REFERENCE, 'stamp not after the previous one')

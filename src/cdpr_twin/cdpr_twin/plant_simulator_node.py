@@ -19,8 +19,7 @@ from cdpr_control.motions import load_motion
 from cdpr_control.robot import load_robot
 from cdpr_control.statics import static_tensions
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import (InvalidMessage, joint_state, joints_from_message,
-                                      ns_to_stamp, point_stamped)
+from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .plant import PlantConfig, PlantSimulator
@@ -50,7 +49,7 @@ class PlantSimulatorNode(CdprNode):
         self.last_tick = int(round((motion.trajectory.duration_s if duration < 0 else duration) / self.period_s))
         self.expected_subscribers = self.parameter('expected_subscribers', 1)
         self.resend_s = self.parameter('command_timeout_s', 0.5)
-        self.start_delay_s = self.parameter('start_delay_s', 1.0)
+        self.start_delay_s = self.parameter('start_delay_s', 2.0)
         self.ready_since = None
         self.names = contract.joint_names(self.robot.cable_count)
         self.tick = 0
@@ -110,10 +109,8 @@ class PlantSimulatorNode(CdprNode):
             self.resend_state()
 
     def on_command(self, message: JointState) -> None:
-        try:
-            joints = joints_from_message(message, self.names, ('effort',))
-        except InvalidMessage as err:
-            self.diagnostics.reject(contract.EFFORT_COMMAND, str(err))
+        joints = self.joints_or_reject(message, contract.EFFORT_COMMAND, ('effort',))
+        if joints is None:
             return
         if self.clock_mode == 'realtime':
             self.command = joints.effort
