@@ -1,28 +1,21 @@
 """Bounded tension distribution: the tensions closest to a reference within the bounds.
 
-Solves  min ½‖τ − τ_ref‖²  s.t.  S τ = w,  τ_min ≤ τ ≤ τ_max  by an active-set method:
-free cables take the closed-form (minimum-norm) correction, a cable that leaves its
-bounds is pinned to the bound, and a pinned cable whose multiplier has the wrong sign
-is released. Pinning the worst violator first can pin a cable the optimum keeps free
-and strand the search (about 1 case in 1000 on an 8-cable robot); then Dykstra's
-alternating projections between {S τ = w} and the box, which converge to the optimum
-whenever one exists, find the active set and the active-set step makes it exact
-(that fallback can take up to DYKSTRA_ITERATIONS sweeps, ~0.3 s, before it declares a
-wrench infeasible). With τ_ref = 0 the result equals the paper's S⁺ w whenever that is within
-the bounds; with τ_ref = (τ_min + τ_max)/2 it is the improved closed-form method.
+Solves  min ½‖τ − τ_ref‖²  s.t.  S τ = w,  τ_min ≤ τ ≤ τ_max.  Every τ with S τ = w is
+τ = τ₀ + N z (τ₀ = S⁺ w, N an orthonormal basis of the null space of S), and the
+objective becomes ½‖z − z_ref‖², so the problem is the projection of z_ref onto the
+polytope the bounds cut out of the null space. Goldfarb and Idnani's dual active-set
+method solves it exactly in a finite number of steps, or proves that no tensions
+exist. With τ_ref = 0 the result equals the paper's S⁺ w whenever that is within the
+bounds; with τ_ref = (τ_min + τ_max)/2 it is the improved closed-form method.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..linalg3 import solve3
 from .base import InfeasibleTensionError, TensionDistribution, minimum_norm
 
 BOUND_TOLERANCE_N = 1e-9
-DYKSTRA_ITERATIONS = 50000
-DYKSTRA_TOLERANCE_N = 1e-8
-FEASIBILITY_TOLERANCE_N = 1e-6
-PIN_TOLERANCE_N = 1e-6
+DIRECTION_TOLERANCE = 1e-12
 
 
 class BoundedMinimumNorm(TensionDistribution):
@@ -40,76 +33,62 @@ class BoundedMinimumNorm(TensionDistribution):
         if (np.min(tensions) >= self.tension_min_n - BOUND_TOLERANCE_N
                 and np.max(tensions) <= self.tension_max_n + BOUND_TOLERANCE_N):
             return tensions
-        try:
-            return self._active_set(structure, wrench_n, reference, np.zeros(count, dtype=int))
-        except InfeasibleTensionError as first_attempt:
-            if count - structure.shape[0] < 2:
-                # With one redundant cable or none, the active set was never seen to strand
-                # (21,000 random cases on the paper robot); the fallback is slow (~0.3 s).
-                raise
-            estimate = self._dykstra(structure, wrench_n, reference)
-            low, high = self.tension_min_n, self.tension_max_n
-            pinned = np.where(estimate <= low + PIN_TOLERANCE_N, -1,
-                              np.where(estimate >= high - PIN_TOLERANCE_N, 1, 0))
-            try:
-                return self._active_set(structure, wrench_n, reference, pinned)
-            except InfeasibleTensionError:
-                if np.linalg.norm(structure @ estimate - wrench_n) > FEASIBILITY_TOLERANCE_N:
-                    raise first_attempt from None
-                return estimate
+        return self._projection(structure, wrench_n, reference)
 
-    def _dykstra(self, structure, wrench_n, reference):
-        """Projection of the reference onto {S τ = w} ∩ box by Dykstra's algorithm.
-
-        The affine set needs no correction term (its projection is affine), the box does.
-        """
-        pseudo_inverse = np.linalg.pinv(structure)
-        x = reference.copy()
-        correction = np.zeros_like(x)
-        for _ in range(DYKSTRA_ITERATIONS):
-            y = x - pseudo_inverse @ (structure @ x - wrench_n)
-            x = np.clip(y + correction, self.tension_min_n, self.tension_max_n)
-            correction = y + correction - x
-            if np.max(np.abs(x - y)) < DYKSTRA_TOLERANCE_N:
-                break
-        return x
-
-    def _active_set(self, structure, wrench_n, reference, pinned):
+    def _projection(self, structure, wrench_n, reference):
         count = structure.shape[1]
-        low, high = self.tension_min_n, self.tension_max_n
-        # pinned: 0 free, −1 at the lower bound, +1 at the upper bound
-        pinned = pinned.copy()
-        tensions = reference.copy()
-        for _ in range(4 * count + 4):
-            free = pinned == 0
-            tensions[pinned < 0] = low
-            tensions[pinned > 0] = high
-            free_structure = structure[:, free]
-            remainder = wrench_n - structure[:, ~free] @ tensions[~free]
-            try:
-                multiplier = solve3(free_structure @ free_structure.T,
-                                    remainder - free_structure @ reference[free])
-            except np.linalg.LinAlgError:
+        particular = minimum_norm(structure, wrench_n)
+        null_basis = np.linalg.svd(structure)[2][structure.shape[0]:].T
+        # Constraints normal · z ≥ bound: τ₀ + N z ≥ τ_min, then −(τ₀ + N z) ≥ −τ_max.
+        normals = np.vstack([null_basis, -null_basis])
+        bounds = np.concatenate([self.tension_min_n - particular, particular - self.tension_max_n])
+        z = null_basis.T @ (reference - particular)
+        active: list[int] = []
+        multipliers = np.zeros(0)
+        for _ in range(10 * count + 10):
+            slack = normals @ z - bounds
+            violated = int(np.argmin(slack))
+            if slack[violated] >= -BOUND_TOLERANCE_N:
+                return particular + null_basis @ z
+            z, active, multipliers = self._add_constraint(normals, bounds, z, active, multipliers,
+                                                          violated)
+        raise InfeasibleTensionError('the dual active-set search did not settle')
+
+    def _add_constraint(self, normals, bounds, z, active, multipliers, added):
+        """One Goldfarb–Idnani step: make constraint `added` active, dropping others as needed."""
+        normal = normals[added]
+        trial = np.append(multipliers, 0.0)
+        while True:
+            if active:
+                active_normals = normals[active].T
+                dual_direction = np.linalg.solve(active_normals.T @ active_normals,
+                                                 active_normals.T @ normal)
+                primal_direction = normal - active_normals @ dual_direction
+            else:
+                dual_direction = np.zeros(0)
+                primal_direction = normal
+            # largest dual step keeping the active multipliers non-negative
+            blocking = np.flatnonzero(dual_direction > DIRECTION_TOLERANCE)
+            partial_step, dropped = np.inf, None
+            if blocking.size:
+                ratios = trial[blocking] / dual_direction[blocking]
+                dropped = int(blocking[np.argmin(ratios)])
+                partial_step = float(np.min(ratios))
+            curvature = primal_direction @ primal_direction
+            full_step = (-(normal @ z - bounds[added]) / curvature
+                         if curvature > DIRECTION_TOLERANCE else np.inf)
+            if not np.isfinite(min(full_step, partial_step)):
+                count = normals.shape[0] // 2
+                bound = self.tension_min_n if added < count else self.tension_max_n
                 raise InfeasibleTensionError(
-                    f'with cables {_names(~free)} at their bounds the rest span less than '
-                    '3 directions') from None
-            tensions[free] = reference[free] + free_structure.T @ multiplier
-            violation = np.maximum(low - tensions, tensions - high)
-            violation[~free] = -np.inf
-            worst = int(np.argmax(violation))
-            if violation[worst] > BOUND_TOLERANCE_N:
-                pinned[worst] = -1 if tensions[worst] < low else 1
-                continue
-            # KKT: τ − τ_ref − Sᵀλ = μ_low − μ_high with μ ≥ 0
-            slack = tensions - reference - structure.T @ multiplier
-            wrong_sign = np.where(pinned < 0, -slack, np.where(pinned > 0, slack, -np.inf))
-            release = int(np.argmax(wrong_sign))
-            if wrong_sign[release] > BOUND_TOLERANCE_N:
-                pinned[release] = 0
-                continue
-            return tensions
-        raise InfeasibleTensionError('the active-set search did not settle')
-
-
-def _names(mask: np.ndarray) -> str:
-    return ', '.join(str(i + 1) for i in np.flatnonzero(mask)) or 'none'
+                    f'cable {added % count + 1} cannot be brought to {bound} N '
+                    'while the others keep within their bounds')
+            step = min(full_step, partial_step)
+            if np.isfinite(full_step):
+                z = z + step * primal_direction
+            trial[:-1] -= step * dual_direction
+            trial[-1] += step
+            if full_step <= partial_step:
+                return z, active + [added], trial
+            del active[dropped]
+            trial = np.delete(trial, dropped)
