@@ -155,21 +155,17 @@ class Graph:
         shutil.rmtree(self.folder, ignore_errors=True)
         return {name: process.returncode for name, process in self.processes.items()}
 
-    def __enter__(self):
-        self.start()
-        return self
 
-    def __exit__(self, *exc):
-        self.stop()
-
-
-def run_to_completion(nodes: list[NodeSpec], namespace: str, timeout_s: float, log=print) -> None:
+def run_to_completion(nodes: list[NodeSpec], namespace: str, timeout_s: float | None,
+                      log=print) -> None:
     """Start the graph, wait until the plant completes its run, stop every node."""
     graph = Graph(nodes, namespace, completion='plant_simulator', log=log)
     try:
         graph.start()
         graph.wait_until_up()
+        log('[cdpr-graph] all nodes up')
         graph.wait(timeout_s)
+        log('[cdpr-graph] run complete')
     finally:
         graph.stop()
 
@@ -200,23 +196,21 @@ def main(argv=None):
     args = parser.parse_args(argv)
     parameters = {'config_file': str(Path(args.config).resolve()) if Path(args.config).exists()
                   else args.config, 'motion': args.motion, 'clock_mode': args.clock}
-    graph = Graph(graph_nodes(parameters, args.bag), args.namespace, completion='plant_simulator')
-    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
-    code = 0
+    signal.signal(signal.SIGTERM, stop_on_sigterm)
     try:
-        graph.start()
-        graph.wait_until_up()
-        print('[cdpr-graph] all nodes up', flush=True)
-        graph.wait()
-        print('[cdpr-graph] run complete', flush=True)
+        run_to_completion(graph_nodes(parameters, args.bag), args.namespace, timeout_s=None,
+                          log=lambda line: print(line, flush=True))
     except KeyboardInterrupt:
-        print('[cdpr-graph] stopping on request', flush=True)
+        print('[cdpr-graph] stopped on request', flush=True)
     except GraphError as err:
         print(f'[cdpr-graph] {err}', flush=True)
-        code = 1
-    finally:
-        graph.stop()
-    return code
+        return 1
+    return 0
+
+
+def stop_on_sigterm(_signum, _frame):
+    """Let SIGTERM stop the graph the way Ctrl-C does."""
+    raise KeyboardInterrupt
 
 
 if __name__ == '__main__':

@@ -77,9 +77,9 @@ class Diagnostics:
 
     def __init__(self, node: Node, period_s: float = 1.0):
         self.node = node
-        self.counts: Counter = Counter()
+        self.totals: Counter = Counter()
+        self.window: Counter = Counter()
         self.rejected: Counter = Counter()
-        self.values: dict[str, str] = {}
         self.activity = 0
         self.period_s = period_s
         self.last_publish = time.monotonic()
@@ -87,7 +87,8 @@ class Diagnostics:
 
     def count(self, key: str) -> None:
         """One more handled `key` (a message, a tick)."""
-        self.counts[key] += 1
+        self.totals[key] += 1
+        self.window[key] += 1
         self.activity += 1
 
     def reject(self, topic: str, reason: str) -> None:
@@ -109,17 +110,16 @@ class Diagnostics:
         problems = sum(self.rejected.values())
         status.level = DiagnosticStatus.WARN if problems else DiagnosticStatus.OK
         status.message = f'{problems} rejected messages' if problems else 'ok'
-        pairs = [(f'{key} count', str(value)) for key, value in self.counts.items()]
+        pairs = [(f'{key} total', str(value)) for key, value in self.totals.items()]
         if elapsed_s > 0:
-            pairs += [(f'{key} rate hz', f'{value / elapsed_s:.1f}') for key, value in self.counts.items()]
+            pairs += [(f'{key} rate hz', f'{value / elapsed_s:.1f}') for key, value in self.window.items()]
         pairs += [(f'rejected {key}', str(value)) for key, value in self.rejected.items()]
-        pairs += list(self.values.items())
         status.values = [KeyValue(key=k, value=v) for k, v in pairs]
         message = DiagnosticArray()
         message.header.stamp = self.node.get_clock().now().to_msg()
         message.status = [status]
         self.publisher.publish(message)
-        self.counts.clear()
+        self.window.clear()
 
 
 class CdprNode(Node):

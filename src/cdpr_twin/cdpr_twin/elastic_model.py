@@ -40,8 +40,8 @@ class ElasticCableRobot:
         for index in cables:
             self.attached[index] = False
 
-    def cable_tensions(self) -> np.ndarray:
-        """Tensions (N) of the current state."""
+    def cable_tensions(self):
+        """Tensions (N) of the current state, and the unit vectors u_i (m × 3) they act along."""
         robot = self.robot
         radius = robot.motor.drum_radius_m
         u, d = cable_vectors(robot.exit_points_m, self.position_m)

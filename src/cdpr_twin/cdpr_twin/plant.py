@@ -12,7 +12,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from cdpr_control.config import Section
-from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.robot import Robot
 
 from .elastic_model import ElasticCableRobot
@@ -128,7 +127,3 @@ class PlantSimulator:
     @property
     def tension_n(self) -> np.ndarray:
         return self.model.tension_n
-
-    def estimated_position(self, angle_rad) -> np.ndarray:
-        """End-effector position from measured angles by forward kinematics (m)."""
-        return forward_kinematics(self.robot, angle_rad)
