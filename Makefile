@@ -26,13 +26,15 @@ $(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
 
 demo: setup
 	$(VENV)/bin/cdpr-robot --config paper_robot.yaml
-	$(VENV)/bin/cdpr-scenario --motion circle --engine graph --quiet --out runs/demo
+	$(VENV)/bin/cdpr-scenario --motion circle --fail-cable 4 --fail-at-fraction 0.375 --engine graph --quiet --out runs/demo
 
 test: setup
 	$(PY) -m pytest
 
 bench: setup
 	$(VENV)/bin/cdpr-bench model
+	$(VENV)/bin/cdpr-bench graph
+	$(VENV)/bin/cdpr-bench fdi
 
 clean:
 	rm -rf $(VENV) build install log .pytest_cache

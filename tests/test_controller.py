@@ -4,8 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdpr_control.controller import (FAULT, NOMINAL, RECOVERY_TENSION, SAFE_HOLD, JointController,
-                                     JointReference, PdGains)
+from cdpr_control.controller import (FAULT, NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD,
+                                     JointController, JointReference, PdGains)
+from cdpr_control.friction import FrictionModel
 
 
 @pytest.fixture
@@ -77,3 +78,32 @@ def test_safe_hold_keeps_the_reference_it_entered_with_at_rest(controller, paper
 def test_unknown_mode_is_refused(controller):
     with pytest.raises(ValueError, match='unknown mode'):
         controller.set_mode('DANCE')
+
+
+def test_recovery_tension_compensates_friction_and_damps_only_paying_out(paper_robot):
+    gains = PdGains.from_bandwidth(paper_robot, 12.0, 0.7, tension_damping_nm_s_rad=0.02)
+    friction = FrictionModel(0.2, 0.1)
+    controller = JointController(paper_robot, gains, friction)
+    m = paper_robot.cable_count
+    tensions = np.array([10.0, 12.0, 8.0, 5.0])
+    speed = np.array([1.0, -2.0, 0.05, 0.0])
+    controller.set_tension_setpoint(tensions)
+    controller.set_mode(RECOVERY_TENSION)
+    torque = controller.command(np.zeros(m), speed, reference(m))
+    motor = paper_robot.motor
+    # what the motor law J θ̈ = c − b θ̇ − f(θ̇) + ρ τ leaves for the cable at θ̈ = 0
+    cable_tension = (motor.viscous_friction_nm_s_rad * speed + friction.torque_nm(speed) - torque) / motor.drum_radius_m
+    damping = 0.02 * np.maximum(speed, 0.0) / motor.drum_radius_m
+    np.testing.assert_allclose(cable_tension, tensions + damping)
+    assert cable_tension[1] == pytest.approx(tensions[1])   # winding in: no tension lost
+
+
+def test_safe_hold_after_a_recovery_move_holds_the_recovery_reference(controller, paper_robot):
+    m = paper_robot.cable_count
+    controller.set_mode(RECOVERY_MOVE)
+    recovery = reference(m, angle=0.4, speed=0.3, feedforward=-0.5)
+    controller.command(np.full(m, 0.4), np.zeros(m), recovery)
+    controller.set_mode(SAFE_HOLD)
+    # the trajectory's (nominal) reference is no longer followed
+    held = controller.command(np.full(m, 0.4), np.zeros(m), reference(m, angle=0.9))
+    np.testing.assert_allclose(held, np.full(m, -0.5))

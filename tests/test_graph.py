@@ -1,12 +1,18 @@
 """The node graph: every node its own process, over DDS on localhost, private domain."""
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from cdpr_bringup.bag_io import read_topics, recording_from_bag
+from cdpr_bringup.bag_io import read_messages, read_topics, recording_from_bag
 from cdpr_bringup.engine import run_inprocess
-from cdpr_bringup.graph import graph_nodes, run_to_completion
+from cdpr_bringup.graph import Graph, graph_nodes, node_environment, run_to_completion
+from cdpr_bringup.metrics import fdi_summary_from_diagnostics
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 
 from conftest import MOTIONS, PAPER_ROBOT
@@ -27,21 +33,36 @@ def run(tmp_path, name, **extra):
     return bag
 
 
+def failure_scenario():
+    return build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+                                          motion='along-2', fail_cables=[4]))
+
+
+def fdi_parameters(scenario) -> dict:
+    """What cdpr-scenario gives the nodes: run length, calibration, the FDI's friction."""
+    return {'duration_s': scenario.duration_s, 'calibration_file': str(scenario.calibration_path),
+            'coulomb_friction_nm': scenario.fdi.friction.coulomb_nm}
+
+
 @pytest.fixture(scope='module')
 def lockstep_bags(tmp_path_factory):
     folder = tmp_path_factory.mktemp('lockstep')
-    return [run(folder, f'run{i}', fail_cables=[4]) for i in range(2)]
+    extra = fdi_parameters(failure_scenario())
+    return [run(folder, f'run{i}', fail_cables=[4], **extra) for i in range(2)]
 
 
 def test_lockstep_graph_equals_the_inprocess_engine(lockstep_bags):
-    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
-                                              motion='along-2', fail_cables=[4]))
+    """Through the failure, its detection and the whole recovery."""
+    scenario = failure_scenario()
     engine = run_inprocess(scenario)
     graph = recording_from_bag(lockstep_bags[0], '/cdpr_test_run0')
     assert graph.time_s.size == engine.time_s.size == scenario.cycles
     np.testing.assert_allclose(graph.true_position_m, engine.true_position_m, rtol=0, atol=1e-9)
     np.testing.assert_allclose(graph.command_nm, engine.command_nm, rtol=0, atol=1e-9)
     np.testing.assert_allclose(graph.twin_torque_nm, engine.twin_torque_nm, rtol=0, atol=1e-9)
+    diagnostics = read_messages(lockstep_bags[0], ['/diagnostics'])['/diagnostics']
+    assert fdi_summary_from_diagnostics(diagnostics) == engine.fdi
+    assert engine.fdi['broken_cables'] == [4] and engine.fdi['mode'] == 'SAFE_HOLD'
 
 
 def test_lockstep_runs_are_bit_for_bit_repeatable(lockstep_bags):
@@ -54,10 +75,11 @@ def test_lockstep_runs_are_bit_for_bit_repeatable(lockstep_bags):
 def test_failure_in_the_graph_frees_the_plant_motor_not_the_twin(lockstep_bags):
     graph = recording_from_bag(lockstep_bags[0], '/cdpr_test_run0')
     healthy = run_inprocess(build_scenario(ScenarioOptions(
-        config=str(PAPER_ROBOT), motions=str(MOTIONS), motion='along-2')))
-    np.testing.assert_allclose(graph.twin_torque_nm, healthy.twin_torque_nm, rtol=0, atol=1e-9)
-    late = graph.time_s > graph.time_s[-1] - 1.0
-    assert np.all(graph.true_tension_n[late, 3] == 0.0)
+        config=str(PAPER_ROBOT), motions=str(MOTIONS), motion='along-2')), supervised=False)
+    n = healthy.time_s.size
+    np.testing.assert_allclose(graph.twin_torque_nm[:n], healthy.twin_torque_nm, rtol=0, atol=1e-9)
+    late = graph.time_s[:n] > graph.time_s[n - 1] - 1.0
+    assert np.all(graph.true_tension_n[:n][late, 3] == 0.0)
     assert np.all(healthy.true_tension_n[late, 3] > 1.0)
 
 
@@ -69,3 +91,38 @@ def test_realtime_smoke_run_answers_every_state(tmp_path):
     assert len(states) >= 990, 'about 2 s at 500 Hz'
     # every state but possibly the very last one got its command
     assert len(states - commands) <= 1
+
+
+def listen(namespace: str, timeout_s: float) -> dict:
+    """Run the outside listener (plain rclpy, nothing of ours) and return what it saw."""
+    script = Path(__file__).parent / 'tools' / 'outside_listener.py'
+    process = subprocess.Popen([sys.executable, str(script), namespace, str(timeout_s)],
+                               stdout=subprocess.PIPE, text=True, env=node_environment())
+    try:
+        output, _ = process.communicate(timeout=timeout_s + 20.0)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    return json.loads(output.strip().splitlines()[-1])
+
+
+def test_outside_tools_and_late_joiners_see_the_broken_cable():
+    """A separate process importing only rclpy and messages gets the joint states, the
+    diagnostics and the broken cable; one that joins after the failure still gets it."""
+    namespace = '/cdpr_test_listen'
+    scenario = failure_scenario()
+    graph = Graph(graph_nodes(parameters(fail_cables=[4], fidelity='rigid', coulomb_friction_nm=0.0,
+                                         duration_s=scenario.duration_s + 30.0)),
+                  namespace, completion='plant_simulator', log=QUIET)
+    try:
+        graph.start()
+        graph.wait_until_up()
+        early = listen(namespace, 60.0)
+        assert early['joint_states'] > 0 and early['diagnostics'] > 0
+        assert early['broken_cable'][-1] == 4
+        late = listen(namespace, 20.0)
+        assert late['broken_cable'] == [4], 'transient local: the late joiner gets the last value'
+        assert not graph.check(), 'the graph is still running'
+    finally:
+        graph.stop()

@@ -17,6 +17,8 @@ setup(
     description='Sensorless cable-failure detection and identification, safe points and recovery planning.',
     license='Apache-2.0',
     entry_points={
-        'console_scripts': [],
+        'console_scripts': [
+            'supervisor = cdpr_fdi.supervisor_node:main',
+        ],
     },
 )

@@ -1,48 +1,213 @@
-"""Reading a bag of the graph back into a Recording (arrays per control tick)."""
+"""Bags of the graph: writing them so that a killed recorder leaves a readable prefix,
+and reading them back (timed messages per topic, the Recording per control tick).
+
+A bag is a rosbag2 folder (metadata.yaml and one MCAP or sqlite3 file) with the message
+definitions and type hashes of the ROS 2 Kilted types embedded, so `ros2 bag info`,
+rosbags, and MCAP viewers open it without the message packages.
+"""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
-from rosbags.rosbag2 import Reader
+from mcap.exceptions import EndOfFile
+from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType
+from mcap.writer import Writer as McapFileWriter
+from rosbags.interfaces import MessageDefinitionFormat
+from rosbags.rosbag2 import CompressionMode, Reader, StoragePlugin, Writer
+from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
 from rosbags.typesys import Stores, get_typestore
+
+from cdpr_msgs_py import contract
 
 from .engine import Recording
 
 NANOSECONDS = 1e9
+# A chunk is what survives a SIGKILL whole, so chunks stay small; the recorder also
+# flushes the open one on a timer when traffic is too slow to fill it.
+CHUNK_SIZE_BYTES = 64 * 1024
+TYPESTORE = get_typestore(Stores.ROS2_KILTED)
+
+
+class _McapStorage:
+    """rosbags' storage-writer protocol on the mcap package's Writer.
+
+    rosbags' own MCAP storage closes a chunk only past 1 MiB and cannot be flushed; this
+    one writes what rosbag2's MCAP plugin writes (ros2 profile, ros2msg schemas, QoS and
+    type hash per channel, the bag metadata as a `rosbag2` metadata record) in chunks of
+    CHUNK_SIZE_BYTES, and `flush` closes the open chunk and pushes it to the OS.
+    """
+
+    def __init__(self, path: Path, compression: CompressionMode):
+        self.path = path / f'{path.name}.mcap'
+        self.stream = self.path.open('xb')
+        self.writer = McapFileWriter(
+            self.stream, chunk_size=CHUNK_SIZE_BYTES,
+            compression=CompressionType.ZSTD if compression == CompressionMode.STORAGE
+            else CompressionType.NONE)
+        self.writer.start(profile='ros2', library='cdpr_bringup bag_io')
+        self.schema_ids: dict[str, int] = {}
+        self.channel_ids: dict[int, int] = {}
+
+    def add_msgtype(self, connection) -> None:
+        encoding = 'ros2msg' if connection.msgdef.format == MessageDefinitionFormat.MSG else 'ros2idl'
+        self.schema_ids[connection.msgtype] = self.writer.register_schema(
+            connection.msgtype, encoding, connection.msgdef.data.encode())
+
+    def add_connection(self, connection, offered_qos_profiles: str) -> None:
+        self.channel_ids[connection.id] = self.writer.register_channel(
+            connection.topic, connection.ext.serialization_format,
+            self.schema_ids[connection.msgtype],
+            {'offered_qos_profiles': offered_qos_profiles, 'topic_type_hash': connection.digest})
+
+    def write(self, connection, timestamp: int, data: bytes) -> None:
+        self.writer.add_message(self.channel_ids[connection.id], timestamp, bytes(data), timestamp)
+
+    def flush(self) -> None:
+        self.writer.flush()
+
+    def close(self, _version: int, metadata: str) -> None:
+        self.writer.add_metadata('rosbag2', {'serialized_metadata': metadata})
+        self.writer.finish()
+        self.stream.close()
+
+    def abort(self) -> None:
+        self.stream.close()
+
+
+class _Sqlite3Storage(Sqlite3Writer):
+    """rosbags' sqlite3 storage, committed on `flush` so a killed writer keeps its rows."""
+
+    def flush(self) -> None:
+        self.conn.commit()
+
+
+class BagWriter(Writer):
+    """rosbags' rosbag2 Writer whose storage can be flushed while it records."""
+
+    STORAGE_PLUGINS = {StoragePlugin.MCAP: _McapStorage, StoragePlugin.SQLITE3: _Sqlite3Storage}
+
+    def __init__(self, path: str | Path, storage: str = 'mcap'):
+        plugins = {plugin.name.lower(): plugin for plugin in self.STORAGE_PLUGINS}
+        if storage not in plugins:
+            raise ValueError(f'storage must be one of {", ".join(plugins)}, got {storage!r}')
+        super().__init__(Path(path), version=9, storage_plugin=plugins[storage])
+
+    def add_topic(self, topic: str, msgtype: str, offered_qos_profiles=()):
+        """A connection with the Kilted definition and hash of `msgtype` embedded."""
+        return self.add_connection(topic, msgtype, typestore=TYPESTORE,
+                                   offered_qos_profiles=offered_qos_profiles)
+
+    def flush(self) -> None:
+        """Make everything written so far survive a kill of this process."""
+        self.storage.flush()
+
+
+def is_complete(bag: str | Path) -> bool:
+    """False for the folder of a recorder that was killed: it never wrote metadata.yaml."""
+    bag = Path(bag)
+    return not bag.is_dir() or (bag / 'metadata.yaml').exists()
+
+
+def mcap_prefix(path: str | Path):
+    """(topic, msgtype, log time ns, CDR data) of every message in the complete chunks of
+    an MCAP file, also one whose writer died mid-chunk (read with the mcap package only)."""
+    with open(path, 'rb') as file:
+        schemas: dict[int, Schema] = {}
+        channels: dict[int, Channel] = {}
+        try:
+            for record in StreamReader(_ExactReads(file), validate_crcs=True).records:
+                if isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Channel):
+                    channels[record.id] = record
+                elif isinstance(record, Message):
+                    channel = channels[record.channel_id]
+                    yield (channel.topic, schemas[channel.schema_id].name, record.log_time,
+                           record.data)
+        except EndOfFile:
+            return
+
+
+class _ExactReads:
+    """A file on which a short read raises EndOfFile: MCAP records are length-prefixed, so
+    a record cut by a kill must end the stream rather than be parsed from the bytes left."""
+
+    def __init__(self, file):
+        self.file = file
+
+    def read(self, size: int = -1) -> bytes:
+        data = self.file.read(size)
+        if 0 < size != len(data):
+            raise EndOfFile()
+        return data
+
+
+def read_messages(bag: str | Path, topics: list[str]) -> dict[str, list[tuple[int, object]]]:
+    """Per topic, (bag time ns, message) in recording order; a killed recorder's MCAP
+    bag gives the messages of its complete chunks."""
+    found: dict[str, list[tuple[int, object]]] = {topic: [] for topic in topics}
+    if is_complete(bag):
+        with Reader(bag) as reader:
+            connections = [c for c in reader.connections if c.topic in found]
+            if connections:
+                for connection, timestamp, data in reader.messages(connections=connections):
+                    found[connection.topic].append(
+                        (timestamp, TYPESTORE.deserialize_cdr(data, connection.msgtype)))
+        return found
+    files = sorted(Path(bag).glob('*.mcap'))
+    if len(files) != 1:
+        raise ValueError(f'{bag}: no metadata.yaml and {len(files)} MCAP files; cannot recover')
+    for topic, msgtype, timestamp, data in mcap_prefix(files[0]):
+        if topic in found:
+            found[topic].append((timestamp, TYPESTORE.deserialize_cdr(data, msgtype)))
+    return found
+
+
+def stamp_ns(message) -> int:
+    stamp = message.header.stamp
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
 def read_topics(bag: str | Path, topics: list[str]) -> dict[str, dict[int, object]]:
     """Per topic, the last message of each header stamp (ns); resent ticks count once."""
-    typestore = get_typestore(Stores.ROS2_KILTED)
-    found: dict[str, dict[int, object]] = {topic: {} for topic in topics}
-    with Reader(bag) as reader:
-        connections = [c for c in reader.connections if c.topic in found]
-        for connection, _, data in reader.messages(connections=connections):
-            message = typestore.deserialize_cdr(data, connection.msgtype)
-            stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
-            found[connection.topic][stamp] = message
-    return found
+    return {topic: {stamp_ns(message): message for _, message in messages}
+            for topic, messages in read_messages(bag, topics).items()}
 
 
 def recording_from_bag(bag: str | Path, namespace: str = '/cdpr') -> Recording:
-    """The Recording of a lockstep or realtime run, on the ticks of /cdpr/joint_states."""
+    """The Recording of a lockstep or realtime run, on the ticks that have a state, a
+    command, the twin's state and pose, and the reference (a killed recorder's last tick
+    may lack some).
+
+    Ground truth exists only in simulation: without it the true pose and tensions are NaN;
+    the residual is None without the supervisor's /fdi/residual (NaN on ticks it lacks).
+    """
     names = {key: f'{namespace}/{key}' for key in (
         'joint_states', 'effort_command', 'twin/joint_states', 'twin/pose', 'reference',
-        'reference/pose', 'ground_truth/pose', 'ground_truth/tensions')}
+        'reference/pose', 'ground_truth/pose', 'ground_truth/tensions', 'fdi/residual')}
     found = read_topics(bag, list(names.values()))
-    state = found[names['joint_states']]
-    stamps = sorted(s for s in state if s in found[names['effort_command']]
-                    and s in found[names['twin/joint_states']])
+    required = ['joint_states', 'effort_command', 'twin/joint_states', 'twin/pose', 'reference',
+                'reference/pose']
+    # the plant publishes the truth with every state, so where there is some it is required
+    required += [key for key in ('ground_truth/pose', 'ground_truth/tensions') if found[names[key]]]
+    stamps = sorted(set(found[names['joint_states']]).intersection(
+        *(found[names[key]] for key in required)))
     if not stamps:
-        raise ValueError(f'{bag}: no tick has a state, a command and a twin state')
+        raise ValueError(f'{bag}: no tick has all of {", ".join(names[key] for key in required)}')
+    cables = len(found[names['joint_states']][stamps[0]].position)
 
     def joints(key, field):
-        return np.array([getattr(found[names[key]][s], field) for s in stamps])
+        messages = found[names[key]]
+        return np.array([getattr(messages[s], field) if s in messages else np.full(cables, np.nan)
+                         for s in stamps], dtype=float)
 
     def points(key):
-        return np.array([[p.point.x, p.point.y, p.point.z] for p in
-                         (found[names[key]][s] for s in stamps)])
+        messages = found[names[key]]
+        return np.array([[messages[s].point.x, messages[s].point.y, messages[s].point.z]
+                         if s in messages else [np.nan] * 3 for s in stamps])
 
     return Recording(
         time_s=np.array(stamps) / NANOSECONDS,
@@ -57,4 +222,77 @@ def recording_from_bag(bag: str | Path, namespace: str = '/cdpr') -> Recording:
         reference_angle_rad=joints('reference', 'position'),
         true_position_m=points('ground_truth/pose'),
         true_tension_n=joints('ground_truth/tensions', 'effort'),
+        residual_nm=joints('fdi/residual', 'effort') if found[names['fdi/residual']] else None,
     )
+
+
+def write_recording(writer: BagWriter, recording: Recording,
+                    namespace: str = contract.DEFAULT_NAMESPACE) -> None:
+    """An in-process Recording into an open bag as the graph would have recorded it, so
+    that it gets the same report: the per-tick topics, the residual, and the verdict and
+    mode changes of the supervisor's summary (`recording.fdi`). Bag times are the tick
+    stamps plus 1 ns per message in the graph's order: the state, the command and the
+    twin, then the supervisor's verdict and mode, then its residual of that tick."""
+    types = TYPESTORE.types
+    stamps = np.round(recording.time_s * NANOSECONDS).astype(np.int64)
+    names = contract.joint_names(recording.angle_rad.shape[1])
+
+    def header(k):
+        stamp = int(stamps[k])
+        return types['std_msgs/msg/Header'](
+            stamp=types['builtin_interfaces/msg/Time'](sec=stamp // 1_000_000_000,
+                                                      nanosec=stamp % 1_000_000_000),
+            frame_id='')
+
+    def joints(k, position=(), velocity=(), effort=()):
+        return types['sensor_msgs/msg/JointState'](
+            header=header(k), name=names, position=np.asarray(position, dtype=float),
+            velocity=np.asarray(velocity, dtype=float), effort=np.asarray(effort, dtype=float))
+
+    def point(k, xyz):
+        x, y, z = (float(v) for v in xyz)
+        return types['geometry_msgs/msg/PointStamped'](
+            header=header(k), point=types['geometry_msgs/msg/Point'](x=x, y=y, z=z))
+
+    r = recording
+    applied = np.vstack([np.zeros_like(r.command_nm[:1]), r.command_nm[:-1]])
+    per_tick = {
+        contract.JOINT_STATES: lambda k: joints(k, r.angle_rad[k], r.angular_velocity_rad_s[k], applied[k]),
+        contract.EFFORT_COMMAND: lambda k: joints(k, effort=r.command_nm[k]),
+        contract.TWIN_JOINT_STATES: lambda k: joints(k, r.twin_angle_rad[k],
+                                                     r.twin_angular_velocity_rad_s[k], r.twin_torque_nm[k]),
+        contract.TWIN_POSE: lambda k: point(k, r.twin_position_m[k]),
+        contract.REFERENCE: lambda k: joints(k, r.reference_angle_rad[k]),
+        contract.REFERENCE_POSE: lambda k: point(k, r.reference_position_m[k]),
+    }
+    if np.isfinite(r.true_position_m).all():
+        per_tick[contract.GROUND_TRUTH_POSE] = lambda k: point(k, r.true_position_m[k])
+        per_tick[contract.GROUND_TRUTH_TENSIONS] = lambda k: joints(k, effort=r.true_tension_n[k])
+    int32, string = types['std_msgs/msg/Int32'], types['std_msgs/msg/String']
+    events: list[tuple[int, str, object]] = []  # (tick, topic, message)
+    if r.fdi:
+        events += [(0, contract.FDI_BROKEN_CABLE, int32(data=0)),
+                   (0, contract.MODE, string(data='NOMINAL'))]
+        if r.fdi['identified_tick'] is not None:
+            events += [(r.fdi['identified_tick'], contract.FDI_BROKEN_CABLE, int32(data=cable))
+                       for cable in r.fdi['broken_cables']]
+        events += [(tick, contract.MODE, string(data=mode))
+                   for mode, tick in r.fdi['phase_ticks'].items()]
+    events.sort(key=lambda event: event[0])
+    connections = {}
+
+    def write(topic, k, message, order_ns):
+        if topic not in connections:
+            connections[topic] = writer.add_topic(f'{namespace}/{topic}', message.__msgtype__)
+        writer.write(connections[topic], int(stamps[k]) + order_ns,
+                     TYPESTORE.serialize_cdr(message, message.__msgtype__))
+
+    for k in range(stamps.size):
+        for order, (topic, make) in enumerate(per_tick.items()):
+            write(topic, k, make(k), order)
+        while events and events[0][0] == k:
+            order += 1
+            _, topic, message = events.pop(0)
+            write(topic, k, message, order)
+        if r.residual_nm is not None:
+            write(contract.FDI_RESIDUAL, k, joints(k, effort=r.residual_nm[k]), order + 1)

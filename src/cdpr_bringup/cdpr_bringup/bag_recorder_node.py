@@ -1,20 +1,30 @@
-"""bag_recorder: every /cdpr topic (or the `topics` parameter) into a rosbag2 bag via rosbags.
+"""bag_recorder: every /cdpr topic (or the `topics` parameter) into a rosbag2 bag.
 
-Messages are taken serialized (no decode/encode on the way) and written with their
-message definitions, MCAP storage by default (`storage: sqlite3` on request).
+Parameters: `bag_path` (folder to create), `storage` (`mcap`, the default, or `sqlite3`),
+`topics` (names relative to the namespace, or absolute; default every topic of the
+contract plus /clock and /diagnostics), `flush_period_s` (0.5).
+
+Messages are taken serialized (no decode/encode on the way) and stamped with their
+receive time. Per-cycle topics are subscribed reliable + keep-all, so none is lost.
+On SIGINT/SIGTERM the node drains its queue and closes the bag; if it is killed, the
+bag keeps every chunk flushed so far (at most `flush_period_s` old, see bag_io).
 """
 from __future__ import annotations
 
+import time
+
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped
-from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import Stores, get_typestore
+from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
+                                QosTime)
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime import CdprNode, run
+
+from .bag_io import BagWriter
 
 # topic (relative to the namespace unless absolute) → message class
 RECORDED = {
@@ -36,12 +46,31 @@ RECORDED = {
     contract.CLOCK: Clock,
     contract.DIAGNOSTICS: DiagnosticArray,
 }
-STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
+FLUSH_PERIOD_S = 0.5
 
 
 def type_name(message_class) -> str:
     module = message_class.__module__.split('.')[0]
     return f'{module}/msg/{message_class.__name__}'
+
+
+def contract_qos(topic: str):
+    """The QoS every publisher of `topic` offers in the graph (DESIGN §3)."""
+    if topic in contract.LATCHED_TOPICS:
+        return qos.LATCHED
+    return qos.DIAGNOSTICS if topic == contract.DIAGNOSTICS else qos.STREAM
+
+
+def bag_qos(profile) -> Qos:
+    """An rclpy QoS profile as rosbag2 metadata, so `ros2 bag play` offers it again."""
+    def duration(value) -> QosTime:
+        seconds, nanoseconds = divmod(value.nanoseconds, 1_000_000_000)
+        return QosTime(seconds, nanoseconds)
+    return Qos(QosHistory[profile.history.name], profile.depth,
+               QosReliability[profile.reliability.name], QosDurability[profile.durability.name],
+               duration(profile.deadline), duration(profile.lifespan),
+               QosLiveliness[profile.liveliness.name], duration(profile.liveliness_lease_duration),
+               profile.avoid_ros_namespace_conventions)
 
 
 class BagRecorderNode(CdprNode):
@@ -50,25 +79,40 @@ class BagRecorderNode(CdprNode):
         super().__init__('bag_recorder')
         path = self.parameter('bag_path', 'bag')
         storage = self.parameter('storage', 'mcap')
-        if storage not in STORAGES:
-            raise ValueError(f'parameter storage must be one of {", ".join(STORAGES)}, got {storage!r}')
-        topics = self.parameter('topics', list(RECORDED))
-        unknown = [t for t in topics if t not in RECORDED]
+        self.flush_period_s = self.parameter('flush_period_s', FLUSH_PERIOD_S)
+        namespace = self.get_namespace().rstrip('/')
+        topics = [self.contract_name(name, namespace)
+                  for name in self.parameter('topics', list(RECORDED))]
+        unknown = [name for name in topics if name not in RECORDED]
         if unknown:
             raise ValueError(f'parameter topics: cannot record {unknown}; known: {list(RECORDED)}')
-        typestore = get_typestore(Stores.ROS2_KILTED)
-        self.writer = Writer(path, version=9, storage_plugin=STORAGES[storage])
+        self.writer = BagWriter(path, storage)
         self.writer.open()
         self.recorded = 0
-        namespace = self.get_namespace().rstrip('/')
+        subscriptions = []
         for topic in topics:
             name = topic if topic.startswith('/') else f'{namespace}/{topic}'
-            message_class = RECORDED[topic]
-            connection = self.writer.add_connection(name, type_name(message_class), typestore=typestore)
-            profile = qos.LATCHED if topic in contract.LATCHED_TOPICS else (
-                qos.DIAGNOSTICS if topic == contract.DIAGNOSTICS else qos.STREAM)
-            self.create_subscription(message_class, name, self.writer_for(connection), profile, raw=True)
+            profile = contract_qos(topic)
+            connection = self.writer.add_topic(name, type_name(RECORDED[topic]), [bag_qos(profile)])
+            subscriptions.append((topic, lambda t=topic, n=name, c=connection, p=profile:
+                                  self.create_subscription(RECORDED[t], n, self.writer_for(c), p,
+                                                           raw=True)))
+        # The tick last: the plant starts once it sees this subscription.
+        for topic, subscribe in subscriptions:
+            if topic != contract.JOINT_STATES:
+                subscribe()
+        self.start_when_matched(lambda: [subscribe() for topic, subscribe in subscriptions
+                                         if topic == contract.JOINT_STATES])
+        self.last_flush = time.monotonic()
         self.get_logger().info(f'recording {len(topics)} topics into {path} ({storage})')
+
+    @staticmethod
+    def contract_name(name: str, namespace: str) -> str:
+        """`name` as RECORDED spells it: relative, unless outside the namespace."""
+        prefix = f'{namespace}/'
+        if name in RECORDED or not name.startswith(prefix):
+            return name
+        return name[len(prefix):]
 
     def writer_for(self, connection):
         def write(data: bytes) -> None:
@@ -76,6 +120,13 @@ class BagRecorderNode(CdprNode):
             self.recorded += 1
             self.diagnostics.count('messages')
         return write
+
+    def idle(self) -> None:
+        super().idle()
+        now = time.monotonic()
+        if now - self.last_flush >= self.flush_period_s:
+            self.writer.flush()
+            self.last_flush = now
 
     def close(self) -> None:
         super().close()

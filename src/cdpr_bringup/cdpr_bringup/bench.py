@@ -1,4 +1,8 @@
-"""cdpr-bench: benchmarks of the project, each printing medians (and JSON on request)."""
+"""cdpr-bench: benchmarks of the project, printing figures (and JSON on request).
+
+model: median µs per call of the model functions. graph: the node graph's and the
+in-process engine's speed against their targets (cdpr_bringup.bench_graph).
+"""
 from __future__ import annotations
 
 import argparse
@@ -67,14 +71,27 @@ def machine() -> str:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument('suite', choices=['model'], help='what to measure')
+    parser.add_argument('suite', choices=['model', 'graph', 'fdi'], help='what to measure')
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--json', action='store_true', help='print one JSON object last')
+    parser.add_argument('--out', default='runs/bench-fdi', help='fdi: campaign folder')
     args = parser.parse_args(argv)
-    figures = bench_model(args.config)
-    print(f'cdpr-bench {args.suite} on {machine()}; median of {REPEATS} x {CALLS_PER_REPEAT} calls')
-    for key, value in figures.items():
-        print(f'  {key:<40} {value:9.2f}')
+    if args.suite == 'fdi':
+        from .bench_fdi import bench_fdi, table as fdi_table
+        figures = bench_fdi(args.config, args.out)
+        print(f'cdpr-bench fdi on {machine()}; campaign in {args.out} (summary.md)')
+        print('\n'.join(fdi_table(figures)))
+    elif args.suite == 'graph':
+        # rclpy is imported only for this suite
+        from .bench_graph import bench_graph, table
+        figures = bench_graph(args.config)
+        print(f'cdpr-bench graph on {machine()}, ROS_DOMAIN_ID {os.environ["ROS_DOMAIN_ID"]}')
+        print('\n'.join(table(figures)))
+    else:
+        figures = bench_model(args.config)
+        print(f'cdpr-bench model on {machine()}; median of {REPEATS} x {CALLS_PER_REPEAT} calls')
+        for key, value in figures.items():
+            print(f'  {key:<40} {value:9.2f}')
     if args.json:
         print(json.dumps(figures))
 

@@ -1,16 +1,18 @@
 """The in-process engine: the graph's core classes in one loop, without DDS.
 
-Per cycle k, as the node graph does it: the plant reports θ, θ̇; the controller answers
-with c from the reference at t_k; the twin computes c_DT from the same reference; the
-plant steps under c.
+Per cycle k, as the node graph does it: the plant reports θ, θ̇ (and the torque it
+applied); the controller answers with c from the reference of tick k (or the recovery's
+setpoint); the twin computes c_DT from the same reference; the supervisor judges tick k,
+and its verdict steers the controller from tick k + 1; the plant steps under c.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from cdpr_control.controller import JointController, JointReference
+from cdpr_control.controller import RECOVERY_MOVE, JointController, JointReference
+from cdpr_fdi.supervisor import Supervisor, Verdict
 from cdpr_twin.plant import PlantSimulator
 from cdpr_twin.twin import DigitalTwin
 
@@ -33,42 +35,72 @@ class Recording:
     reference_angle_rad: np.ndarray
     true_position_m: np.ndarray
     true_tension_n: np.ndarray
+    residual_nm: np.ndarray | None = None
+    fdi: dict = field(default_factory=dict)
 
 
 def reference_at(scenario: Scenario, k: int) -> JointReference:
+    """The reference of tick k; after the motion it holds the end at rest."""
     table = scenario.reference
-    return JointReference(table.angle_rad[k], table.angular_velocity_rad_s[k],
-                          table.feedforward_nm[k])
+    row = min(k, len(table) - 1)
+    return JointReference(table.angle_rad[row], table.angular_velocity_rad_s[row],
+                          table.feedforward_nm[row])
 
 
-def run_inprocess(scenario: Scenario) -> Recording:
+def apply_verdict(controller: JointController, verdict: Verdict) -> JointReference | None:
+    """Steer the controller as the supervisor's messages do; the recovery reference, if any."""
+    controller.set_broken([cable - 1 for cable in verdict.broken_cables])
+    controller.set_mode(verdict.mode)
+    if verdict.tension_setpoint_n is not None:
+        controller.set_tension_setpoint(verdict.tension_setpoint_n)
+    return verdict.reference
+
+
+def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     robot = scenario.robot
     start = scenario.reference.position_m[0]
     plant = PlantSimulator(robot, scenario.plant, start, scenario.failures)
     twin = DigitalTwin(robot, scenario.gains, start, scenario.twin_substeps)
-    controller = JointController(robot, scenario.gains)
+    controller = JointController(robot, scenario.gains, scenario.fdi.friction)
+    supervisor = (Supervisor(robot, scenario.fdi, scenario.recovery, scenario.distribution,
+                             scenario.period_s) if supervised else None)
     cycles, m = scenario.cycles, robot.cable_count
     rows = {name: np.empty((cycles, width)) for name, width in (
         ('angle', m), ('speed', m), ('command', m), ('twin_angle', m), ('twin_speed', m),
-        ('twin_torque', m), ('twin_position', 3), ('true_position', 3), ('true_tension', m))}
+        ('twin_torque', m), ('twin_position', 3), ('true_position', 3), ('true_tension', m),
+        ('reference_position', 3), ('reference_angle', m), ('residual', m))}
+    applied = np.zeros(m)
+    recovery_reference = None
     for k in range(cycles):
         reference = reference_at(scenario, k)
         angle, speed = plant.measure()
         rows['true_position'][k] = plant.position_m
         rows['true_tension'][k] = plant.tension_n
-        command = controller.command(angle, speed, reference)
+        command = controller.command(
+            angle, speed, recovery_reference if controller.mode == RECOVERY_MOVE else reference)
         twin_output = twin.step(reference, scenario.period_s)
+        if supervisor is not None:
+            verdict = supervisor.update(k, angle, speed, applied, command, twin_output.torque_nm,
+                                        twin_output.angular_velocity_rad_s, reference)
+            recovery_reference = apply_verdict(controller, verdict)
+            rows['residual'][k] = verdict.residual_nm
         plant.step(command, scenario.period_s)
+        applied = command
         rows['angle'][k], rows['speed'][k], rows['command'][k] = angle, speed, command
         rows['twin_angle'][k] = twin_output.angle_rad
         rows['twin_speed'][k] = twin_output.angular_velocity_rad_s
         rows['twin_torque'][k] = twin_output.torque_nm
         rows['twin_position'][k] = twin_output.position_m
+        row = min(k, len(scenario.reference) - 1)
+        rows['reference_position'][k] = scenario.reference.position_m[row]
+        rows['reference_angle'][k] = scenario.reference.angle_rad[row]
     return Recording(
         time_s=np.arange(cycles) * scenario.period_s,
         angle_rad=rows['angle'], angular_velocity_rad_s=rows['speed'], command_nm=rows['command'],
         twin_angle_rad=rows['twin_angle'], twin_angular_velocity_rad_s=rows['twin_speed'],
         twin_torque_nm=rows['twin_torque'], twin_position_m=rows['twin_position'],
-        reference_position_m=scenario.reference.position_m,
-        reference_angle_rad=scenario.reference.angle_rad,
-        true_position_m=rows['true_position'], true_tension_n=rows['true_tension'])
+        reference_position_m=rows['reference_position'],
+        reference_angle_rad=rows['reference_angle'],
+        true_position_m=rows['true_position'], true_tension_n=rows['true_tension'],
+        residual_nm=rows['residual'] if supervisor is not None else None,
+        fdi=supervisor.summary() if supervisor is not None else {})

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import yaml
 
+from cdpr_msgs_py import contract
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 
 STOP_TIMEOUT_S = 5.0
@@ -170,19 +171,52 @@ def run_to_completion(nodes: list[NodeSpec], namespace: str, timeout_s: float | 
         graph.stop()
 
 
-def graph_nodes(parameters: dict, bag_path: str | None = None) -> list[NodeSpec]:
-    """The closed loop: generator, controller, twin, plant, and a recorder when asked."""
-    nodes = [
-        NodeSpec('cdpr_control', 'trajectory_generator', dict(parameters)),
-        NodeSpec('cdpr_control', 'controller', dict(parameters)),
-        NodeSpec('cdpr_twin', 'digital_twin', dict(parameters)),
-    ]
-    subscribers = 2
+def graph_nodes(parameters: dict, bag_path: str | None = None,
+                supervised: bool = True) -> list[NodeSpec]:
+    """The closed loop: generator, controller, twin, supervisor, plant, and a recorder.
+
+    Each node gets the `matches` its per-cycle endpoints must reach before it subscribes
+    to its tick (CdprNode.start_when_matched); the plant starts when all have.
+    """
+    c = contract
+    listeners = {c.JOINT_STATES: ['trajectory_generator', 'controller'],
+                 c.REFERENCE: ['controller', 'digital_twin'],
+                 c.EFFORT_COMMAND: ['plant_simulator'],
+                 c.TWIN_JOINT_STATES: [], c.TWIN_POSE: [], c.FDI_RESIDUAL: [],
+                 c.GROUND_TRUTH_POSE: [], c.GROUND_TRUTH_TENSIONS: [], c.REFERENCE_POSE: [],
+                 c.CLOCK: []}
+    heard = {'trajectory_generator': [], 'controller': [c.REFERENCE], 'digital_twin': [],
+             'plant_simulator': [c.EFFORT_COMMAND]}
+    specs = [('cdpr_control', 'trajectory_generator', {}),
+             ('cdpr_control', 'controller', {'wait_for_supervisor': supervised}),
+             ('cdpr_twin', 'digital_twin', {})]
+    if supervised:
+        specs.append(('cdpr_fdi', 'supervisor', {}))
+        for topic in (c.JOINT_STATES, c.REFERENCE, c.EFFORT_COMMAND, c.TWIN_JOINT_STATES):
+            listeners[topic].append('supervisor')
+        listeners[c.FDI_RESIDUAL].append('controller')
+        heard['controller'].append(c.FDI_RESIDUAL)
+        heard['supervisor'] = [c.EFFORT_COMMAND, c.TWIN_JOINT_STATES, c.REFERENCE]
     if bag_path is not None:
-        nodes.append(NodeSpec('cdpr_bringup', 'bag_recorder', dict(parameters, bag_path=bag_path)))
-        subscribers += 1
-    nodes.append(NodeSpec('cdpr_twin', 'plant_simulator',
-                          dict(parameters, expected_subscribers=subscribers)))
+        specs.append(('cdpr_bringup', 'bag_recorder', {'bag_path': bag_path}))
+        heard['bag_recorder'] = []
+        for topic, names in listeners.items():
+            if topic != c.CLOCK or parameters.get('clock_mode', 'lockstep') == 'lockstep':
+                names.append('bag_recorder')
+                heard['bag_recorder'].append(topic)
+        heard['bag_recorder'].remove(c.JOINT_STATES)
+    specs.append(('cdpr_twin', 'plant_simulator', {}))
+    publishes = {c.JOINT_STATES: 'plant_simulator', c.REFERENCE: 'trajectory_generator',
+                 c.REFERENCE_POSE: 'trajectory_generator', c.EFFORT_COMMAND: 'controller',
+                 c.TWIN_JOINT_STATES: 'digital_twin', c.TWIN_POSE: 'digital_twin',
+                 c.FDI_RESIDUAL: 'supervisor', c.GROUND_TRUTH_POSE: 'plant_simulator',
+                 c.GROUND_TRUTH_TENSIONS: 'plant_simulator', c.CLOCK: 'plant_simulator'}
+    nodes = []
+    for package, executable, extra in specs:
+        matches = [f'publisher:{topic}={len(names)}' for topic, names in listeners.items()
+                   if names and publishes[topic] == executable]
+        matches += [f'subscription:{topic}=1' for topic in heard[executable]]
+        nodes.append(NodeSpec(package, executable, dict(parameters, **extra, matches=matches)))
     return nodes
 
 

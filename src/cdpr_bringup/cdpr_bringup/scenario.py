@@ -1,8 +1,8 @@
 """cdpr-scenario: one run of a named motion, through the node graph or in-process.
 
-Writes into --out: bag/ (graph engine: every /cdpr topic), metrics.json, and prints the
-twin-vs-robot KPIs next to the paper's. Detection and recovery keys stay null until
-the supervisor runs in the graph.
+Writes into --out: bag/ (graph engine: every /cdpr topic), metrics.json (DESIGN §7) and
+plots/, and prints the detection, identification and recovery figures and the
+twin-vs-robot KPIs next to the paper's.
 """
 from __future__ import annotations
 
@@ -15,11 +15,13 @@ from pathlib import Path
 
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 
-from .bag_io import recording_from_bag
+from .bag_io import BagWriter, read_messages, recording_from_bag, write_recording
 from .engine import run_inprocess
 from .graph import GraphError, graph_nodes, run_to_completion
-from .metrics import PAPER_KPI, tracking_error_m, twin_kpis
+from .metrics import (PAPER_KPI, fdi_metrics, fdi_summary_from_diagnostics, ticks_before,
+                      tracking_error_m, twin_kpis)
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
+from .report import write_report
 from .scenario_setup import ScenarioOptions, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
@@ -40,12 +42,17 @@ def parse_args(argv=None):
     parser.add_argument('--fidelity', choices=['rigid', 'elastic'])
     parser.add_argument('--engine', choices=['graph', 'inprocess'], default='graph')
     parser.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')
-    parser.add_argument('--detector', choices=['threshold', 'cusum'], default='threshold')
+    parser.add_argument('--detector', choices=['threshold', 'cusum'],
+                        help='failure detector (default: the config file\'s fdi.detector)')
     parser.add_argument('--epsilon', type=float, metavar='NM', help='detection threshold (N·m)')
+    parser.add_argument('--calibration', metavar='YAML',
+                        help='detector thresholds written by cdpr-calibrate')
     parser.add_argument('--seed', type=int)
     parser.add_argument('--namespace', default=DEFAULT_NAMESPACE)
     parser.add_argument('--out', required=True, help='output folder')
     parser.add_argument('--quiet', action='store_true', help='do not stream node logs')
+    parser.add_argument('--no-plots', action='store_true',
+                        help='skip bag (in-process) and plots, for batch runs')
     return parser.parse_args(argv)
 
 
@@ -57,7 +64,13 @@ def node_parameters(args, scenario) -> dict:
         'fail_cables': args.fail_cable or [0],
         'fail_at_s': -1.0 if args.fail_at is None else args.fail_at,
         'fail_at_fraction': -1.0 if args.fail_at_fraction is None else args.fail_at_fraction,
+        'duration_s': scenario.duration_s,
+        'detector': scenario.fdi.detector,
+        'epsilon_nm': scenario.fdi.epsilon_nm,
+        'coulomb_friction_nm': scenario.fdi.friction.coulomb_nm,
     }
+    if scenario.calibration_path is not None:
+        parameters['calibration_file'] = str(scenario.calibration_path.resolve())
     if args.fidelity:
         parameters['fidelity'] = args.fidelity
     if args.seed is not None:
@@ -71,29 +84,56 @@ def run_graph(args, scenario, out: Path):
     timeout = RUN_TIMEOUT_FACTOR * scenario.cycles * scenario.period_s + 30.0
     run_to_completion(graph_nodes(node_parameters(args, scenario), str(bag)), args.namespace,
                       timeout, log)
-    return recording_from_bag(bag, args.namespace)
+    recording = recording_from_bag(bag, args.namespace)
+    recording.fdi = fdi_summary_from_diagnostics(read_messages(bag, ['/diagnostics'])['/diagnostics'])
+    return recording
 
 
 def metrics_of(scenario, recording, wall_time_s: float) -> dict:
     true_broken = sorted({cable + 1 for _, cable in scenario.failures})
-    return {
+    before_failure = slice(0, ticks_before(recording, scenario.failure_time_s))
+    metrics = {
         'motion': scenario.motion.name,
         'fidelity': scenario.plant.fidelity,
-        'failure_time_s': scenario.failure_time_s,
-        'detection_time_s': None,
-        'detection_delay_ms': None,
-        'identified_cables': [],
-        'true_broken_cables': true_broken,
-        'false_alarm': False,
-        'recovery': {'reached_safe_point': None, 'final_error_m': None,
-                     'min_tension_n': float(recording.true_tension_n.min()),
-                     'min_height_m': float(recording.true_position_m[:, 2].min()),
-                     'duration_s': None},
-        'kpi': twin_kpis(scenario.robot, recording),
-        'tracking_error_m': tracking_error_m(recording),
+        'detector': scenario.fdi.detector,
+        'epsilon_nm': scenario.fdi.epsilon_nm,
+    }
+    metrics.update(fdi_metrics(scenario.robot, scenario.period_s, scenario.failure_time_s,
+                               true_broken, recording, scenario.recovery.reached_tolerance_m))
+    metrics.update({
+        'kpi': twin_kpis(scenario.robot, recording, before_failure),
+        'tracking_error_m': tracking_error_m(recording, before_failure),
         'cycles': int(recording.time_s.size),
         'wall_time_s': wall_time_s,
-    }
+    })
+    return metrics
+
+
+def print_summary(metrics: dict, engine: str) -> None:
+    print(f'{metrics["motion"]} on the {metrics["fidelity"]} plant, {engine} engine, '
+          f'{metrics["detector"]} detector: {metrics["cycles"]} cycles in {metrics["wall_time_s"]:.1f} s')
+    if metrics['failure_time_s'] is not None:
+        print(f'  cable(s) {metrics["true_broken_cables"]} broke at {metrics["failure_time_s"]:.4f} s')
+    if metrics['detection_time_s'] is None:
+        print('  no failure detected')
+    else:
+        delay = metrics['detection_delay_ms']
+        print(f'  detected at {metrics["detection_time_s"]:.3f} s'
+              + ('' if delay is None else f' ({delay:.1f} ms after the failure)')
+              + f', cable(s) {metrics["identified_cables"]} named'
+              + (' — FALSE ALARM' if metrics['false_alarm'] else ''))
+    recovery = metrics['recovery']
+    if metrics['fault']:
+        print(f'  FAULT: {metrics["fault"]}')
+    elif recovery['final_error_m'] is not None:
+        safe_point = ', '.join(f'{v:.3f}' for v in metrics['safe_point_m'])
+        print(f'  recovery to SP ({safe_point}) m: final error {recovery["final_error_m"] * 1000:.1f} mm '
+              f'after {recovery["duration_s"] or float("nan"):.2f} s, min tension '
+              f'{recovery["min_tension_n"]:.2f} N, lowest point {recovery["min_height_m"]:.3f} m')
+    print(f'  {"KPI":<8} {"this run":>10} {"paper":>10}   (before any failure)')
+    for key, value in metrics['kpi'].items():
+        print(f'  {key:<8} {value:10.4f} {PAPER_KPI[key]:10.4f}')
+    print(f'  tracking error (true pose vs reference): {metrics["tracking_error_m"] * 1000:.2f} mm')
 
 
 def main(argv=None):
@@ -101,7 +141,8 @@ def main(argv=None):
     options = ScenarioOptions(config=args.config, motions=args.motions, motion=args.motion,
                               reverse=args.reverse, fail_cables=args.fail_cable,
                               fail_at_s=args.fail_at, fail_at_fraction=args.fail_at_fraction,
-                              fidelity=args.fidelity, seed=args.seed)
+                              fidelity=args.fidelity, seed=args.seed, detector=args.detector,
+                              epsilon_nm=args.epsilon, calibration=args.calibration)
     scenario = build_scenario(options)
     out = Path(args.out)
     if (out / 'bag').exists():
@@ -116,14 +157,25 @@ def main(argv=None):
         return 1
     metrics = metrics_of(scenario, recording, time.monotonic() - start)
     (out / 'metrics.json').write_text(json.dumps(metrics, indent=2))
-    print(f'{scenario.motion.name} on the {scenario.plant.fidelity} plant, {args.engine} engine: '
-          f'{metrics["cycles"]} cycles in {metrics["wall_time_s"]:.1f} s')
-    print(f'  {"KPI":<8} {"this run":>10} {"paper":>10}')
-    for key, value in metrics['kpi'].items():
-        print(f'  {key:<8} {value:10.4f} {PAPER_KPI[key]:10.4f}')
-    print(f'  tracking error (true pose vs reference): {metrics["tracking_error_m"] * 1000:.2f} mm')
-    print(f'metrics: {out / "metrics.json"}' + (f', bag: {out / "bag"}' if args.engine == 'graph' else ''))
+    print_summary(metrics, args.engine)
+    print(f'metrics: {out / "metrics.json"}')
+    if not args.no_plots:
+        if args.engine == 'inprocess':
+            record(recording, out / 'bag', args.namespace)
+        write_report(out / 'bag', out / 'plots', scenario.config_path, args.namespace,
+                     scenario.fdi.epsilon_nm, scenario.fdi.friction.coulomb_nm)
+        print(f'bag: {out / "bag"}, plots and report: {out / "plots" / "report.md"}')
     return 0
+
+
+def record(recording, bag: Path, namespace: str) -> None:
+    """The in-process run as a bag, as the graph would have recorded it."""
+    writer = BagWriter(bag)
+    writer.open()
+    try:
+        write_recording(writer, recording, namespace)
+    finally:
+        writer.close()
 
 
 if __name__ == '__main__':

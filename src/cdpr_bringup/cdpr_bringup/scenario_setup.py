@@ -10,6 +10,8 @@ from cdpr_control.motions import Motion, load_motion
 from cdpr_control.reference import ReferenceTable, tabulate_reference
 from cdpr_control.robot import Robot, load_robot
 from cdpr_control.tension_distribution import make_tension_distribution
+from cdpr_control.tension_distribution import TensionDistribution
+from cdpr_fdi.config import FdiConfig, RecoveryConfig, load_fdi_config, load_recovery_config
 from cdpr_twin.plant import PlantConfig
 
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
@@ -28,6 +30,9 @@ class ScenarioOptions:
     fail_at_fraction: float | None = None
     fidelity: str | None = None
     seed: int | None = None
+    detector: str | None = None
+    epsilon_nm: float | None = None
+    calibration: str | None = None
 
 
 @dataclass
@@ -43,6 +48,10 @@ class Scenario:
     reference: ReferenceTable
     plant: PlantConfig
     failures: list[tuple[float, int]]
+    calibration_path: Path | None
+    distribution: TensionDistribution
+    fdi: FdiConfig
+    recovery: RecoveryConfig
 
     @property
     def failure_time_s(self) -> float | None:
@@ -50,7 +59,16 @@ class Scenario:
 
     @property
     def cycles(self) -> int:
-        return len(self.reference)
+        """The motion, and after a failure the recovery budget (the reference holds its end)."""
+        cycles = len(self.reference)
+        if self.failures:
+            end = self.failure_time_s + self.recovery.budget_s
+            cycles = max(cycles, int(round(end / self.period_s)) + 1)
+        return cycles
+
+    @property
+    def duration_s(self) -> float:
+        return (self.cycles - 1) * self.period_s
 
 
 def build_scenario(options: ScenarioOptions) -> Scenario:
@@ -68,6 +86,10 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         if not 1 <= cable <= robot.cable_count:
             raise ValueError(f'--fail-cable {cable}: the robot has cables 1..{robot.cable_count}')
         failures.append((motion.failure_time(options.fail_at_s, options.fail_at_fraction), cable - 1))
+    plant = PlantConfig.from_section(load_section(config_path, 'plant'), options.fidelity, options.seed)
+    calibration = calibration_for(config_path, plant, options.calibration)
+    fdi = load_fdi_config(config_path, robot, calibration).with_overrides(
+        options.detector, options.epsilon_nm, rigid_plant_friction(plant))
     return Scenario(
         options=options,
         config_path=config_path,
@@ -78,7 +100,25 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         twin_substeps=load_section(config_path, 'twin').integer('substeps', minimum=1),
         motion=motion,
         reference=reference,
-        plant=PlantConfig.from_section(load_section(config_path, 'plant'), options.fidelity,
-                                       options.seed),
+        plant=plant,
         failures=failures,
+        calibration_path=calibration,
+        distribution=distribution,
+        fdi=fdi,
+        recovery=load_recovery_config(config_path, robot),
     )
+
+
+def calibration_for(config_path: Path, plant: PlantConfig, calibration: str | None) -> Path | None:
+    """The given calibration file; else, on the elastic plant, the robot file's
+    `fdi.elastic_calibration_file`; the rigid plant keeps the paper's noise-free values."""
+    if calibration:
+        return config_file(calibration)
+    if plant.fidelity == 'elastic':
+        return config_file(load_section(config_path, 'fdi').string('elastic_calibration_file'))
+    return None
+
+
+def rigid_plant_friction(plant: PlantConfig) -> float | None:
+    """The rigid plant is the twin's model, without Coulomb friction: the FDI must know."""
+    return 0.0 if plant.fidelity == 'rigid' else None

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import Section
+from .friction import FrictionModel
 from .robot import Robot
 
 NOMINAL = 'NOMINAL'
@@ -18,22 +19,30 @@ MODES = (NOMINAL, RECOVERY_TENSION, RECOVERY_MOVE, SAFE_HOLD, FAULT)
 
 @dataclass(frozen=True)
 class PdGains:
-    """Joint PD gains: stiffness (N·m/rad) and damping (N·m·s/rad)."""
+    """Joint PD gains: stiffness (N·m/rad) and damping (N·m·s/rad).
+
+    `tension_damping_nm_s_rad` damps the motors while tensions, not positions, are
+    controlled (recovery phase 1): without it nothing brings the end-effector to rest.
+    """
 
     stiffness_nm_rad: float
     damping_nm_s_rad: float
+    tension_damping_nm_s_rad: float = 0.0
 
     @classmethod
-    def from_bandwidth(cls, robot: Robot, frequency_hz: float, damping_ratio: float) -> 'PdGains':
+    def from_bandwidth(cls, robot: Robot, frequency_hz: float, damping_ratio: float,
+                       tension_damping_nm_s_rad: float = 0.0) -> 'PdGains':
         """Gains placing a joint loaded by J + m_e ρ² at `frequency_hz` with `damping_ratio`."""
         inertia = robot.motor.inertia_kg_m2 + robot.mass_kg * robot.motor.drum_radius_m ** 2
         omega = 2.0 * np.pi * frequency_hz
-        return cls(inertia * omega ** 2, 2.0 * damping_ratio * inertia * omega)
+        return cls(inertia * omega ** 2, 2.0 * damping_ratio * inertia * omega,
+                   tension_damping_nm_s_rad)
 
     @classmethod
     def from_section(cls, robot: Robot, control: Section) -> 'PdGains':
         return cls.from_bandwidth(robot, control.number('pd_natural_frequency_hz', positive=True),
-                                  control.number('pd_damping_ratio', positive=True))
+                                  control.number('pd_damping_ratio', positive=True),
+                                  control.number('recovery_tension_damping_nm_s_rad', non_negative=True))
 
 
 @dataclass
@@ -53,19 +62,23 @@ class JointController:
     """c = c_ID + K_p (θ_d − θ) + K_d (θ̇_d − θ̇), within the torque limit, per mode.
 
     NOMINAL and RECOVERY_MOVE track a joint reference (the trajectory's, or the
-    recovery's); RECOVERY_TENSION applies tension setpoints t as c = −ρ t + b θ̇;
-    SAFE_HOLD and FAULT hold the last reference at rest. A motor whose cable is broken
+    recovery's); RECOVERY_TENSION applies tension setpoints t as
+    c = −ρ t + b θ̇ + f_c tanh(θ̇ / v) − D max(θ̇, 0) (friction compensated, damping D
+    against paying out);
+    SAFE_HOLD and FAULT hold the last tracked reference at rest (the given one if none was). A motor whose cable is broken
     gets zero torque in every mode: freed of its load it would ring under loaded gains.
     """
 
-    def __init__(self, robot: Robot, gains: PdGains):
+    def __init__(self, robot: Robot, gains: PdGains, friction: FrictionModel | None = None):
         self.robot = robot
         self.gains = gains
+        self.friction = friction or FrictionModel(0.0, 1.0)
         self.torque_limit_nm = robot.motor.torque_limit_nm
         self.mode = NOMINAL
         self.broken = np.zeros(robot.cable_count, dtype=bool)
         self.tension_setpoint_n: np.ndarray | None = None
         self.hold: JointReference | None = None
+        self.tracked: JointReference | None = None
 
     def set_mode(self, mode: str) -> None:
         if mode not in MODES:
@@ -81,27 +94,42 @@ class JointController:
         self.tension_setpoint_n = np.asarray(tensions_n, dtype=float)
 
     def feedback(self, angle_rad, angular_velocity_rad_s, reference: JointReference) -> np.ndarray:
-        """The PD part c_FB (N·m)."""
-        return (self.gains.stiffness_nm_rad * (reference.angle_rad - angle_rad)
-                + self.gains.damping_nm_s_rad
-                * (reference.angular_velocity_rad_s - angular_velocity_rad_s))
+        """The PD part c_FB (N·m).
+
+        On plain floats: with m entries, numpy's cost per call (four of them, two with a
+        Python scalar) exceeds the arithmetic.
+        """
+        stiffness, damping = self.gains.stiffness_nm_rad, self.gains.damping_nm_s_rad
+        return np.array([
+            stiffness * (angle_d - angle) + damping * (speed_d - speed)
+            for angle_d, angle, speed_d, speed in zip(
+                reference.angle_rad.tolist(), np.asarray(angle_rad, dtype=float).tolist(),
+                reference.angular_velocity_rad_s.tolist(),
+                np.asarray(angular_velocity_rad_s, dtype=float).tolist())])
 
     def command(self, angle_rad, angular_velocity_rad_s, reference: JointReference | None) -> np.ndarray:
         """Motor torques c (N·m) for the measured θ, θ̇ in the current mode."""
         if self.mode == RECOVERY_TENSION and self.tension_setpoint_n is not None:
-            torque = (-self.robot.motor.drum_radius_m * self.tension_setpoint_n
-                      + self.robot.motor.viscous_friction_nm_s_rad * angular_velocity_rad_s)
+            motor = self.robot.motor
+            speed = np.asarray(angular_velocity_rad_s, dtype=float)
+            # Damping only resists paying out: on a cable winding in it would lower the
+            # tension, and a cable that loses its tension goes slack.
+            torque = (-motor.drum_radius_m * self.tension_setpoint_n + self.friction.torque_nm(speed)
+                      + motor.viscous_friction_nm_s_rad * speed
+                      - self.gains.tension_damping_nm_s_rad * np.maximum(speed, 0.0))
         else:
             if self.mode in (SAFE_HOLD, FAULT) or reference is None:
                 if self.hold is None:
-                    self.hold = (reference or JointReference(
+                    self.hold = (self.tracked or reference or JointReference(
                         np.asarray(angle_rad, float), np.zeros(self.robot.cable_count),
                         np.zeros(self.robot.cable_count))).at_rest()
                 reference = self.hold
             else:
                 self.hold = None
+                self.tracked = reference
             torque = reference.feedforward_nm + self.feedback(angle_rad, angular_velocity_rad_s,
                                                               reference)
-        torque = np.clip(torque, -self.torque_limit_nm, self.torque_limit_nm)
+        # ndarray.clip: np.clip's dispatch costs twice as much on a few entries
+        torque = torque.clip(-self.torque_limit_nm, self.torque_limit_nm)
         torque[self.broken] = 0.0
         return torque

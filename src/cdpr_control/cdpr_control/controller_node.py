@@ -1,4 +1,10 @@
-"""controller: PD + feed-forward on /cdpr/joint_states; the only writer of /cdpr/effort_command."""
+"""controller: PD + feed-forward on /cdpr/joint_states; the only writer of /cdpr/effort_command.
+
+Lockstep: the state of tick k is answered with the reference of exactly tick k (or, in
+recovery, the supervisor's setpoint of tick k); with `wait_for_supervisor` also only
+after the supervisor's residual of tick k − 1, so its verdict applies from tick k as in
+the in-process engine. Realtime: the latest of each, never waiting.
+"""
 from __future__ import annotations
 
 from collections import OrderedDict
@@ -12,10 +18,28 @@ from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .config import load_section, resolve_config
-from .controller import JointController, JointReference, PdGains
+from .controller import (RECOVERY_MOVE, RECOVERY_TENSION, JointController, JointReference,
+                         PdGains)
+from .friction import FrictionModel
 from .robot import load_robot
 
-REFERENCE_BUFFER = 256
+BUFFER_LENGTH = 256
+
+
+class StampedBuffer(OrderedDict):
+    """The last BUFFER_LENGTH values by stamp (ns)."""
+
+    def put(self, stamp_ns: int, value) -> None:
+        self[stamp_ns] = value
+        while len(self) > BUFFER_LENGTH:
+            self.popitem(last=False)
+
+    def at(self, stamp_ns: int, exact: bool):
+        """The value of exactly this stamp, or (not exact) the latest not after it."""
+        if exact:
+            return self.get(stamp_ns)
+        earlier = [stamp for stamp in self if stamp <= stamp_ns]
+        return self[max(earlier)] if earlier else None
 
 
 class ControllerNode(CdprNode):
@@ -24,50 +48,103 @@ class ControllerNode(CdprNode):
         super().__init__('controller')
         config = resolve_config(self.get_parameter('config_file').value)
         self.robot = load_robot(config)
-        self.controller = JointController(self.robot, PdGains.from_section(
-            self.robot, load_section(config, 'control')))
+        control = load_section(config, 'control')
+        self.period_ns = int(round(control.number('period_s', positive=True) * 1e9))
+        friction = self.parameter('coulomb_friction_nm', -1.0)
+        self.controller = JointController(
+            self.robot, PdGains.from_section(self.robot, control),
+            FrictionModel.of_robot(self.robot, control, None if friction < 0 else friction))
+        self.wait_for_supervisor = self.parameter('wait_for_supervisor', False)
         self.names = contract.joint_names(self.robot.cable_count)
-        self.references: OrderedDict[int, JointReference] = OrderedDict()
+        self.references = StampedBuffer()
+        self.recovery_references = StampedBuffer()
+        self.recovery_tensions = StampedBuffer()
+        self.verdict_ns: int | None = None
+        self.first_state_ns: int | None = None
         self.pending = None
         self.answered: dict[int, np.ndarray] = {}
         self.publisher = self.create_publisher(JointState, contract.EFFORT_COMMAND, qos.STREAM)
-        self.create_subscription(JointState, contract.JOINT_STATES, self.on_state, qos.STREAM)
         self.create_subscription(JointState, contract.REFERENCE, self.on_reference, qos.STREAM)
         self.create_subscription(Int32, contract.FDI_BROKEN_CABLE, self.on_broken_cable, qos.LATCHED)
         self.create_subscription(String, contract.MODE, self.on_mode, qos.LATCHED)
         self.create_subscription(JointState, contract.RECOVERY_TENSIONS, self.on_tensions, qos.STREAM)
+        self.create_subscription(JointState, contract.RECOVERY_REFERENCE, self.on_recovery_reference,
+                                 qos.STREAM)
+        self.create_subscription(JointState, contract.FDI_RESIDUAL, self.on_residual, qos.STREAM)
+        self.start_when_matched(lambda: self.create_subscription(
+            JointState, contract.JOINT_STATES, self.on_state, qos.STREAM))
 
     def on_reference(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.REFERENCE)
-        if joints is None:
-            return
-        self.references[joints.stamp_ns] = JointReference(joints.position, joints.velocity,
-                                                          joints.effort)
-        while len(self.references) > REFERENCE_BUFFER:
-            self.references.popitem(last=False)
-        if self.pending is not None:
-            self.answer(self.pending)
+        if joints is not None:
+            self.references.put(joints.stamp_ns, JointReference(joints.position, joints.velocity,
+                                                                joints.effort))
+            self.retry()
+
+    def on_recovery_reference(self, message: JointState) -> None:
+        joints = self.joints_or_reject(message, contract.RECOVERY_REFERENCE)
+        if joints is not None:
+            self.recovery_references.put(joints.stamp_ns, JointReference(
+                joints.position, joints.velocity, joints.effort))
+            self.retry()
+
+    def on_tensions(self, message: JointState) -> None:
+        joints = self.joints_or_reject(message, contract.RECOVERY_TENSIONS, ('effort',))
+        if joints is not None:
+            self.recovery_tensions.put(joints.stamp_ns, joints.effort)
+            self.retry()
+
+    def on_residual(self, message: JointState) -> None:
+        joints = self.joints_or_reject(message, contract.FDI_RESIDUAL, ('effort',))
+        if joints is not None:
+            self.verdict_ns = max(joints.stamp_ns, self.verdict_ns or joints.stamp_ns)
+            self.retry()
 
     def on_state(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.JOINT_STATES, ('position', 'velocity'))
         if joints is None:
             return
+        if self.first_state_ns is None:
+            self.first_state_ns = joints.stamp_ns
         self.diagnostics.count('states')
         self.answer(joints)
 
-    def reference_for(self, stamp_ns: int) -> JointReference | None:
-        """Lockstep: the reference of exactly this tick. Realtime: the latest not after it."""
-        if self.clock_mode == 'lockstep':
-            return self.references.get(stamp_ns)
-        earlier = [stamp for stamp in self.references if stamp <= stamp_ns]
-        return self.references[max(earlier)] if earlier else None
+    def retry(self) -> None:
+        if self.pending is not None:
+            self.answer(self.pending)
+
+    def verdict_arrived(self, stamp_ns: int) -> bool:
+        """Lockstep with a supervisor: its verdict on the previous tick is in."""
+        if not (self.wait_for_supervisor and self.clock_mode == 'lockstep'):
+            return True
+        if stamp_ns - self.period_ns < self.first_state_ns:
+            return True
+        return self.verdict_ns is not None and self.verdict_ns >= stamp_ns - self.period_ns
+
+    def setpoint_for(self, stamp_ns: int):
+        """(ready, reference) for this tick in the current mode."""
+        exact = self.clock_mode == 'lockstep'
+        mode = self.controller.mode
+        if mode == RECOVERY_TENSION:
+            tensions = self.recovery_tensions.at(stamp_ns, exact)
+            if tensions is not None:
+                self.controller.set_tension_setpoint(tensions)
+            return tensions is not None or not exact, None
+        if mode == RECOVERY_MOVE:
+            reference = self.recovery_references.at(stamp_ns, exact)
+            return reference is not None or not exact, reference
+        reference = self.references.at(stamp_ns, exact)
+        return reference is not None or mode != 'NOMINAL', reference
 
     def answer(self, joints) -> None:
         if joints.stamp_ns in self.answered:
             torque = self.answered[joints.stamp_ns]
         else:
-            reference = self.reference_for(joints.stamp_ns)
-            if reference is None and self.controller.mode == 'NOMINAL':
+            if not self.verdict_arrived(joints.stamp_ns):
+                self.pending = joints
+                return
+            ready, reference = self.setpoint_for(joints.stamp_ns)
+            if not ready:
                 self.pending = joints
                 return
             torque = self.controller.command(joints.position, joints.velocity, reference)
@@ -88,12 +165,6 @@ class ControllerNode(CdprNode):
             self.controller.set_mode(message.data)
         except ValueError as err:
             self.diagnostics.reject(contract.MODE, str(err))
-
-    def on_tensions(self, message: JointState) -> None:
-        joints = self.joints_or_reject(message, contract.RECOVERY_TENSIONS, ('effort',))
-        if joints is None:
-            return
-        self.controller.set_tension_setpoint(joints.effort)
 
 
 def main(args=None):

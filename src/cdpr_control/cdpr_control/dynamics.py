@@ -9,8 +9,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .linalg3 import solve3
-from .kinematics import joint_acceleration, joint_velocity, structure_matrix, structure_matrix_rate
+from .kinematics import (cable_directions, joint_acceleration, joint_velocity, structure_matrix,
+                         structure_matrix_rate)
+from .linalg3 import solve3_floats
 from .robot import Robot
 from .tension_distribution import InfeasibleTensionError, TensionDistribution
 
@@ -73,33 +74,94 @@ def direct_dynamics(robot: Robot, position_m, velocity_m_s, torque_nm, joint_vel
     negative first, until all remaining tensions are non-negative); the motors of slack
     and detached cables spin freely, J θ̈ = −b θ̇ + c, from `joint_velocity_rad_s`.
     """
-    torque_nm = np.asarray(torque_nm, dtype=float)
-    joint_velocity_rad_s = np.asarray(joint_velocity_rad_s, dtype=float)
     if attached is None:
         attached = np.ones(robot.cable_count, dtype=bool)
-    motor = robot.motor
-    inertia, friction, radius = motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad, motor.drum_radius_m
-    structure, lengths = structure_matrix(robot, position_m)
-    rate = structure_matrix_rate(structure, lengths, velocity_m_s)
-    taut = np.array(attached, dtype=bool)
-    mass_matrix_base = robot.mass_kg * np.eye(3)
-    weight = robot.mass_kg * robot.gravity_m_s2
-    tension = np.zeros(robot.cable_count)
-    while True:
-        s = structure[:, taut]
-        cable_speed = velocity_m_s @ s
-        cable_rate = velocity_m_s @ rate[:, taut]
-        mass_matrix = mass_matrix_base + (inertia / radius ** 2) * (s @ s.T)
-        force = weight - s @ ((inertia * cable_rate + friction * cable_speed) / radius ** 2
-                              + torque_nm[taut] / radius)
-        acceleration = solve3(mass_matrix, force)
-        theta_ddot_taut = -(acceleration @ s + cable_rate) / radius
-        tension_taut = (inertia * theta_ddot_taut - friction * cable_speed / radius
-                        - torque_nm[taut]) / radius
-        if tension_taut.size == 0 or np.min(tension_taut) >= 0.0:
-            break
-        taut[np.flatnonzero(taut)[np.argmin(tension_taut)]] = False
-    theta_ddot = (torque_nm - friction * joint_velocity_rad_s) / inertia
-    theta_ddot[taut] = theta_ddot_taut
-    tension[taut] = tension_taut
-    return DirectDynamics(acceleration, theta_ddot, tension, taut)
+    directions = cable_directions(robot.exit_points_m.tolist(),
+                                  np.asarray(position_m, dtype=float).tolist())
+    acceleration, theta_ddot, tension, taut = RigidDirectDynamics(robot).accelerations(
+        directions, np.asarray(velocity_m_s, dtype=float).tolist(),
+        np.asarray(torque_nm, dtype=float).tolist(),
+        np.asarray(joint_velocity_rad_s, dtype=float).tolist(),
+        np.asarray(attached, dtype=bool).tolist())
+    return DirectDynamics(np.array(acceleration), np.array(theta_ddot), np.array(tension),
+                          np.array(taut, dtype=bool))
+
+
+class RigidDirectDynamics:
+    """direct_dynamics on plain floats, for the loops that call it every sub-step.
+
+    The twin and the rigid plant evaluate it once per sub-step on a handful of cables,
+    where numpy's per-call overhead outweighs the arithmetic several times; the robot's
+    constants are unpacked once, here.
+    """
+
+    def __init__(self, robot: Robot):
+        motor = robot.motor
+        self.mass_kg = robot.mass_kg
+        self.weight_n = tuple((robot.mass_kg * robot.gravity_m_s2).tolist())
+        self.inertia_kg_m2 = motor.inertia_kg_m2
+        self.friction_nm_s_rad = motor.viscous_friction_nm_s_rad
+        self.radius_m = motor.drum_radius_m
+        # J/ρ² (kg): a motor's inertia as the cable feels it
+        self.reflected_mass_kg = motor.inertia_kg_m2 / motor.drum_radius_m ** 2
+
+    def accelerations(self, directions, velocity_m_s, torque_nm, joint_velocity_rad_s, candidates):
+        """p̈ (m/s², a 3-tuple), and per cable θ̈ (rad/s²), τ (N) and taut flags (lists).
+
+        `directions` holds (u_x, u_y, u_z, d_i) per cable (kinematics.cable_directions) and
+        `candidates` flags the cables that may be taut; every other argument is plain floats.
+        """
+        inertia, friction, radius = self.inertia_kg_m2, self.friction_nm_s_rad, self.radius_m
+        radius_squared = radius * radius
+        mass, reflected = self.mass_kg, self.reflected_mass_kg
+        vx, vy, vz = velocity_m_s
+        speed_squared = vx * vx + vy * vy + vz * vz
+        # Per cable, ṗ·u_i (m/s) and ṗ·u̇_i = ((u_i·ṗ)² − |ṗ|²) / d_i (m/s², u̇_i of DESIGN §4);
+        # the motor law then gives τ_i = −(J/ρ²) u_i·p̈ − pull_i, pull_i (N) free of p̈.
+        cable_speed, cable_rate, pull = [], [], []
+        for (ux, uy, uz, d), c in zip(directions, torque_nm):
+            speed = ux * vx + uy * vy + uz * vz
+            rate = (speed * speed - speed_squared) / d
+            cable_speed.append(speed)
+            cable_rate.append(rate)
+            pull.append((inertia * rate + friction * speed) / radius_squared + c / radius)
+        taut = list(candidates)
+        while True:
+            sxx = sxy = sxz = syy = syz = szz = 0.0
+            fx = fy = fz = 0.0
+            for (ux, uy, uz, _), is_taut, p in zip(directions, taut, pull):
+                if is_taut:
+                    sxx += ux * ux
+                    sxy += ux * uy
+                    sxz += ux * uz
+                    syy += uy * uy
+                    syz += uy * uz
+                    szz += uz * uz
+                    fx += ux * p
+                    fy += uy * p
+                    fz += uz * p
+            mxy, mxz, myz = reflected * sxy, reflected * sxz, reflected * syz
+            wx, wy, wz = self.weight_n
+            ax, ay, az = solve3_floats(
+                ((mass + reflected * sxx, mxy, mxz), (mxy, mass + reflected * syy, myz),
+                 (mxz, myz, mass + reflected * szz)),
+                (wx - fx, wy - fy, wz - fz))
+            theta_ddot, tension = [], []
+            # The cable of the most negative tension goes slack, and the taut set is solved again.
+            most_negative, slack = 0.0, -1
+            for i, ((ux, uy, uz, _), is_taut, c, w) in enumerate(
+                    zip(directions, taut, torque_nm, joint_velocity_rad_s)):
+                if is_taut:
+                    theta_ddot_i = -(ax * ux + ay * uy + az * uz + cable_rate[i]) / radius
+                    tension_i = (inertia * theta_ddot_i - friction * cable_speed[i] / radius
+                                 - c) / radius
+                    if tension_i < most_negative:
+                        most_negative, slack = tension_i, i
+                else:
+                    theta_ddot_i = (c - friction * w) / inertia
+                    tension_i = 0.0
+                theta_ddot.append(theta_ddot_i)
+                tension.append(tension_i)
+            if slack < 0:
+                return (ax, ay, az), theta_ddot, tension, taut
+            taut[slack] = False

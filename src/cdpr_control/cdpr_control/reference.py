@@ -33,8 +33,11 @@ class ReferenceTable:
 
 def tabulate_reference(robot: Robot, tension_distribution: TensionDistribution,
                        trajectory: Trajectory, period_s: float, start_s: float = 0.0,
-                       duration_s: float | None = None) -> ReferenceTable:
-    """Sample `trajectory` from `start_s` every `period_s` and compute IK and the feed-forward."""
+                       duration_s: float | None = None, attached=None) -> ReferenceTable:
+    """Sample `trajectory` from `start_s` every `period_s` and compute IK and the feed-forward.
+
+    With `attached` (boolean mask) only those cables carry the load; the others' rows are 0.
+    """
     duration_s = trajectory.duration_s - start_s if duration_s is None else duration_s
     count = int(round(duration_s / period_s)) + 1
     columns = {name: np.empty((count, size)) for name, size in
@@ -42,10 +45,13 @@ def tabulate_reference(robot: Robot, tension_distribution: TensionDistribution,
                 ('c', robot.cable_count))}
     for k in range(count):
         position, velocity, acceleration = trajectory.sample(start_s + k * period_s)
-        dynamics = inverse_dynamics(robot, tension_distribution, position, velocity, acceleration)
+        dynamics = inverse_dynamics(robot, tension_distribution, position, velocity, acceleration,
+                                    attached)
         columns['p'][k] = position
         columns['v'][k] = velocity
         columns['q'][k] = inverse_kinematics(robot, position)
+        if attached is not None:
+            columns['q'][k][~attached] = 0.0
         columns['qd'][k] = dynamics.joint_velocity_rad_s
         columns['c'][k] = dynamics.torque_nm
     return ReferenceTable(period_s, columns['p'], columns['v'], columns['q'], columns['qd'],

@@ -122,6 +122,49 @@ class Circle(Trajectory):
                       -self.sweep_rad, self.duration_s)
 
 
+class HermiteQuintic(Trajectory):
+    """A quintic from p_0 with velocity v_0 to p_1 with velocity v_1, no acceleration at
+    either end: p = p_0 + (p_1 − p_0) s(τ) + T (v_0 w(τ) − v_1 w(1 − τ)),
+    w(τ) = τ − 6τ³ + 8τ⁴ − 3τ⁵ (w, w'' vanish at both ends, w'(0) = 1, w'(1) = 0).
+
+    It takes over a motion already under way without a jump in velocity.
+    """
+
+    def __init__(self, start_m, start_velocity_m_s, goal_m, goal_velocity_m_s, duration_s: float):
+        if duration_s <= 0.0:
+            raise ValueError(f'duration must be positive, got {duration_s}')
+        self.start_m = np.array(start_m, dtype=float)
+        self.start_velocity_m_s = np.array(start_velocity_m_s, dtype=float)
+        self.goal_m = np.array(goal_m, dtype=float)
+        self.goal_velocity_m_s = np.array(goal_velocity_m_s, dtype=float)
+        self.duration_s = float(duration_s)
+
+    @staticmethod
+    def _velocity_blend(tau: float):
+        """w, dw/dτ, d²w/dτ² at τ."""
+        tau2 = tau * tau
+        return (tau - 6.0 * tau2 * tau + 8.0 * tau2 * tau2 - 3.0 * tau2 * tau2 * tau,
+                1.0 - 18.0 * tau2 + 32.0 * tau2 * tau - 15.0 * tau2 * tau2,
+                -36.0 * tau + 96.0 * tau2 - 60.0 * tau2 * tau)
+
+    def sample(self, t: float):
+        duration = self.duration_s
+        tau = min(max(t / duration, 0.0), 1.0)
+        s, s_dot, s_ddot = quintic_profile(t, duration)
+        w, w_d, w_dd = self._velocity_blend(tau)
+        v, v_d, v_dd = self._velocity_blend(1.0 - tau)
+        delta = self.goal_m - self.start_m
+        v0, v1 = self.start_velocity_m_s, self.goal_velocity_m_s
+        position = self.start_m + s * delta + duration * (v0 * w - v1 * v)
+        velocity = s_dot * delta + v0 * w_d + v1 * v_d
+        acceleration = s_ddot * delta + (v0 * w_dd - v1 * v_dd) / duration
+        return position, velocity, acceleration
+
+    def reversed(self) -> 'HermiteQuintic':
+        return HermiteQuintic(self.goal_m, -self.goal_velocity_m_s, self.start_m,
+                              -self.start_velocity_m_s, self.duration_s)
+
+
 class Hold(Trajectory):
     """Rest at one point."""
 

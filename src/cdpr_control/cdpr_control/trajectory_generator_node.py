@@ -46,8 +46,9 @@ class TrajectoryGeneratorNode(CdprNode):
         self.next_index = 0
         self.reference = self.create_publisher(JointState, contract.REFERENCE, qos.STREAM)
         self.pose = self.create_publisher(PointStamped, contract.REFERENCE_POSE, qos.STREAM)
-        self.create_subscription(JointState, contract.JOINT_STATES, self.on_state, qos.STREAM)
         self.create_subscription(PointStamped, contract.GOAL, self.on_goal, qos.STREAM)
+        self.start_when_matched(lambda: self.create_subscription(
+            JointState, contract.JOINT_STATES, self.on_state, qos.STREAM))
 
     def sample(self, index: int):
         start, table = next((s, t) for s, t in reversed(self.segments) if s <= index)

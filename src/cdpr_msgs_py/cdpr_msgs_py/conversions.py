@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from math import isfinite
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -52,13 +53,14 @@ def joints_from_message(message: JointState, names: list[str],
         raise InvalidMessage(f'joint names {list(message.name)} differ from {names}')
     arrays = {}
     for field in ('position', 'velocity', 'effort'):
-        values = np.asarray(getattr(message, field), dtype=float)
+        values = getattr(message, field)
         if field in fields:
-            if values.shape != (len(names),):
-                raise InvalidMessage(f'{field} has {values.size} values, expected {len(names)}')
-            if not np.all(np.isfinite(values)):
+            if len(values) != len(names):
+                raise InvalidMessage(f'{field} has {len(values)} values, expected {len(names)}')
+            # math.isfinite per value: np.isfinite and np.all cost ~3 µs a field on m values
+            if not all(map(isfinite, values)):
                 raise InvalidMessage(f'{field} holds a non-finite value')
-        arrays[field] = values
+        arrays[field] = np.asarray(values, dtype=float)
     return Joints(stamp_to_ns(message.header.stamp), **arrays)
 
 

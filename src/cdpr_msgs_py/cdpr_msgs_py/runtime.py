@@ -80,6 +80,8 @@ class Diagnostics:
         self.totals: Counter = Counter()
         self.window: Counter = Counter()
         self.rejected: Counter = Counter()
+        # What the node wants reported besides counts (key → text), e.g. its verdicts.
+        self.facts: dict[str, str] = {}
         self.activity = 0
         self.period_s = period_s
         self.last_publish = time.monotonic()
@@ -114,12 +116,26 @@ class Diagnostics:
         if elapsed_s > 0:
             pairs += [(f'{key} rate hz', f'{value / elapsed_s:.1f}') for key, value in self.window.items()]
         pairs += [(f'rejected {key}', str(value)) for key, value in self.rejected.items()]
+        pairs += list(self.facts.items())
         status.values = [KeyValue(key=k, value=v) for k, v in pairs]
         message = DiagnosticArray()
         message.header.stamp = self.node.get_clock().now().to_msg()
         message.status = [status]
         self.publisher.publish(message)
         self.window.clear()
+
+
+def parse_matches(entries) -> list[tuple[str, str, int]]:
+    """'publisher:TOPIC=N' / 'subscription:TOPIC=N' entries as (kind, topic, N)."""
+    requirements = []
+    for entry in filter(None, entries):
+        kind, _, rest = entry.partition(':')
+        topic, _, count = rest.rpartition('=')
+        if kind not in ('publisher', 'subscription') or not topic or not count.isdigit():
+            raise ValueError(f"parameter matches: expected 'publisher:TOPIC=N' or "
+                             f"'subscription:TOPIC=N', got {entry!r}")
+        requirements.append((kind, topic, int(count)))
+    return requirements
 
 
 class CdprNode(Node):
@@ -134,6 +150,8 @@ class CdprNode(Node):
             raise ValueError(f"parameter clock_mode must be lockstep or realtime, got {self.clock_mode!r}")
         self.diagnostics = Diagnostics(self)
         self.finished = False
+        self.match_requirements = parse_matches(self.declare_parameter('matches', ['']).value)
+        self.pending_start = None
 
     def parameter(self, name: str, default):
         """Declare and read one parameter."""
@@ -148,9 +166,39 @@ class CdprNode(Node):
             self.diagnostics.reject(topic, str(err))
             return None
 
+    def start_when_matched(self, start) -> None:
+        """Call `start` (which subscribes to the tick, /cdpr/joint_states) once every
+        endpoint named in the `matches` parameter has matched its peers.
+
+        DDS matches endpoints pairwise and late under load: a per-cycle message sent
+        before its subscriber matched is lost. The graph launcher names what each node
+        must be matched with, and the plant starts only when it sees every node's
+        subscription to the tick, so nothing is sent before everyone listens.
+        """
+        self.pending_start = start
+        self.try_start()
+
+    def try_start(self) -> None:
+        if self.pending_start is None or not self.matched():
+            return
+        start, self.pending_start = self.pending_start, None
+        start()
+
+    def matched(self) -> bool:
+        """True when every required endpoint has matched at least its count of peers."""
+        endpoints = {('publisher', p.topic_name): p.get_subscription_count for p in self.publishers}
+        endpoints.update({('subscription', s.topic_name): s.get_publisher_count
+                          for s in self.subscriptions})
+        for kind, topic, count in self.match_requirements:
+            matched = endpoints.get((kind, self.resolve_topic_name(topic)))
+            if matched is None or matched() < count:
+                return False
+        return True
+
     def idle(self) -> None:
         """Called after every spin: periodic work that needs no timer."""
         self.diagnostics.maybe_publish()
+        self.try_start()
 
     def close(self) -> None:
         """Called once on the way out."""

@@ -30,7 +30,9 @@ class DigitalTwinNode(CdprNode):
         self.last_stamp_ns = -1
         self.joints = self.create_publisher(JointState, contract.TWIN_JOINT_STATES, qos.STREAM)
         self.pose = self.create_publisher(PointStamped, contract.TWIN_POSE, qos.STREAM)
-        self.create_subscription(JointState, contract.REFERENCE, self.on_reference, qos.STREAM)
+        # The twin's tick is the reference: it listens once its outputs have listeners.
+        self.start_when_matched(lambda: self.create_subscription(
+            JointState, contract.REFERENCE, self.on_reference, qos.STREAM))
 
     def on_reference(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.REFERENCE)

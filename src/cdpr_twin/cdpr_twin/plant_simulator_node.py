@@ -23,6 +23,7 @@ from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .plant import PlantConfig, PlantSimulator
+from .tick_timing import TickTiming
 
 
 class PlantSimulatorNode(CdprNode):
@@ -47,12 +48,12 @@ class PlantSimulatorNode(CdprNode):
         self.plant = PlantSimulator(self.robot, plant_config, motion.trajectory.start, failures)
         duration = self.parameter('duration_s', -1.0)
         self.last_tick = int(round((motion.trajectory.duration_s if duration < 0 else duration) / self.period_s))
-        self.expected_subscribers = self.parameter('expected_subscribers', 1)
         self.resend_s = self.parameter('command_timeout_s', 0.5)
-        self.start_delay_s = self.parameter('start_delay_s', 2.0)
+        self.start_delay_s = self.parameter('start_delay_s', 0.5)
         self.ready_since = None
         self.names = contract.joint_names(self.robot.cable_count)
         self.tick = 0
+        self.timing = TickTiming(self.period_s, deadlines=self.clock_mode == 'realtime')
         self.started = False
         self.sent_at = 0.0
         # Until the first command arrives, hold the load with its static torques.
@@ -72,13 +73,20 @@ class PlantSimulatorNode(CdprNode):
 
     def publish_state(self) -> None:
         stamp = self.stamp_ns()
-        if self.clock_mode == 'lockstep':
-            self.clock.publish(Clock(clock=ns_to_stamp(stamp)))
         angle, speed = self.plant.measure()
         self.last_state = joint_state(self.names, stamp, angle, speed, self.command)
+        self.timing.state_published(stamp)
         self.state.publish(self.last_state)
-        self.truth_pose.publish(point_stamped(stamp, self.plant.position_m))
-        self.truth_tensions.publish(joint_state(self.names, stamp, effort=self.plant.tension_n))
+        # The state first: the controller answers while the rest goes out. The rest only
+        # to subscribers (the recorder): volatile topics lose nothing to an empty room,
+        # and building and publishing a message costs ~10 µs.
+        if self.clock_mode == 'lockstep' and self.clock.get_subscription_count():
+            self.clock.publish(Clock(clock=ns_to_stamp(stamp)))
+        if self.truth_pose.get_subscription_count():
+            self.truth_pose.publish(point_stamped(stamp, self.plant.position_m))
+        if self.truth_tensions.get_subscription_count():
+            self.truth_tensions.publish(joint_state(self.names, stamp,
+                                                    effort=self.plant.tension_n))
         self.sent_at = time.monotonic()
         self.diagnostics.count('states')
 
@@ -89,15 +97,20 @@ class PlantSimulatorNode(CdprNode):
         self.diagnostics.count('resent states')
 
     def ready(self) -> bool:
-        return (self.count_subscribers(contract.JOINT_STATES) >= self.expected_subscribers
-                and self.count_publishers(contract.EFFORT_COMMAND) >= 1)
+        """Every node listens (`matches`, from the launcher), or standalone: a controller."""
+        if self.match_requirements:
+            return self.matched()
+        return self.count_publishers(contract.EFFORT_COMMAND) >= 1
 
     def idle(self) -> None:
+        # Timing figures only when diagnostics are due: percentiles cost more than a tick.
+        if time.monotonic() - self.diagnostics.last_publish >= self.diagnostics.period_s:
+            self.diagnostics.facts.update(self.timing.facts())
         super().idle()
         if not self.started:
             if self.ready_since is None and self.ready():
                 self.ready_since = time.monotonic()
-            # The other endpoints (twin, recorder) discover each other meanwhile.
+            # A short grace period: the nodes' last subscriptions settle.
             if self.ready_since is not None and time.monotonic() - self.ready_since >= self.start_delay_s:
                 self.started = True
                 self.get_logger().info(f'starting, {self.clock_mode}, {self.last_tick} ticks')
@@ -112,6 +125,7 @@ class PlantSimulatorNode(CdprNode):
         joints = self.joints_or_reject(message, contract.EFFORT_COMMAND, ('effort',))
         if joints is None:
             return
+        self.timing.command_received(joints.stamp_ns)
         if self.clock_mode == 'realtime':
             self.command = joints.effort
             return
@@ -127,6 +141,9 @@ class PlantSimulatorNode(CdprNode):
         self.tick += 1
         if self.tick > self.last_tick:
             self.finished = True
+            # The run's figures now, while the node still spins to deliver them.
+            self.diagnostics.facts.update(self.timing.facts())
+            self.diagnostics.publish()
 
     def realtime_step(self) -> None:
         self.publish_state()

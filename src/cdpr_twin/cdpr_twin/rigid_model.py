@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.dynamics import direct_dynamics
-from cdpr_control.kinematics import cable_vectors, inverse_kinematics
+from cdpr_control.dynamics import RigidDirectDynamics
+from cdpr_control.kinematics import cable_directions, inverse_kinematics
 from cdpr_control.robot import Robot
 from cdpr_control.statics import static_tensions
 
@@ -20,7 +20,7 @@ class RigidCableRobot:
     cable is taut while attached, not paid out beyond the straight-line length, and
     pulling (non-negative tension); otherwise its motor spins freely. After each
     sub-step the taut motors are put back on the kinematic constraint, so the model
-    does not drift.
+    does not drift. A step replaces the state arrays rather than writing into them.
     """
 
     def __init__(self, robot: Robot, position_m, substeps: int = 1):
@@ -33,6 +33,13 @@ class RigidCableRobot:
         self.attached = np.ones(robot.cable_count, dtype=bool)
         self.tension_n = static_tensions(robot, self.position_m, self.attached)
         self.taut = self.attached.copy()
+        self.dynamics = RigidDirectDynamics(robot)
+        self.exit_points_m = robot.exit_points_m.tolist()
+        self.cable_length_offset_m = robot.cable_length_offset_m.tolist()
+        # The cable directions at the end of the last sub-step are those the next one
+        # starts from: kept with the position they belong to.
+        self.directions_at: tuple | None = None
+        self.directions: list = []
 
     def break_cables(self, cables) -> None:
         """Detach the 0-based `cables` for good."""
@@ -40,22 +47,49 @@ class RigidCableRobot:
             self.attached[index] = False
 
     def step(self, torque_nm: np.ndarray, period_s: float) -> None:
-        robot = self.robot
-        radius = robot.motor.drum_radius_m
+        """Apply `torque_nm` (N·m) for `period_s` (s).
+
+        Plain floats throughout: a sub-step on numpy arrays of m ≈ 4 entries spends its
+        time in numpy's per-call overhead, not in the arithmetic.
+        """
+        radius = self.robot.motor.drum_radius_m
         h = period_s / self.substeps
+        torque = np.asarray(torque_nm, dtype=float).tolist()
+        position = tuple(self.position_m.tolist())
+        vx, vy, vz = self.velocity_m_s.tolist()
+        angle = self.angle_rad.tolist()
+        speed = self.angular_velocity_rad_s.tolist()
+        attached = self.attached.tolist()
+        offsets = self.cable_length_offset_m
         for _ in range(self.substeps):
-            u, d = cable_vectors(robot.exit_points_m, self.position_m)
-            paid_out = robot.cable_length_offset_m + radius * self.angle_rad
-            candidates = self.attached & (paid_out <= d + RETAUT_TOLERANCE_M)
-            result = direct_dynamics(robot, self.position_m, self.velocity_m_s, torque_nm,
-                                     self.angular_velocity_rad_s, candidates)
-            self.velocity_m_s = self.velocity_m_s + h * result.acceleration_m_s2
-            self.position_m = self.position_m + h * self.velocity_m_s
-            self.angular_velocity_rad_s = self.angular_velocity_rad_s + h * result.joint_acceleration_rad_s2
-            self.angle_rad = self.angle_rad + h * self.angular_velocity_rad_s
-            taut = result.taut
-            u, d = cable_vectors(robot.exit_points_m[taut], self.position_m)
-            self.angle_rad[taut] = (d - robot.cable_length_offset_m[taut]) / radius
-            self.angular_velocity_rad_s[taut] = -(u @ self.velocity_m_s) / radius
-            self.tension_n = result.tension_n
-            self.taut = taut
+            directions = (self.directions if position == self.directions_at
+                          else cable_directions(self.exit_points_m, position))
+            candidates = [on and offset + radius * theta <= d + RETAUT_TOLERANCE_M
+                          for on, offset, theta, (_, _, _, d)
+                          in zip(attached, offsets, angle, directions)]
+            (ax, ay, az), theta_ddot, tension, taut = self.dynamics.accelerations(
+                directions, (vx, vy, vz), torque, speed, candidates)
+            vx, vy, vz = vx + h * ax, vy + h * ay, vz + h * az
+            px, py, pz = position
+            position = (px + h * vx, py + h * vy, pz + h * vz)
+            directions = cable_directions(self.exit_points_m, position)
+            next_angle, next_speed = [], []
+            for (ux, uy, uz, d), offset, is_taut, theta, w, a in zip(
+                    directions, offsets, taut, angle, speed, theta_ddot):
+                if is_taut:
+                    # on the kinematic constraint: l = d, θ̇ = −uᵀ ṗ / ρ
+                    theta = (d - offset) / radius
+                    w = -(ux * vx + uy * vy + uz * vz) / radius
+                else:
+                    w += h * a
+                    theta += h * w
+                next_angle.append(theta)
+                next_speed.append(w)
+            angle, speed = next_angle, next_speed
+            self.directions, self.directions_at = directions, position
+        self.position_m = np.array(position)
+        self.velocity_m_s = np.array((vx, vy, vz))
+        self.angle_rad = np.array(angle)
+        self.angular_velocity_rad_s = np.array(speed)
+        self.tension_n = np.array(tension)
+        self.taut = np.array(taut)

@@ -31,9 +31,8 @@ class DigitalTwin:
     def step(self, reference: JointReference, period_s: float) -> TwinOutput:
         """The twin's state and torque at this tick; then it advances one period."""
         model = self.model
-        angle = model.angle_rad.copy()
-        speed = model.angular_velocity_rad_s.copy()
-        position = model.position_m.copy()
+        # No copies needed: the model's step replaces its state arrays, never writes into them.
+        angle, speed, position = model.angle_rad, model.angular_velocity_rad_s, model.position_m
         torque = self.controller.command(angle, speed, reference)
         model.step(torque, period_s)
         return TwinOutput(angle, speed, torque, position)

@@ -1,0 +1,201 @@
+"""cdpr-bench graph: how fast the closed loop runs, as nodes and in one process.
+
+- lockstep: the whole graph of `graph.graph_nodes` (every node its own process, no bag
+  recorder) on the paper's circle; cycles per wall second between the plant's first
+  and last tick, as the plant measures them.
+- in-process: `engine.run_inprocess` on the elastic circle; simulated s per wall s
+  (best of a few runs: the machine is shared).
+- realtime: the same graph on the 2 ms wall-clock timer; the plant's tick rate, its
+  deadline misses (a tick more than one period late), and the latency from its
+  publishing the state of a tick to its receiving the command stamped with it.
+- CPU: per node process (and its children), % of one core over the ticking window,
+  from /proc/<pid>/stat.
+
+The plant reports its timing on /diagnostics (cdpr_twin.tick_timing); this bench listens
+there, so no extra subscriber loads the per-cycle topics.
+"""
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+from cdpr_msgs_py import qos
+from cdpr_msgs_py.contract import DIAGNOSTICS
+
+from .engine import run_inprocess
+from .graph import Graph, GraphError, graph_nodes
+from .paths import DEFAULT_MOTIONS, config_file
+from .scenario_setup import ScenarioOptions, build_scenario
+
+NAMESPACE = '/cdpr_bench'
+MOTION = 'circle'
+REALTIME_DURATION_S = 10.0
+RUN_TIMEOUT_S = 300.0
+INPROCESS_REPEATS = 3
+CPU_SAMPLE_S = 0.1
+# After the plant exits, how long its last /diagnostics may take to arrive (s).
+REPORT_TIMEOUT_S = 3.0
+CLOCK_TICKS_PER_S = os.sysconf('SC_CLK_TCK')
+
+# (key, label, target text, test of the figure)
+TARGETS = [
+    ('lockstep_cycles_per_s', 'lockstep cycles/s', '>= 1000', lambda v: v >= 1000.0),
+    ('inprocess_realtime_factor', 'in-process x real time (elastic)', '>= 50', lambda v: v >= 50.0),
+    ('realtime_rate_hz', 'realtime tick rate Hz', '>= 499', lambda v: v >= 499.0),
+    ('realtime_deadline_miss_pct', 'realtime deadline misses %', '< 0.1', lambda v: v < 0.1),
+    ('state_to_command_p50_ms', 'state -> command p50 ms (realtime)', '', None),
+    ('state_to_command_p99_ms', 'state -> command p99 ms (realtime)', '< 1', lambda v: v < 1.0),
+    ('lockstep_state_to_command_p50_ms', 'state -> command p50 ms (lockstep)', '', None),
+    ('lockstep_state_to_command_p99_ms', 'state -> command p99 ms (lockstep)', '', None),
+]
+
+
+def private_domain() -> None:
+    """A DDS domain of this process's own unless the caller chose one."""
+    os.environ.setdefault('ROS_DOMAIN_ID', str(110 + os.getpid() % 100))
+
+
+class DiagnosticsListener:
+    """The latest /diagnostics key-values of every node, received in a background thread."""
+
+    def __init__(self):
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from rclpy.executors import SingleThreadedExecutor
+        self.rclpy = rclpy
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node('cdpr_bench_listener', context=self.context)
+        self.latest: dict[str, dict[str, str]] = {}
+        self.node.create_subscription(DiagnosticArray, DIAGNOSTICS, self.on_diagnostics,
+                                      qos.DIAGNOSTICS)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.stopping = threading.Event()
+        self.thread = threading.Thread(target=self.spin, daemon=True)
+        self.thread.start()
+
+    def spin(self) -> None:
+        while not self.stopping.is_set():
+            self.executor.spin_once(timeout_sec=0.1)
+
+    def on_diagnostics(self, message) -> None:
+        for status in message.status:
+            self.latest[status.name] = {pair.key: pair.value for pair in status.values}
+
+    def close(self) -> None:
+        self.stopping.set()
+        self.thread.join()
+        self.executor.shutdown(timeout_sec=0.5)
+        self.node.destroy_node()
+        self.rclpy.shutdown(context=self.context)
+
+
+def process_cpu_s(pid: int) -> float:
+    """CPU time (s) used so far by `pid` and the processes it started (0 once it is gone)."""
+    try:
+        with open(f'/proc/{pid}/stat') as file:
+            fields = file.read().rsplit(')', 1)[1].split()
+        with open(f'/proc/{pid}/task/{pid}/children') as file:
+            children = [int(child) for child in file.read().split()]
+    except (FileNotFoundError, ProcessLookupError):
+        return 0.0
+    # after the command name: state is field 3, utime 14, stime 15 (proc(5))
+    own = (int(fields[11]) + int(fields[12])) / CLOCK_TICKS_PER_S
+    return own + sum(process_cpu_s(child) for child in children)
+
+
+def cpu_percent(samples, first_s: float, last_s: float) -> dict[str, float]:
+    """% of one core per node between the samples that bound the ticking window best."""
+    inside = [sample for sample in samples if first_s <= sample[0] <= last_s] or samples
+    if len(inside) < 2:
+        return {}
+    (start, before), (end, after) = inside[0], inside[-1]
+    return {name: round(100.0 * (after[name] - before[name]) / (end - start), 1)
+            for name in before}
+
+
+def run_graph(parameters: dict, listener: DiagnosticsListener, log) -> tuple[dict, dict]:
+    """Run the graph to completion; the plant's final timing facts and CPU % per node."""
+    graph = Graph(graph_nodes(parameters), NAMESPACE, completion='plant_simulator', log=log)
+    plant = f'{NAMESPACE}/plant_simulator'
+    listener.latest.pop(plant, None)
+    samples = []
+    try:
+        graph.start()
+        graph.wait_until_up()
+        deadline = time.monotonic() + RUN_TIMEOUT_S
+        while not graph.check():
+            if time.monotonic() > deadline:
+                raise GraphError(f'the run did not complete within {RUN_TIMEOUT_S:.0f} s')
+            samples.append((time.monotonic(), {name: process_cpu_s(process.pid)
+                                               for name, process in graph.processes.items()}))
+            time.sleep(CPU_SAMPLE_S)
+    finally:
+        graph.stop()
+    deadline = time.monotonic() + REPORT_TIMEOUT_S
+    while 'last tick monotonic s' not in listener.latest.get(plant, {}):
+        if time.monotonic() > deadline:
+            raise GraphError(f'{plant} reported no tick timing on {DIAGNOSTICS}')
+        time.sleep(0.05)
+    facts = listener.latest[plant]
+    cpu = cpu_percent(samples, float(facts['first tick monotonic s']),
+                      float(facts['last tick monotonic s']))
+    return facts, cpu
+
+
+def inprocess_realtime_factor(config: str) -> float:
+    scenario = build_scenario(ScenarioOptions(config=config, motion=MOTION, fidelity='elastic'))
+    best = float('inf')
+    for _ in range(INPROCESS_REPEATS):
+        start = time.perf_counter()
+        run_inprocess(scenario)
+        best = min(best, time.perf_counter() - start)
+    return scenario.cycles * scenario.period_s / best
+
+
+def bench_graph(config: str, log=lambda line: None) -> dict:
+    """The figures of this module's docstring, by the keys of TARGETS, plus CPU per node."""
+    private_domain()
+    figures = {'inprocess_realtime_factor': round(inprocess_realtime_factor(config), 1)}
+    parameters = {'config_file': str(config_file(config)),
+                  'motions_file': str(config_file(DEFAULT_MOTIONS)), 'motion': MOTION}
+    listener = DiagnosticsListener()
+    try:
+        lockstep, lockstep_cpu = run_graph(dict(parameters, clock_mode='lockstep'), listener, log)
+        realtime, realtime_cpu = run_graph(
+            dict(parameters, clock_mode='realtime', duration_s=REALTIME_DURATION_S), listener, log)
+    finally:
+        listener.close()
+    figures.update({
+        'lockstep_cycles_per_s': float(lockstep['tick rate wall hz']),
+        'realtime_rate_hz': float(realtime['tick rate wall hz']),
+        'realtime_deadline_miss_pct': float(realtime['deadline misses pct']),
+        'state_to_command_p50_ms': float(realtime['state to command p50 ms']),
+        'state_to_command_p99_ms': float(realtime['state to command p99 ms']),
+        'lockstep_state_to_command_p50_ms': float(lockstep['state to command p50 ms']),
+        'lockstep_state_to_command_p99_ms': float(lockstep['state to command p99 ms']),
+        'state_to_command_measured_by': 'plant_simulator',
+        'cpu_pct': lockstep_cpu,
+        'realtime_cpu_pct': realtime_cpu,
+        # The graph's figures depend on what else runs on the machine.
+        'load_average_1min': round(os.getloadavg()[0], 2),
+    })
+    return figures
+
+
+def table(figures: dict) -> list[str]:
+    """The figures next to their targets, then CPU per node, as printable lines."""
+    lines = [f'  {"figure":<36} {"value":>9}  {"target":<8} met']
+    for key, label, target, met in TARGETS:
+        value = figures[key]
+        verdict = '' if met is None else ('yes' if met(value) else 'NO')
+        lines.append(f'  {label:<36} {value:9.3f}  {target:<8} {verdict}')
+    lines.append('  latency: the plant times its joint_states publish to the receipt of the '
+                 'effort_command with that stamp')
+    lines.append(f'  machine load average (1 min) at the end: {figures["load_average_1min"]}')
+    for key, label in (('cpu_pct', 'lockstep'), ('realtime_cpu_pct', 'realtime')):
+        lines.append(f'  CPU % of one core, {label}: ' + ', '.join(
+            f'{name} {value:.0f}' for name, value in sorted(figures[key].items())))
+    return lines

@@ -1,0 +1,356 @@
+"""cdpr-report BAG --out DIR: the paper's figures and the metrics of one run, from its bag.
+
+Any bag of the graph will do, simulated or from the real robot: a figure or a figure
+element whose topic is missing (ground truth on the real robot, FDI topics without the
+supervisor) is left out with a note. Writes into DIR one PNG per figure, metrics.json
+recomputed from the bag, and report.md, which shows them.
+
+Times are the control ticks' stamps (sim time in lockstep, s). The verdict and the mode
+carry no stamp: their receive time in the bag places them on the tick the supervisor
+judged (see tick_time).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from cdpr_control.config import ConfigError
+from cdpr_control.controller import NOMINAL, SAFE_HOLD
+from cdpr_control.kinematics import forward_kinematics
+from cdpr_control.robot import Robot, load_robot
+from cdpr_fdi.config import load_fdi_config, load_recovery_config
+from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
+from cdpr_fdi.residual import FrictionModel, sensorless_tensions
+from cdpr_msgs_py import contract
+
+from . import plots
+from .bag_io import NANOSECONDS, read_messages, recording_from_bag, stamp_ns
+from .engine import Recording
+from .metrics import fdi_summary_from_diagnostics, tracking_error_m, twin_kpis
+from .paths import DEFAULT_ROBOT, config_file
+
+
+@dataclass
+class Run:
+    """What one bag tells about a run, on its control ticks (SI units, times in s)."""
+
+    robot: Robot
+    recording: Recording
+    residual_nm: np.ndarray
+    epsilon_nm: float
+    friction: FrictionModel                # the Coulomb friction the FDI assumes
+    verdicts: list[tuple[float, int]]      # /fdi/broken_cable: (time, 0 or cable k)
+    modes: list[tuple[float, str]]         # /mode: (time, mode) at each change
+    failure_time_s: float | None
+    true_broken_cables: list[int] | None   # 1-based; None when nothing tells
+    wall_time_s: float
+    supervisor: dict = field(default_factory=dict)  # its last summary on /diagnostics
+    safe_point_m: np.ndarray | None = None
+    reached_tolerance_m: float | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def time_s(self) -> np.ndarray:
+        return self.recording.time_s
+
+    @property
+    def has_ground_truth(self) -> bool:
+        return bool(np.isfinite(self.recording.true_position_m).all())
+
+    @property
+    def detection_time_s(self) -> float | None:
+        """When the detection signal first named a cable (s)."""
+        return next((t for t, cable in self.verdicts if cable), None)
+
+    @property
+    def identified_cables(self) -> list[int]:
+        return sorted({cable for _, cable in self.verdicts if cable})
+
+    @property
+    def broken_cables(self) -> list[int]:
+        """Cables known to be broken: identified, else the truth (1-based)."""
+        return self.identified_cables or list(self.true_broken_cables or [])
+
+    @property
+    def attached(self) -> np.ndarray:
+        return self.robot.cable_mask([cable - 1 for cable in self.broken_cables])
+
+    @property
+    def event_time_s(self) -> float | None:
+        """Where the run stops being nominal: the failure, else its detection."""
+        return self.failure_time_s if self.failure_time_s is not None else self.detection_time_s
+
+    def mode_time_s(self, mode: str) -> float | None:
+        return next((t for t, m in self.modes if m == mode), None)
+
+    @property
+    def nominal_ticks(self) -> slice:
+        """The ticks before the failure (or its detection): where the twin should agree."""
+        if self.event_time_s is None:
+            return slice(None)
+        return slice(0, int(np.searchsorted(self.time_s, self.event_time_s, side='left')))
+
+    @property
+    def position_label(self) -> str:
+        return 'true (ground truth)' if self.has_ground_truth else 'measured (forward kinematics)'
+
+    @cached_property
+    def position_m(self) -> np.ndarray:
+        """The end-effector: ground truth, else forward kinematics of the measured angles,
+        over the remaining cables once a failure was detected (m)."""
+        if self.has_ground_truth:
+            return self.recording.true_position_m
+        after = (self.time_s >= self.detection_time_s if self.detection_time_s is not None
+                 else np.zeros(self.time_s.size, dtype=bool))
+        return np.array([forward_kinematics(self.robot, angle, self.attached if late else None)
+                         for angle, late in zip(self.recording.angle_rad, after)])
+
+    @cached_property
+    def tension_estimate_n(self) -> tuple[np.ndarray, np.ndarray]:
+        """Sensorless τ̂ = (J θ̈ + b θ̇ + f_c(θ̇) − c) / ρ over each control period, θ̈
+        from two measured speeds, f_c the FDI's Coulomb friction: (period start times s, τ̂ N)."""
+        recording = self.recording
+        period = np.diff(recording.time_s)[:, None]
+        speed = recording.angular_velocity_rad_s
+        return recording.time_s[:-1], sensorless_tensions(
+            self.robot.motor, self.friction, recording.command_nm[:-1],
+            speed[:-1], speed[1:], period)
+
+
+def load_run(bag: str | Path, config_path: str | Path = DEFAULT_ROBOT,
+             namespace: str = contract.DEFAULT_NAMESPACE, epsilon_nm: float | None = None,
+             coulomb_friction_nm: float | None = None) -> Run:
+    """The run in `bag`; ε and the Coulomb friction default to the config's `fdi` ones."""
+    bag = Path(bag)
+    config_path = config_file(config_path)
+    robot = load_robot(config_path)
+    fdi = load_fdi_config(config_path, robot).with_overrides(
+        epsilon_nm=epsilon_nm, coulomb_friction_nm=coulomb_friction_nm)
+    recording = recording_from_bag(bag, namespace)
+    if recording.angle_rad.shape[1] != robot.cable_count:
+        raise ValueError(f'{bag} has {recording.angle_rad.shape[1]} motors, '
+                         f'{config_path} {robot.cable_count}: pass the robot the bag was recorded with')
+    topics = {key: f'{namespace}/{key}' for key in (
+        contract.JOINT_STATES, contract.FDI_RESIDUAL, contract.FDI_BROKEN_CABLE, contract.MODE)}
+    topics[contract.DIAGNOSTICS] = contract.DIAGNOSTICS
+    found = read_messages(bag, list(topics.values()))
+    notes = []
+    residual = recording.residual_nm
+    if residual is None or np.isnan(residual).all():
+        residual = recording.command_nm - recording.twin_torque_nm
+        notes.append(f'no {topics[contract.FDI_RESIDUAL]}: residual computed as c − c_DT '
+                     f'from the commanded and the twin torques')
+    to_tick = (tick_time(found[topics[contract.FDI_RESIDUAL]], following=True)
+               if found[topics[contract.FDI_RESIDUAL]]
+               else tick_time(found[topics[contract.JOINT_STATES]], following=False))
+    verdicts = [(to_tick(t), int(m.data)) for t, m in found[topics[contract.FDI_BROKEN_CABLE]]]
+    modes = []
+    for t, message in found[topics[contract.MODE]]:
+        if not modes or modes[-1][1] != message.data:
+            modes.append((to_tick(t), message.data))
+    if not verdicts:
+        notes.append(f'no {topics[contract.FDI_BROKEN_CABLE]} (no supervisor): no detection signal')
+    if not modes:
+        notes.append(f'no {topics[contract.MODE]}: recovery phases unknown')
+    if not np.isfinite(recording.true_position_m).all():
+        notes.append('no ground truth (real robot): end-effector from forward kinematics of the '
+                     'measured angles, tensions only as estimated')
+    failure_time, true_broken, source = failure_of(bag, recording)
+    notes.append(source)
+    bag_times = [t for t, _ in found[topics[contract.JOINT_STATES]]]
+    run = Run(robot=robot, recording=recording, residual_nm=residual,
+              epsilon_nm=fdi.epsilon_nm, friction=fdi.friction, verdicts=verdicts, modes=modes,
+              failure_time_s=failure_time, true_broken_cables=true_broken,
+              wall_time_s=(bag_times[-1] - bag_times[0]) / NANOSECONDS,
+              supervisor=fdi_summary_from_diagnostics(found[contract.DIAGNOSTICS]), notes=notes)
+    if run.supervisor.get('safe_point_m') is not None:
+        run.safe_point_m = np.array(run.supervisor['safe_point_m'])
+    if run.broken_cables:
+        try:
+            recovery = load_recovery_config(config_path, robot)
+            run.reached_tolerance_m = recovery.reached_tolerance_m
+            if run.safe_point_m is None:
+                run.safe_point_m = safe_point_for(robot, recovery, run.attached)
+        except (ConfigError, RecoveryInfeasible) as err:
+            notes.append(f'no safe point: {err}')
+    return run
+
+
+def tick_time(clock: list[tuple[int, object]], following: bool):
+    """Bag time (ns) → the stamp (s) of the tick an unstamped verdict belongs to.
+
+    The supervisor publishes a tick's verdict and mode just before that tick's residual,
+    so on the residual `clock` the tick is that of the first residual recorded at or
+    after the verdict (`following`); on the state clock, that of the last state
+    recorded before it, the state it judged.
+    """
+    bag_times = np.array([t for t, _ in clock], dtype=np.int64)
+    stamps = np.array([stamp_ns(m) for _, m in clock], dtype=np.int64) / NANOSECONDS
+
+    def to_tick(bag_time_ns: int) -> float:
+        index = (np.searchsorted(bag_times, bag_time_ns, side='left') if following
+                 else np.searchsorted(bag_times, bag_time_ns, side='right') - 1)
+        return float(stamps[min(max(index, 0), stamps.size - 1)])
+    return to_tick
+
+
+def failure_of(bag: Path, recording: Recording) -> tuple[float | None, list[int] | None, str]:
+    """(failure time s, broken cables 1-based, where that came from): metrics.json beside
+    the bag, else the first tick from which a cable's true tension stays 0 to the end."""
+    written = bag.parent / 'metrics.json'
+    if written.exists():
+        metrics = json.loads(written.read_text())
+        if 'failure_time_s' in metrics:
+            return (metrics['failure_time_s'], metrics.get('true_broken_cables'),
+                    f'failure time from {written}')
+    tension = recording.true_tension_n
+    if not np.isfinite(tension).all():
+        return None, None, 'failure time unknown (no metrics.json beside the bag, no ground truth)'
+    taut = tension > 0.0
+    # index of the first tick of the final run of zero tension, per cable
+    last_taut = np.where(taut.any(axis=0), taut.shape[0] - 1 - np.argmax(taut[::-1], axis=0), -1)
+    broke = np.flatnonzero((last_taut >= 0) & (last_taut < taut.shape[0] - 1))
+    if broke.size == 0:
+        return None, [], 'no failure: every cable taut at the end of the run (ground truth)'
+    tick = int(np.min(last_taut[broke])) + 1
+    return (float(recording.time_s[tick]), [int(c) + 1 for c in broke],
+            'failure time: first tick from which a true cable tension stays 0 (ground truth)')
+
+
+def metrics_of(run: Run) -> dict:
+    """The metrics.json keys of DESIGN §7 (and of cdpr-scenario), recomputed from the bag.
+
+    The KPIs and the tracking error cover the ticks before the failure (or its
+    detection). recovery.min_tension_n covers the remaining cables from then on (true
+    tensions, else the sensorless estimate), min_height_m the whole run, duration_s the
+    detection to SAFE_HOLD. The safe point is the supervisor's (from /diagnostics), else
+    the one the robot config gives.
+    """
+    detection, failure = run.detection_time_s, run.failure_time_s
+    nominal = run.nominal_ticks
+    after = slice(nominal.stop or 0, None)
+    tensions = (run.recording.true_tension_n[after] if run.has_ground_truth
+                else run.tension_estimate_n[1][after])
+    position = run.position_m
+    final_error = (float(np.linalg.norm(position[-1] - run.safe_point_m))
+                   if run.safe_point_m is not None else None)
+    hold = run.mode_time_s(SAFE_HOLD)
+    known_failure = failure is not None or run.true_broken_cables is not None
+    phase_times = {}
+    for t, mode in run.modes:
+        if mode != NOMINAL:
+            phase_times.setdefault(mode, t)
+    return {
+        'epsilon_nm': run.epsilon_nm,
+        'failure_time_s': failure,
+        'detection_time_s': detection,
+        'detection_delay_ms': (detection - failure) * 1000.0
+        if detection is not None and failure is not None else None,
+        'identified_cables': run.identified_cables,
+        'true_broken_cables': run.true_broken_cables,
+        'false_alarm': (detection is not None and (failure is None or detection < failure))
+        if known_failure else None,
+        'mode': run.modes[-1][1] if run.modes else None,
+        'fault': run.supervisor.get('fault') or None,
+        'safe_point_m': run.safe_point_m.tolist() if run.safe_point_m is not None else None,
+        'recovery': {
+            'reached_safe_point': final_error <= run.reached_tolerance_m
+            if final_error is not None and run.reached_tolerance_m is not None else None,
+            'final_error_m': final_error,
+            'min_tension_n': float(np.min(tensions[:, run.attached])) if tensions.size else None,
+            'min_height_m': float(np.min(position[:, 2])),
+            'duration_s': hold - detection if hold is not None and detection is not None else None,
+            'phase_times_s': phase_times,
+            'settle_timed_out': run.supervisor.get('settle_timed_out'),
+        },
+        'kpi': twin_kpis(run.robot, run.recording, nominal),
+        'tracking_error_m': tracking_error_m(run.recording, nominal) if run.has_ground_truth else None,
+        'cycles': int(run.time_s.size),
+        'wall_time_s': run.wall_time_s,
+    }
+
+
+def write_report(bag_path: str | Path, out_dir: str | Path, config_path: str | Path | None = None,
+                 namespace: str = contract.DEFAULT_NAMESPACE, epsilon_nm: float | None = None,
+                 coulomb_friction_nm: float | None = None) -> dict:
+    """Plots (out_dir/*.png), metrics.json and report.md of the run in `bag_path`; the metrics.
+
+    `epsilon_nm` and `coulomb_friction_nm` (0 for the rigid plant, which has none)
+    replace the robot config's `fdi` values.
+    """
+    bag, out = Path(bag_path), Path(out_dir)
+    if out.resolve() == bag.parent.resolve():
+        raise ValueError(f'{out}: the run\'s own metrics.json is there; choose another folder')
+    run = load_run(bag, config_path or DEFAULT_ROBOT, namespace, epsilon_nm, coulomb_friction_nm)
+    out.mkdir(parents=True, exist_ok=True)
+    figures = []
+    for name, draw in plots.FIGURES.items():
+        caption = draw(run, out / f'{name}.png')
+        if caption is None:
+            run.notes.append(f'{name}.png left out: nothing to plot')
+        else:
+            figures.append((f'{name}.png', caption))
+    metrics = metrics_of(run)
+    (out / 'metrics.json').write_text(json.dumps(metrics, indent=2))
+    (out / 'report.md').write_text(markdown(bag, run, metrics, figures))
+    return metrics
+
+
+def markdown(bag: Path, run: Run, metrics: dict, figures: list[tuple[str, str]]) -> str:
+    rows = [(key, value) for key, value in metrics.items() if not isinstance(value, dict)]
+    rows += [(f'{group}.{key}', value) for group in ('recovery', 'kpi')
+             for key, value in metrics[group].items()]
+    lines = [f'# Run report: `{bag}`', '',
+             f'{run.time_s.size} control ticks, {run.time_s[-1] - run.time_s[0]:.2f} s of run, '
+             f'{run.robot.cable_count} cables ({run.robot.name}).', '']
+    lines += [f'- {note}' for note in run.notes]
+    lines += ['', '| metric | value |', '|---|---|']
+    lines += [f'| {key} | {format_value(value)} |' for key, value in rows]
+    for file, caption in figures:
+        lines += ['', f'![{Path(file).stem}]({file})', '', f'*{caption}*']
+    return '\n'.join(lines) + '\n'
+
+
+def format_value(value) -> str:
+    if value is None:
+        return '—'
+    if isinstance(value, float):
+        return f'{value:.4g}'
+    if isinstance(value, dict):
+        return ', '.join(f'{key} {format_value(item)}' for key, item in value.items()) or '—'
+    if isinstance(value, list):
+        return '[' + ', '.join(format_value(item) for item in value) + ']'
+    return str(value)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('bag', help='rosbag2 folder (or a killed recorder\'s folder)')
+    parser.add_argument('--out', required=True, help='output folder')
+    parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML the bag was recorded with')
+    parser.add_argument('--epsilon', type=float, metavar='NM',
+                        help='detection threshold ε to draw (N·m; default: fdi.epsilon_nm of --config)')
+    parser.add_argument('--coulomb-friction', type=float, metavar='NM',
+                        help='Coulomb friction of the motors for the tension estimate (N·m; '
+                             'default: fdi.coulomb_friction_nm of --config; 0 for the rigid plant)')
+    parser.add_argument('--namespace', default=contract.DEFAULT_NAMESPACE)
+    args = parser.parse_args(argv)
+    try:
+        metrics = write_report(args.bag, args.out, args.config, args.namespace, args.epsilon,
+                               args.coulomb_friction)
+    except (OSError, ValueError) as err:
+        print(f'cdpr-report: {err}', file=sys.stderr)
+        return 1
+    print(f'report: {Path(args.out) / "report.md"}')
+    print(json.dumps(metrics, indent=2))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

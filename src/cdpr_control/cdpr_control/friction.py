@@ -1,0 +1,30 @@
+"""The motors' Coulomb friction as the control stack models it (the twin has none)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import Section
+from .robot import Robot
+
+
+@dataclass(frozen=True)
+class FrictionModel:
+    """Coulomb friction torque (N·m), reached smoothly over `smoothing_rad_s`."""
+
+    coulomb_nm: float
+    smoothing_rad_s: float
+
+    @classmethod
+    def of_robot(cls, robot: Robot, control: Section, coulomb_nm: float | None = None) -> 'FrictionModel':
+        """The motors' static friction (robot.motor), unless `coulomb_nm` says otherwise
+        (0 on the rigid plant, which is the twin's friction-free model)."""
+        return cls(robot.motor.static_friction_nm if coulomb_nm is None else float(coulomb_nm),
+                   control.number('coulomb_smoothing_rad_s', positive=True))
+
+    def torque_nm(self, angular_velocity_rad_s: np.ndarray) -> np.ndarray:
+        """The torque friction takes from a motor turning at `angular_velocity_rad_s`."""
+        if self.coulomb_nm == 0.0:
+            return np.zeros_like(angular_velocity_rad_s)
+        return self.coulomb_nm * np.tanh(angular_velocity_rad_s / self.smoothing_rad_s)

@@ -1,0 +1,103 @@
+"""Detector thresholds from failure-free residuals, for a target false-alarm rate.
+
+A detector alarms when its statistic's maximum over a run exceeds its threshold. The
+maxima of the statistic over blocks of W seconds follow, for light tails, a Gumbel law;
+fitted to the calibration runs' maxima (each run a block: one whole motion, from rest
+to rest, so the blocks are alike), it gives the level a run exceeds with probability
+rate · W, i.e. once per 1 / rate hours of such motion. A threshold the calibration data
+itself crosses is never returned: the largest value seen bounds it from below.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cdpr_control.friction import FrictionModel
+
+EULER_GAMMA = 0.5772156649015329
+
+
+@dataclass
+class FailureFreeRun:
+    """Per tick of one failure-free run: residual r (N·m) and the twin's θ̇ (rad/s)."""
+
+    residual_nm: np.ndarray
+    twin_angular_velocity_rad_s: np.ndarray
+
+
+def fit_coulomb_friction(runs: list[FailureFreeRun], smoothing_rad_s: float) -> float:
+    """The f_c (N·m) that best explains the residuals as f_c tanh(θ̇_DT / v) (least squares)."""
+    shape = np.concatenate([np.tanh(run.twin_angular_velocity_rad_s / smoothing_rad_s).ravel()
+                            for run in runs])
+    residual = np.concatenate([run.residual_nm.ravel() for run in runs])
+    return max(float(shape @ residual / (shape @ shape)), 0.0)
+
+
+def gumbel_threshold(maxima: np.ndarray, block_s: float, false_alarms_per_hour: float) -> float:
+    """The level a block maximum exceeds with probability rate · W (Gumbel fit)."""
+    if maxima.size < 2:
+        raise ValueError('need at least two failure-free runs')
+    scale = float(np.std(maxima, ddof=1)) * np.sqrt(6.0) / np.pi
+    location = float(np.mean(maxima)) - EULER_GAMMA * scale
+    exceedance = false_alarms_per_hour * block_s / 3600.0
+    level = location - scale * np.log(-np.log1p(-exceedance))
+    return float(max(level, np.max(maxima)))
+
+
+def cusum_trace(normalised: np.ndarray, drift: float) -> np.ndarray:
+    """max over motors of g_k = max(0, g_{k−1} + z_k − ν), per tick (z: ticks × motors)."""
+    g = np.zeros(normalised.shape[1])
+    trace = np.empty(normalised.shape[0])
+    for k, z in enumerate(normalised):
+        g = np.maximum(0.0, g + z - drift)
+        trace[k] = g.max()
+    return trace
+
+
+@dataclass
+class Calibration:
+    coulomb_friction_nm: float
+    epsilon_nm: float
+    cusum_sigma_nm: list[float]
+    cusum_drift: float
+    cusum_threshold: float
+    hours: float
+    runs: int
+    largest_residual_nm: float
+    largest_cusum: float
+
+
+def calibrate(runs: list[FailureFreeRun], period_s: float, smoothing_rad_s: float,
+              cusum_threshold: float, false_alarms_per_hour: float) -> Calibration:
+    """Thresholds for the threshold and CUSUM detectors from failure-free runs.
+
+    CUSUM: σ_i is the spread of the friction-compensated residual; the drift ν is the
+    level the normalised residual z reaches once per 1 / rate hours (half the budget),
+    so a healthy robot almost never feeds the sum; the decision level h is at least
+    `cusum_threshold` and above what the sums did reach (the other half).
+    """
+    coulomb = fit_coulomb_friction(runs, smoothing_rad_s)
+    friction = FrictionModel(coulomb, smoothing_rad_s)
+    compensated = [run.residual_nm - friction.torque_nm(run.twin_angular_velocity_rad_s) for run in runs]
+    sigma = np.std(np.vstack(compensated), axis=0)
+    ticks = sum(run.residual_nm.shape[0] for run in runs)
+    block_s = ticks * period_s / len(runs)
+    raw_maxima = np.array([np.max(np.abs(run.residual_nm)) for run in runs])
+    normalised = [np.abs(e) / sigma for e in compensated]
+    drift = gumbel_threshold(np.array([np.max(z) for z in normalised]), block_s,
+                             false_alarms_per_hour / 2.0)
+    cusum_maxima = np.array([np.max(cusum_trace(z, drift)) for z in normalised])
+    level = (gumbel_threshold(cusum_maxima, block_s, false_alarms_per_hour / 2.0)
+             if np.any(cusum_maxima > 0.0) else 0.0)
+    return Calibration(
+        coulomb_friction_nm=coulomb,
+        epsilon_nm=gumbel_threshold(raw_maxima, block_s, false_alarms_per_hour),
+        cusum_sigma_nm=[float(s) for s in sigma],
+        cusum_drift=drift,
+        cusum_threshold=max(cusum_threshold, level),
+        hours=ticks * period_s / 3600.0,
+        runs=len(runs),
+        largest_residual_nm=float(raw_maxima.max()),
+        largest_cusum=float(cusum_maxima.max()),
+    )

@@ -1,0 +1,129 @@
+"""FDI and recovery settings from the robot YAML (`fdi`, `recovery`) and a calibration file.
+
+A calibration file written by `cdpr-calibrate` holds an `fdi` mapping with the same keys
+as the robot file's; its values replace the robot file's. The motors' Coulomb friction
+is robot.motor.static_friction_nm unless `fdi.coulomb_friction_nm` (e.g. as calibrated
+from failure-free runs) says otherwise.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from cdpr_control.config import Section, load_section, load_yaml
+from cdpr_control.friction import FrictionModel
+from cdpr_control.robot import Robot
+
+from .detectors import DETECTORS
+
+
+@dataclass(frozen=True)
+class FdiConfig:
+    detector: str
+    epsilon_nm: float
+    delta_nm: float
+    friction: FrictionModel
+    cusum_sigma_nm: tuple[float, ...]
+    cusum_drift: float
+    cusum_threshold: float
+
+    @classmethod
+    def from_section(cls, fdi: Section, cable_count: int, friction: FrictionModel) -> 'FdiConfig':
+        cusum = fdi.section('cusum')
+        sigma = cusum.raw('sigma_nm')
+        sigma = ([cusum.number('sigma_nm', positive=True)] * cable_count
+                 if isinstance(sigma, (int, float)) else list(cusum.vector('sigma_nm', cable_count)))
+        return cls(
+            detector=fdi.string('detector', choices=DETECTORS),
+            epsilon_nm=fdi.number('epsilon_nm', positive=True),
+            delta_nm=fdi.number('identification_delta_nm', positive=True),
+            friction=(FrictionModel(fdi.number('coulomb_friction_nm', non_negative=True),
+                                    friction.smoothing_rad_s)
+                      if fdi.has('coulomb_friction_nm') else friction),
+            cusum_sigma_nm=tuple(float(s) for s in sigma),
+            cusum_drift=cusum.number('drift', non_negative=True),
+            cusum_threshold=cusum.number('threshold', positive=True),
+        )
+
+    def with_overrides(self, detector: str | None = None, epsilon_nm: float | None = None,
+                       coulomb_friction_nm: float | None = None) -> 'FdiConfig':
+        """The same settings with the given ones replaced (CLI and ROS parameters)."""
+        changes = {}
+        if detector:
+            if detector not in DETECTORS:
+                raise ValueError(f'unknown detector {detector!r}; one of {", ".join(DETECTORS)}')
+            changes['detector'] = detector
+        if epsilon_nm is not None:
+            if epsilon_nm <= 0.0:
+                raise ValueError(f'epsilon must be positive, got {epsilon_nm}')
+            changes['epsilon_nm'] = float(epsilon_nm)
+        if coulomb_friction_nm is not None:
+            changes['friction'] = dataclasses.replace(self.friction, coulomb_nm=float(coulomb_friction_nm))
+        return dataclasses.replace(self, **changes)
+
+
+def load_fdi_config(config_path: str | Path, robot: Robot,
+                    calibration_path: str | Path | None = None) -> FdiConfig:
+    """The robot file's `fdi` section, with a calibration file's values on top."""
+    data = dict(load_yaml(config_path).get('fdi') or {})
+    path = config_path
+    if calibration_path:
+        calibration = Section(load_yaml(calibration_path), calibration_path).section('fdi')
+        data = _merged(data, dict(calibration.data))
+        path = calibration_path
+    friction = FrictionModel.of_robot(robot, load_section(config_path, 'control'))
+    return FdiConfig.from_section(Section(data, path, 'fdi'), robot.cable_count, friction)
+
+
+def _merged(base: dict, update: dict) -> dict:
+    merged = dict(base)
+    for key, value in update.items():
+        merged[key] = (_merged(base[key], value) if isinstance(value, dict)
+                       and isinstance(base.get(key), dict) else value)
+    return merged
+
+
+@dataclass(frozen=True)
+class RecoveryConfig:
+    """Paper §3.2: where to go after a failure and how (heights m, times s, speeds)."""
+
+    safe_height_m: float
+    table_height_m: float
+    safe_points_m: dict[int, np.ndarray]
+    tension_phase_s: float
+    tension_floor_n: float
+    settled_speed_rad_s: float
+    settle_timeout_s: float
+    move_peak_speed_m_s: float
+    minimum_move_s: float
+    reached_tolerance_m: float
+    budget_s: float
+
+    @classmethod
+    def from_section(cls, recovery: Section, robot: Robot) -> 'RecoveryConfig':
+        overrides = recovery.section('safe_points_m')
+        safe_points = {}
+        for cable in overrides.data:
+            if not isinstance(cable, int) or not 1 <= cable <= robot.cable_count:
+                raise overrides.error(str(cable), f'must be a cable number 1..{robot.cable_count}')
+            safe_points[cable] = overrides.vector(cable, 3)
+        return cls(
+            safe_height_m=recovery.number('safe_height_m', positive=True),
+            table_height_m=recovery.number('table_height_m', non_negative=True),
+            safe_points_m=safe_points,
+            tension_phase_s=recovery.number('tension_phase_s', positive=True),
+            tension_floor_n=recovery.number('tension_floor_n', positive=True),
+            settled_speed_rad_s=recovery.number('settled_speed_rad_s', positive=True),
+            settle_timeout_s=recovery.number('settle_timeout_s', positive=True),
+            move_peak_speed_m_s=recovery.number('move_peak_speed_m_s', positive=True),
+            minimum_move_s=recovery.number('minimum_move_s', positive=True),
+            reached_tolerance_m=recovery.number('reached_tolerance_m', positive=True),
+            budget_s=recovery.number('budget_s', positive=True),
+        )
+
+
+def load_recovery_config(config_path: str | Path, robot: Robot) -> RecoveryConfig:
+    return RecoveryConfig.from_section(load_section(config_path, 'recovery'), robot)

@@ -1,0 +1,152 @@
+"""The supervisor's core: residual, detection, identification and recovery, per tick.
+
+Tick k brings the measured θ_k, θ̇_k and the torque applied over the previous period
+(what the drive reports), the controller's answer c_k, the twin's c_DT,k and θ̇_DT,k, and
+the reference of tick k. The verdict of tick k (broken cables, mode, setpoints) is what
+the controller uses from tick k + 1 on.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from cdpr_control.controller import FAULT, NOMINAL, JointReference
+from cdpr_control.kinematics import forward_kinematics
+from cdpr_control.robot import Robot
+from cdpr_control.tension_distribution import TensionDistribution
+
+from .config import FdiConfig, RecoveryConfig
+from .detectors import make_detector
+from .identification import identify_broken_cables
+from .recovery import Recovery, RecoveryInfeasible, check_recoverable, initial_tensions
+from .residual import sensorless_tension_bounds
+
+
+@dataclass
+class Verdict:
+    """The supervisor's output of one tick; cables 1-based, setpoints for the next tick."""
+
+    tick: int
+    residual_nm: np.ndarray
+    alarm: bool
+    broken_cables: list[int]
+    mode: str
+    tension_setpoint_n: np.ndarray | None = None
+    reference: JointReference | None = None
+    events: list[str] = field(default_factory=list)
+
+
+class Supervisor:
+
+    def __init__(self, robot: Robot, fdi: FdiConfig, recovery: RecoveryConfig,
+                 distribution: TensionDistribution, period_s: float):
+        self.robot = robot
+        self.fdi = fdi
+        self.recovery_config = recovery
+        self.distribution = distribution
+        self.period_s = period_s
+        self.detector = make_detector(fdi)
+        self.mode = NOMINAL
+        self.broken: list[int] = []
+        self.alarm_tick: int | None = None
+        self.identified_tick: int | None = None
+        self.unidentified_alarms = 0
+        self.recovery: Recovery | None = None
+        self.fault_reason = ''
+        self.previous_speed: np.ndarray | None = None
+        self.previous_reference: JointReference | None = None
+        self.tension_bounds_n = (np.zeros(robot.cable_count), np.zeros(robot.cable_count))
+        self.candidates: list[int] = []
+
+    def update(self, tick: int, angle_rad, angular_velocity_rad_s, applied_torque_nm,
+               command_nm, twin_torque_nm, twin_angular_velocity_rad_s,
+               reference: JointReference) -> Verdict:
+        residual = np.asarray(command_nm, float) - np.asarray(twin_torque_nm, float)
+        if self.previous_speed is not None:
+            self.tension_bounds_n = sensorless_tension_bounds(
+                self.robot.motor, self.fdi.friction, np.asarray(applied_torque_nm, float),
+                self.previous_speed, np.asarray(angular_velocity_rad_s, float), self.period_s)
+        events: list[str] = []
+        alarm = False
+        if not self.broken:
+            alarm = self.detector.update(residual, np.asarray(twin_angular_velocity_rad_s, float))
+            if alarm and self.alarm_tick is None:
+                self.alarm_tick = tick
+            if alarm and self.previous_speed is not None:
+                found = identify_broken_cables(*self.tension_bounds_n, residual,
+                                               self.robot.motor.drum_radius_m, self.fdi.delta_nm)
+                confirmed = self.confirm(found)
+                if confirmed:
+                    events += self.on_identified(tick, confirmed, angle_rad, command_nm, reference)
+            elif not alarm and self.alarm_tick is not None:
+                self.unidentified_alarms += 1
+                events.append(f'alarm from tick {self.alarm_tick} ended without a free motor')
+                self.alarm_tick = None
+        tensions = setpoint = None
+        if self.recovery is not None:
+            previous_mode = self.mode
+            self.mode, tensions, setpoint = self.recovery.setpoint(tick, angle_rad, angular_velocity_rad_s)
+            if self.mode != previous_mode:
+                events.append(f'{self.mode} from tick {tick + 1}')
+        self.previous_speed = np.array(angular_velocity_rad_s, dtype=float)
+        self.previous_reference = reference
+        return Verdict(tick, residual, alarm, [c + 1 for c in self.broken], self.mode, tensions,
+                       setpoint, events)
+
+    def confirm(self, found: list[int]) -> list[int]:
+        """One free motor is named at once; several only if they stay free a second tick.
+
+        Right after a failure a loaded motor can look free for one tick (its cable
+        briefly unloaded); the broken cables' motors stay free.
+        """
+        previous, self.candidates = self.candidates, found
+        if len(found) == 1 and not previous:
+            return found
+        return sorted(set(found) & set(previous)) if previous else []
+
+    def on_identified(self, tick: int, cables: list[int], angle_rad, command_nm,
+                      reference: JointReference) -> list[str]:
+        self.broken = sorted(cables)
+        self.identified_tick = tick
+        attached = self.robot.cable_mask(self.broken)
+        events = [f'cable(s) {", ".join(str(c + 1) for c in self.broken)} broken: alarm at tick '
+                  f'{self.alarm_tick}, identified at tick {tick}']
+        try:
+            check_recoverable(self.robot, attached)
+            position = forward_kinematics(self.robot, np.asarray(angle_rad, float), attached)
+            start = initial_tensions(self.robot, position, attached,
+                                     forward_kinematics(self.robot, reference.angle_rad),
+                                     self.reference_tensions(reference),
+                                     np.asarray(command_nm, float) - reference.feedforward_nm,
+                                     self.recovery_config.tension_floor_n)
+            self.recovery = Recovery(self.robot, self.recovery_config, self.distribution,
+                                     self.period_s, attached, tick, start)
+        except (RecoveryInfeasible, ValueError) as err:
+            self.mode = FAULT
+            self.fault_reason = str(err)
+            events.append(f'FAULT: {err}')
+        return events
+
+    def reference_tensions(self, reference: JointReference) -> np.ndarray:
+        """τ_d = (J θ̈_d + b θ̇_d − c_ID) / ρ, θ̈_d from the previous reference (N)."""
+        motor = self.robot.motor
+        previous = self.previous_reference or reference
+        acceleration = (reference.angular_velocity_rad_s - previous.angular_velocity_rad_s) / self.period_s
+        return (motor.inertia_kg_m2 * acceleration + motor.viscous_friction_nm_s_rad
+                * reference.angular_velocity_rad_s - reference.feedforward_nm) / motor.drum_radius_m
+
+    def summary(self) -> dict:
+        """What happened so far, in plain types (ticks, 1-based cables, SP in m)."""
+        recovery = self.recovery
+        return {
+            'alarm_tick': self.alarm_tick,
+            'identified_tick': self.identified_tick,
+            'broken_cables': [c + 1 for c in self.broken],
+            'mode': self.mode,
+            'phase_ticks': {} if recovery is None else dict(recovery.phase_ticks),
+            'safe_point_m': None if recovery is None else recovery.safe_point_m.tolist(),
+            'settle_timed_out': bool(recovery is not None and recovery.timed_out),
+            'fault': self.fault_reason,
+            'unidentified_alarms': self.unidentified_alarms,
+        }

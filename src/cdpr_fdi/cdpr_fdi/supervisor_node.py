@@ -1,0 +1,146 @@
+"""supervisor: failure detection, identification and recovery setpoints (paper §3).
+
+Per tick it pairs /cdpr/joint_states, /cdpr/effort_command, /cdpr/twin/joint_states and
+/cdpr/reference by stamp, runs the Supervisor core, and publishes, in this order: the
+recovery setpoint for the next tick, /cdpr/fdi/broken_cable and /cdpr/mode when they
+change (latched), then /cdpr/fdi/residual of the tick — the controller, in lockstep,
+answers the next state only after that residual, so every verdict applies on the same
+tick as in the in-process engine.
+"""
+from __future__ import annotations
+
+import json
+
+from rclpy.duration import Duration
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Int32, String
+
+from cdpr_control.config import load_section, resolve_config
+from cdpr_control.controller import NOMINAL, JointReference
+from cdpr_control.robot import load_robot
+from cdpr_control.tension_distribution import make_tension_distribution
+from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.conversions import joint_state
+from cdpr_msgs_py.runtime import CdprNode, run
+
+from .config import load_fdi_config, load_recovery_config
+from .supervisor import Supervisor
+
+INPUTS = ('state', 'command', 'twin', 'reference')
+ACK_TIMEOUT = Duration(seconds=1.0)
+
+
+class SupervisorNode(CdprNode):
+
+    def __init__(self):
+        super().__init__('supervisor')
+        config = resolve_config(self.get_parameter('config_file').value)
+        self.robot = load_robot(config)
+        control = load_section(config, 'control')
+        self.period_s = control.number('period_s', positive=True)
+        self.period_ns = int(round(self.period_s * 1e9))
+        calibration = self.parameter('calibration_file', '')
+        epsilon = self.parameter('epsilon_nm', -1.0)
+        friction = self.parameter('coulomb_friction_nm', -1.0)
+        fdi = load_fdi_config(config, self.robot, resolve_config(calibration) if calibration else None)
+        fdi = fdi.with_overrides(self.parameter('detector', '') or None,
+                                 None if epsilon < 0 else epsilon, None if friction < 0 else friction)
+        distribution = make_tension_distribution(control.string('tension_distribution'),
+                                                 self.robot.tension_min_n, self.robot.tension_max_n)
+        self.supervisor = Supervisor(self.robot, fdi, load_recovery_config(config, self.robot),
+                                     distribution, self.period_s)
+        self.names = contract.joint_names(self.robot.cable_count)
+        self.inputs: dict[str, dict[int, object]] = {name: {} for name in INPUTS}
+        self.origin_ns: int | None = None
+        self.last_tick_ns = -1
+        self.published_broken: list[int] = []
+        self.published_mode = NOMINAL
+        self.residual = self.create_publisher(JointState, contract.FDI_RESIDUAL, qos.STREAM)
+        self.broken_cable = self.create_publisher(Int32, contract.FDI_BROKEN_CABLE, qos.LATCHED)
+        self.mode = self.create_publisher(String, contract.MODE, qos.LATCHED)
+        self.tensions = self.create_publisher(JointState, contract.RECOVERY_TENSIONS, qos.STREAM)
+        self.recovery_reference = self.create_publisher(JointState, contract.RECOVERY_REFERENCE, qos.STREAM)
+        self.create_subscription(JointState, contract.EFFORT_COMMAND, self.on_command, qos.STREAM)
+        self.create_subscription(JointState, contract.TWIN_JOINT_STATES, self.on_twin, qos.STREAM)
+        self.create_subscription(JointState, contract.REFERENCE, self.on_reference, qos.STREAM)
+        self.start_when_matched(lambda: self.create_subscription(
+            JointState, contract.JOINT_STATES, self.on_state, qos.STREAM))
+        self.broken_cable.publish(Int32(data=0))
+        self.mode.publish(String(data=NOMINAL))
+        self.report()
+
+    def on_state(self, message: JointState) -> None:
+        self.store('state', self.joints_or_reject(message, contract.JOINT_STATES))
+
+    def on_command(self, message: JointState) -> None:
+        self.store('command', self.joints_or_reject(message, contract.EFFORT_COMMAND, ('effort',)))
+
+    def on_twin(self, message: JointState) -> None:
+        self.store('twin', self.joints_or_reject(message, contract.TWIN_JOINT_STATES))
+
+    def on_reference(self, message: JointState) -> None:
+        self.store('reference', self.joints_or_reject(message, contract.REFERENCE))
+
+    def store(self, name: str, joints) -> None:
+        if joints is None or joints.stamp_ns <= self.last_tick_ns:
+            return
+        self.inputs[name][joints.stamp_ns] = joints
+        self.judge_ready_ticks()
+
+    def judge_ready_ticks(self) -> None:
+        """Judge every tick whose four inputs have arrived, oldest first."""
+        ready = sorted(set.intersection(*(set(self.inputs[name]) for name in INPUTS)))
+        for stamp in ready:
+            self.judge(stamp, *(self.inputs[name].pop(stamp) for name in INPUTS))
+            for buffer in self.inputs.values():
+                for old in [s for s in buffer if s <= stamp]:
+                    del buffer[old]
+
+    def judge(self, stamp: int, state, command, twin, reference) -> None:
+        if self.origin_ns is None:
+            self.origin_ns = stamp
+        self.last_tick_ns = stamp
+        tick = (stamp - self.origin_ns) // self.period_ns
+        verdict = self.supervisor.update(
+            tick, state.position, state.velocity, state.effort, command.effort, twin.effort,
+            twin.velocity, JointReference(reference.position, reference.velocity, reference.effort))
+        following = stamp + self.period_ns
+        if verdict.tension_setpoint_n is not None:
+            self.tensions.publish(joint_state(self.names, following, effort=verdict.tension_setpoint_n))
+        if verdict.reference is not None:
+            self.recovery_reference.publish(joint_state(
+                self.names, following, verdict.reference.angle_rad,
+                verdict.reference.angular_velocity_rad_s, verdict.reference.feedforward_nm))
+        # A verdict change is acknowledged by every reader before the residual goes out:
+        # the controller then handles it before the residual that releases its next tick
+        # (separate topics keep no order between them), and a second broken cable cannot
+        # overwrite the first in the depth-1 latched history before it was delivered.
+        for cable in verdict.broken_cables:
+            if cable not in self.published_broken:
+                self.broken_cable.publish(Int32(data=cable))
+                self.broken_cable.wait_for_all_acked(ACK_TIMEOUT)
+        self.published_broken = list(verdict.broken_cables)
+        if verdict.mode != self.published_mode:
+            self.mode.publish(String(data=verdict.mode))
+            self.mode.wait_for_all_acked(ACK_TIMEOUT)
+            self.published_mode = verdict.mode
+        self.residual.publish(joint_state(self.names, stamp, effort=verdict.residual_nm))
+        self.diagnostics.count('ticks')
+        for event in verdict.events:
+            self.get_logger().warning(event)
+        if verdict.events:
+            self.report()
+            self.diagnostics.publish()
+
+    def report(self) -> None:
+        """The supervisor's summary as /diagnostics key-values (JSON texts)."""
+        self.diagnostics.facts = {f'fdi {key}': json.dumps(value)
+                                  for key, value in self.supervisor.summary().items()}
+
+
+def main(args=None):
+    return run(SupervisorNode, args)
+
+
+if __name__ == '__main__':
+    main()

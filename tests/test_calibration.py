@@ -1,0 +1,53 @@
+"""Detector calibration from failure-free residuals: friction fit, Gumbel levels, CUSUM."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cdpr_control.friction import FrictionModel
+from cdpr_fdi.calibration import (FailureFreeRun, calibrate, cusum_trace, fit_coulomb_friction,
+                                  gumbel_threshold)
+
+PERIOD_S = 0.002
+
+
+def synthetic_runs(rng, coulomb_nm=0.1, noise_nm=0.02, count=40, ticks=2000):
+    """Residuals of a drive with Coulomb friction the twin lacks, plus white noise."""
+    runs = []
+    for _ in range(count):
+        speed = 3.0 * np.sin(np.linspace(0, 2 * np.pi, ticks))[:, None] * rng.uniform(0.5, 1.5, 4)
+        residual = (FrictionModel(coulomb_nm, 0.1).torque_nm(speed)
+                    + noise_nm * rng.standard_normal(speed.shape))
+        runs.append(FailureFreeRun(residual, speed))
+    return runs
+
+
+def test_friction_fit_recovers_the_coulomb_level(rng):
+    assert fit_coulomb_friction(synthetic_runs(rng), 0.1) == pytest.approx(0.1, rel=0.01)
+
+
+def test_gumbel_level_grows_as_the_false_alarm_rate_falls(rng):
+    maxima = rng.gumbel(1.0, 0.1, size=5000)
+    rare = gumbel_threshold(maxima, 4.0, 0.01)
+    often = gumbel_threshold(maxima, 4.0, 10.0)
+    assert often < rare
+    # P(block max > level) = rate · W: check against the Gumbel law the maxima came from
+    probability = 1.0 - np.exp(-np.exp(-(rare - 1.0) / 0.1))
+    assert probability == pytest.approx(0.01 * 4.0 / 3600.0, rel=0.5)
+    assert gumbel_threshold(np.array([0.1, 0.5]), 4.0, 1e6) >= 0.5   # never below what was seen
+
+
+def test_cusum_trace_accumulates_only_above_the_drift():
+    z = np.array([[1.0, 2.0], [5.0, 0.0], [5.0, 0.0], [0.0, 0.0], [0.0, 0.0]])
+    np.testing.assert_allclose(cusum_trace(z, drift=3.0), [0.0, 2.0, 4.0, 1.0, 0.0])
+
+
+def test_calibration_of_white_noise_gives_thresholds_above_every_failure_free_run(rng):
+    runs = synthetic_runs(rng)
+    result = calibrate(runs, PERIOD_S, 0.1, cusum_threshold=0.5, false_alarms_per_hour=0.1)
+    assert result.coulomb_friction_nm == pytest.approx(0.1, rel=0.02)
+    np.testing.assert_allclose(result.cusum_sigma_nm, 0.02, rtol=0.05)
+    assert result.epsilon_nm > max(np.max(np.abs(run.residual_nm)) for run in runs)
+    # the drift sits above every normalised residual seen: healthy runs never feed the sum
+    assert result.largest_cusum == 0.0 and result.cusum_threshold == 0.5
+    assert result.hours == pytest.approx(40 * 2000 * PERIOD_S / 3600.0)

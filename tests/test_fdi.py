@@ -1,0 +1,177 @@
+"""The FDI core without DDS: sensorless tensions, identification, detectors, recovery."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from cdpr_control.config import ConfigError
+from cdpr_control.controller import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
+from cdpr_control.friction import FrictionModel
+from cdpr_control.kinematics import cable_vectors, inverse_kinematics
+from cdpr_control.statics import static_tensions
+from cdpr_control.tension_distribution import make_tension_distribution
+from cdpr_control.workspace import safe_point
+from cdpr_fdi.config import load_fdi_config, load_recovery_config
+from cdpr_fdi.detectors import CusumDetector, ThresholdDetector
+from cdpr_fdi.identification import identify_broken_cables
+from cdpr_fdi.recovery import Recovery, RecoveryInfeasible, initial_tensions, safe_point_for
+from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
+from cdpr_twin.rigid_model import RigidCableRobot
+
+from conftest import PAPER_ROBOT
+
+PERIOD_S = 0.002
+
+
+@pytest.fixture(scope='module')
+def recovery_config(paper_robot):
+    return load_recovery_config(PAPER_ROBOT, paper_robot)
+
+
+def test_sensorless_tension_is_zero_for_a_free_motor_and_the_load_for_a_taut_cable(paper_robot):
+    robot = paper_robot
+    model = RigidCableRobot(robot, robot.home_position_m + [0.1, -0.05, 0.0])
+    hold = -robot.motor.drum_radius_m * static_tensions(robot, model.position_m, robot.cable_mask())
+    model.break_cables([3])
+    torque = hold + np.array([0.0, 0.0, 0.0, 0.4])
+    before = model.angular_velocity_rad_s.copy()
+    model.step(torque, PERIOD_S)
+    estimate = sensorless_tensions(robot.motor, FrictionModel(0.0, 0.1), torque, before,
+                                   model.angular_velocity_rad_s, PERIOD_S)
+    assert estimate[3] == pytest.approx(0.0, abs=1e-9)
+    # the taut cables: the estimate is the tension the model applied in that step
+    np.testing.assert_allclose(estimate[:3], model.tension_n[:3], rtol=0.02)
+
+
+def test_tension_bounds_widen_when_the_speed_crosses_zero(paper_robot):
+    motor, friction = paper_robot.motor, FrictionModel(0.2, 0.1)
+    torque = np.full(2, -0.3)
+    low, high = sensorless_tension_bounds(motor, friction, torque, np.array([1.0, -0.5]),
+                                          np.array([1.01, 0.5]), PERIOD_S)
+    # friction between the two speeds: tanh spans about ±0.2 N·m when the speed flips sign
+    assert high[0] - low[0] < 0.01
+    assert (high[1] - low[1]) * motor.drum_radius_m == pytest.approx(
+        friction.torque_nm(np.array(0.5)) - friction.torque_nm(np.array(-0.5)))
+
+
+def test_identification_names_free_motors_with_positive_residual():
+    low = np.array([8.0, -0.5, 0.2, -3.0])
+    high = np.array([9.0, 0.4, 0.3, -2.9])
+    residual = np.array([0.5, 0.4, 0.6, 0.2])
+    # motor 2's interval contains 0, motor 3 is 0.2 N away, motor 4 is 2.9 N away
+    assert identify_broken_cables(low, high, residual, 0.036, 0.05) == [1, 2]
+    assert identify_broken_cables(low, high, residual * [1, -1, 1, 1], 0.036, 0.05) == [2]
+    assert identify_broken_cables(low, high, residual, 0.036, 0.005) == [1]
+
+
+def test_threshold_detector_is_the_papers_condition():
+    detector = ThresholdDetector(0.03)
+    speeds = np.zeros(4)
+    assert not detector.update(np.array([0.02, -0.029, 0.0, 0.01]), speeds)
+    assert detector.update(np.array([0.0, -0.031, 0.0, 0.0]), speeds)
+    with pytest.raises(ValueError):
+        ThresholdDetector(0.0)
+
+
+def test_cusum_accumulates_the_excess_over_the_drift_and_ignores_expected_friction():
+    friction = FrictionModel(0.2, 0.1)
+    detector = CusumDetector([0.01] * 4, drift=3.0, threshold=10.0, friction=friction)
+    twin_speed = np.array([2.0, -2.0, 0.0, 1.0])
+    # the residual a healthy drive shows: its Coulomb friction, which the twin lacks
+    nominal = friction.torque_nm(twin_speed)
+    for _ in range(1000):
+        assert not detector.update(nominal + 0.02, twin_speed)   # 2 σ: below the drift
+    # a shift of 5 σ on one motor adds 2 per tick: the alarm comes on the 6th tick
+    alarms = [detector.update(nominal + np.array([0.0, 0.0, 0.05, 0.0]), twin_speed)
+              for _ in range(6)]
+    assert alarms == [False] * 5 + [True]
+
+
+def test_config_names_the_missing_key_and_the_file(tmp_path, paper_robot):
+    text = PAPER_ROBOT.read_text().replace('  identification_delta_nm: 0.1\n', '')
+    broken = tmp_path / 'robot.yaml'
+    broken.write_text(text)
+    with pytest.raises(ConfigError, match=r"fdi\.identification_delta_nm.*is missing") as error:
+        load_fdi_config(broken, paper_robot)
+    assert str(broken) in str(error.value)
+
+
+def test_calibration_file_overrides_the_robot_file(tmp_path, paper_robot):
+    calibration = tmp_path / 'calibration.yaml'
+    calibration.write_text('fdi:\n  epsilon_nm: 0.25\n  cusum:\n    sigma_nm: [0.1, 0.2, 0.3, 0.4]\n')
+    config = load_fdi_config(PAPER_ROBOT, paper_robot, calibration)
+    assert config.epsilon_nm == 0.25
+    assert config.cusum_sigma_nm == (0.1, 0.2, 0.3, 0.4)
+    assert config.cusum_drift == load_fdi_config(PAPER_ROBOT, paper_robot).cusum_drift
+    assert config.with_overrides(epsilon_nm=0.1, detector='cusum').detector == 'cusum'
+
+
+def test_safe_point_is_the_sew_barycentre_unless_configured(paper_robot, recovery_config):
+    attached = paper_robot.cable_mask([3])
+    expected = safe_point(paper_robot, attached, recovery_config.safe_height_m)
+    np.testing.assert_allclose(safe_point_for(paper_robot, recovery_config, attached), expected)
+    # the paper's SP for cable 4 (§5.3) as a per-cable override
+    configured = dataclasses.replace(recovery_config, safe_points_m={4: np.array([0.62, 1.28, 1.2])})
+    np.testing.assert_allclose(safe_point_for(paper_robot, configured, attached), [0.62, 1.28, 1.2])
+
+
+def test_initial_tensions_keep_the_force_when_the_remaining_cables_can(paper_robot):
+    robot = paper_robot
+    attached = robot.cable_mask([3])
+    position = np.array([0.6, 1.2, 1.3])
+    tension = np.array([9.0, 8.0, 10.0, 6.0])
+    feedback = np.array([0.02, -0.01, 0.03, 0.0])
+    start = initial_tensions(robot, position, attached, position, tension, feedback, floor_n=1.0)
+    u, _ = cable_vectors(robot.exit_points_m, position)
+    wanted = tension @ u - (feedback[:3] / robot.motor.drum_radius_m) @ u[:3]
+    np.testing.assert_allclose(start[:3] @ u[:3], wanted, atol=1e-9)     # eq. 23–25
+    assert start[3] == 0.0 and np.all(start[:3] >= 1.0)
+
+
+def test_initial_tensions_hold_the_floor_outside_the_residual_workspace(paper_robot):
+    robot = paper_robot
+    attached = robot.cable_mask([3])
+    # near A4, cables 1–3 cannot pull the end-effector up with positive tension
+    position = np.array([1.45, 0.3, 1.6])
+    tension = static_tensions(robot, position, robot.cable_mask())
+    start = initial_tensions(robot, position, attached, position, tension, np.zeros(4), floor_n=5.0)
+    assert np.min(start[:3]) == pytest.approx(5.0)
+
+
+def test_recovery_goes_from_tension_quintic_to_a_move_to_sp_then_holds(paper_robot, recovery_config):
+    robot = paper_robot
+    attached = robot.cable_mask([3])
+    distribution = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
+    start_tensions = np.array([12.0, 9.0, 14.0, 0.0])
+    recovery = Recovery(robot, recovery_config, distribution, PERIOD_S, attached, 100, start_tensions)
+    sp = recovery.safe_point_m
+    angle = inverse_kinematics(robot, sp + [0.05, 0.0, 0.02])
+    moving = np.full(4, 1.0)
+    mode, tensions, _ = recovery.setpoint(99, angle, moving)
+    assert mode == RECOVERY_TENSION
+    np.testing.assert_allclose(tensions, start_tensions)
+    phase_ticks = int(round(recovery_config.tension_phase_s / PERIOD_S))
+    mode, tensions, _ = recovery.setpoint(99 + phase_ticks, angle, moving)
+    assert mode == RECOVERY_TENSION
+    np.testing.assert_allclose(tensions, static_tensions(robot, sp, attached))
+    # the motors have stopped: phase 2 starts at the forward-kinematics pose
+    mode, _, reference = recovery.setpoint(100 + phase_ticks, angle, np.zeros(4))
+    assert mode == RECOVERY_MOVE
+    np.testing.assert_allclose(reference.angle_rad[:3], angle[:3], atol=1e-6)
+    tick = 100 + phase_ticks
+    while mode == RECOVERY_MOVE:
+        tick += 1
+        mode, _, reference = recovery.setpoint(tick, angle, np.zeros(4))
+    assert mode == SAFE_HOLD
+    np.testing.assert_allclose(reference.angle_rad[:3], inverse_kinematics(robot, sp)[:3], atol=1e-9)
+    np.testing.assert_allclose(reference.angular_velocity_rad_s, 0.0, atol=1e-12)
+
+
+def test_two_cables_left_cannot_recover(paper_robot, recovery_config):
+    robot = paper_robot
+    distribution = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
+    with pytest.raises(RecoveryInfeasible, match='2 cables left'):
+        Recovery(robot, recovery_config, distribution, PERIOD_S, robot.cable_mask([2, 3]), 0,
+                 np.zeros(4))

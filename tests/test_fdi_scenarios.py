@@ -1,0 +1,86 @@
+"""Failure scenarios end to end in one process: detection, identification, recovery.
+
+The noise-free rigid plant with ε = 0.03 N·m, as in the paper's simulation (§3.3).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cdpr_bringup.engine import run_inprocess
+from cdpr_bringup.metrics import fdi_metrics
+from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_control.motions import motion_names
+from cdpr_control.workspace import contains, sew_cross_section
+
+from conftest import MOTIONS, PAPER_ROBOT
+
+
+def run(motion, cables=(), reverse=False, **options):
+    scenario = build_scenario(ScenarioOptions(
+        config=str(PAPER_ROBOT), motions=str(MOTIONS), motion=motion, reverse=reverse,
+        fail_cables=list(cables), fidelity='rigid', epsilon_nm=0.03, **options))
+    recording = run_inprocess(scenario)
+    metrics = fdi_metrics(scenario.robot, scenario.period_s, scenario.failure_time_s,
+                          sorted(cables), recording, scenario.recovery.reached_tolerance_m)
+    return scenario, recording, metrics
+
+
+def assert_recovered(scenario, metrics):
+    recovery = metrics['recovery']
+    assert metrics['mode'] == 'SAFE_HOLD'
+    assert recovery['reached_safe_point'] and recovery['final_error_m'] < 0.01
+    assert recovery['min_tension_n'] > 0.0, 'every remaining cable stays taut'
+    assert recovery['min_height_m'] >= scenario.recovery.table_height_m
+
+
+def test_paper_case_cable_4_along_2_detected_in_one_cycle_and_recovered():
+    scenario, recording, metrics = run('along-2', [4])
+    assert 0.0 < metrics['detection_delay_ms'] <= scenario.period_s * 1000.0   # paper: 4 ms
+    assert metrics['identified_cables'] == [4] and not metrics['false_alarm']
+    assert_recovered(scenario, metrics)
+    # the safe point is on the configured height, and the robot came to rest there
+    assert metrics['safe_point_m'][2] == pytest.approx(scenario.recovery.safe_height_m)
+    assert np.max(np.abs(recording.angular_velocity_rad_s[-1])) < 1e-3
+
+
+def test_failure_on_a_tick_is_detected_on_the_next():
+    scenario, _, metrics = run('along-2', [4], fail_at_s=1.5)
+    assert metrics['detection_delay_ms'] == pytest.approx(scenario.period_s * 1000.0)
+
+
+@pytest.mark.parametrize('cable', [1, 2, 3, 4])
+def test_each_cable_is_identified_and_recovered(cable):
+    scenario, _, metrics = run('circle', [cable], fail_at_fraction=0.375)
+    assert metrics['identified_cables'] == [cable]
+    assert metrics['detection_delay_ms'] <= scenario.period_s * 1000.0
+    assert_recovered(scenario, metrics)
+
+
+@pytest.mark.parametrize('reverse', [False, True], ids=['forward', 'reverse'])
+@pytest.mark.parametrize('motion', motion_names(MOTIONS))
+def test_no_alarm_without_a_failure(motion, reverse):
+    _, recording, metrics = run(motion, reverse=reverse)
+    assert metrics['detection_time_s'] is None and not metrics['false_alarm']
+    assert recording.fdi['alarm_tick'] is None and recording.fdi['mode'] == 'NOMINAL'
+
+
+def test_recovery_starting_outside_the_residual_workspace():
+    """Along-1 at its midpoint is outside the SEW of cables 1–3 (the paper's hard case)."""
+    scenario, _, metrics = run('along-1', [4])
+    failure_tick = int(scenario.failure_time_s / scenario.period_s)
+    position = scenario.reference.position_m[failure_tick]
+    border = sew_cross_section(scenario.robot, scenario.robot.cable_mask([3]), position[2])
+    assert not contains(border, position[:2])
+    assert metrics['identified_cables'] == [4]
+    assert_recovered(scenario, metrics)
+
+
+def test_two_broken_cables_are_named_and_reported_as_fault():
+    scenario, recording, metrics = run('along-2', [3, 4])
+    assert metrics['identified_cables'] == [3, 4]
+    assert metrics['mode'] == 'FAULT' and '2 cables left' in metrics['fault']
+    # the least harmful thing: both remaining drums hold, the load hangs from them
+    assert metrics['recovery']['min_height_m'] >= scenario.recovery.table_height_m
+    assert np.all(recording.command_nm[-1, 2:] == 0.0)
+    assert np.max(np.abs(recording.angular_velocity_rad_s[-1, :2])) < 0.05

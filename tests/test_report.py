@@ -1,0 +1,175 @@
+"""cdpr-report: every figure from a bag of a run, and metrics recomputed from the bag equal
+to those of the run's own Recording; bags without ground truth or supervisor, and the
+bag of a killed recorder, still give a report."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import shutil
+
+import matplotlib.image
+import numpy as np
+import pytest
+
+from cdpr_control.robot import load_robot
+
+from cdpr_bringup import plots
+from cdpr_bringup.bag_io import BagWriter, recording_from_bag, write_recording
+from cdpr_bringup.engine import run_inprocess
+from cdpr_bringup.graph import graph_nodes, run_to_completion
+from cdpr_bringup.metrics import tracking_error_m, twin_kpis
+from cdpr_bringup.report import main, write_report
+from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+
+from conftest import MOTIONS, PAPER_ROBOT
+
+DESIGN_KEYS = {'failure_time_s', 'detection_time_s', 'detection_delay_ms', 'identified_cables',
+               'true_broken_cables', 'false_alarm', 'recovery', 'kpi', 'cycles', 'wall_time_s'}
+RECOVERY_KEYS = {'reached_safe_point', 'final_error_m', 'min_tension_n', 'min_height_m', 'duration_s'}
+
+
+def write_bag(recording, bag):
+    writer = BagWriter(bag)
+    writer.open()
+    write_recording(writer, recording)
+    writer.close()
+    return bag
+
+
+@pytest.fixture(scope='module')
+def failure_run(tmp_path_factory):
+    """Cable 4 breaks mid-way along cable 4 on the rigid plant; the in-process supervisor
+    detects it and recovers. (scenario, recording, run folder, returned metrics)"""
+    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+                                              motion='along-4', fail_cables=[4], fidelity='rigid'))
+    recording = run_inprocess(scenario)
+    folder = tmp_path_factory.mktemp('failure')
+    bag = write_bag(recording, folder / 'bag')
+    # the rigid plant has no Coulomb friction, so the tension estimate must assume none
+    return scenario, recording, folder, write_report(bag, folder / 'plots', PAPER_ROBOT,
+                                                     coulomb_friction_nm=0.0)
+
+
+def assert_figure(path):
+    """A PNG that shows something: large enough, and not one colour."""
+    assert path.exists(), f'{path.name} missing'
+    assert path.stat().st_size > 20_000, f'{path.name} is nearly empty'
+    image = matplotlib.image.imread(path)
+    assert image.shape[0] > 400 and image.shape[1] > 600
+    assert image[..., :3].std() > 0.05
+
+
+def test_every_figure_of_a_failure_run_is_written(failure_run):
+    _, _, folder, _ = failure_run
+    for name in plots.FIGURES:
+        assert_figure(folder / 'plots' / f'{name}.png')
+
+
+def test_recomputed_metrics_equal_those_of_the_recording(failure_run):
+    scenario, recording, folder, metrics = failure_run
+    assert DESIGN_KEYS <= set(metrics) and RECOVERY_KEYS <= set(metrics['recovery'])
+    assert json.loads((folder / 'plots' / 'metrics.json').read_text()) == metrics
+    # ground truth: the first tick with cable 4 slack, at or after the scheduled failure
+    failure_tick = int(np.ceil(scenario.failure_time_s / scenario.period_s - 1e-9))
+    before = slice(0, failure_tick)
+    for key, value in twin_kpis(scenario.robot, recording, before).items():
+        assert metrics['kpi'][key] == pytest.approx(value, rel=1e-12, abs=1e-15)
+    assert metrics['tracking_error_m'] == pytest.approx(tracking_error_m(recording, before), rel=1e-12)
+    assert metrics['cycles'] == recording.time_s.size
+    assert metrics['failure_time_s'] == pytest.approx(failure_tick * scenario.period_s)
+    assert metrics['true_broken_cables'] == [4]
+    fdi = recording.fdi
+    assert metrics['identified_cables'] == fdi['broken_cables'] == [4]
+    assert metrics['detection_time_s'] == pytest.approx(recording.time_s[fdi['identified_tick']])
+    assert metrics['false_alarm'] is False
+    ticks = fdi['phase_ticks']
+    assert metrics['recovery']['duration_s'] == pytest.approx(
+        (ticks['SAFE_HOLD'] - fdi['identified_tick']) * scenario.period_s)
+    assert metrics['recovery']['min_height_m'] == pytest.approx(recording.true_position_m[:, 2].min())
+    assert metrics['safe_point_m'] == pytest.approx(fdi['safe_point_m'])
+    final = np.linalg.norm(recording.true_position_m[-1] - np.array(fdi['safe_point_m']))
+    assert metrics['recovery']['final_error_m'] == pytest.approx(final, abs=1e-12)
+    assert metrics['recovery']['reached_safe_point'] is True
+
+
+def test_report_md_shows_every_figure_and_metric(failure_run):
+    _, _, folder, metrics = failure_run
+    text = (folder / 'plots' / 'report.md').read_text()
+    for name in plots.FIGURES:
+        assert f']({name}.png)' in text
+    for key in ('detection_time_s', 'recovery.final_error_m', 'kpi.K_t_nm'):
+        assert f'| {key} |' in text
+
+
+def test_metrics_json_beside_the_bag_gives_the_failure_time(failure_run, tmp_path):
+    scenario, _, folder, _ = failure_run
+    run = tmp_path / 'run'
+    shutil.copytree(folder / 'bag', run / 'bag')
+    (run / 'metrics.json').write_text(json.dumps(
+        {'failure_time_s': scenario.failure_time_s, 'true_broken_cables': [4]}))
+    metrics = write_report(run / 'bag', run / 'plots', PAPER_ROBOT)
+    assert metrics['failure_time_s'] == scenario.failure_time_s
+    assert metrics['detection_delay_ms'] == pytest.approx(
+        (metrics['detection_time_s'] - scenario.failure_time_s) * 1000.0)
+    assert 0.0 <= metrics['detection_delay_ms'] < 10.0
+
+
+def test_real_robot_bag_without_ground_truth_or_supervisor(failure_run, tmp_path):
+    """What a real robot without the supervisor records: no truth, no FDI topics (the
+    first 5 s of the failure run, through the failure at 3.59 s)."""
+    scenario, recording, _, _ = failure_run
+    ticks = slice(0, 2500)
+    arrays = {f.name: getattr(recording, f.name)[ticks] for f in dataclasses.fields(recording)
+              if isinstance(getattr(recording, f.name), np.ndarray)}
+    nan = np.full_like(arrays['true_position_m'], np.nan)
+    real = dataclasses.replace(recording, **dict(
+        arrays, true_position_m=nan, true_tension_n=np.full_like(arrays['true_tension_n'], np.nan),
+        residual_nm=None, fdi={}))
+    bag = write_bag(real, tmp_path / 'bag')
+    assert main([str(bag), '--out', str(tmp_path / 'plots'), '--config', str(PAPER_ROBOT),
+                 '--epsilon', '0.3']) == 0
+    metrics = json.loads((tmp_path / 'plots' / 'metrics.json').read_text())
+    assert metrics['failure_time_s'] is None and metrics['true_broken_cables'] is None
+    assert metrics['detection_time_s'] is None and metrics['false_alarm'] is None
+    assert metrics['tracking_error_m'] is None and metrics['epsilon_nm'] == 0.3
+    assert metrics['kpi'] == pytest.approx(twin_kpis(scenario.robot, recording_from_bag(bag)))
+    assert metrics['mode'] is None and metrics['safe_point_m'] is None
+    assert not (tmp_path / 'plots' / 'detection.png').exists()
+    for name in set(plots.FIGURES) - {'detection'}:
+        assert_figure(tmp_path / 'plots' / f'{name}.png')
+    text = (tmp_path / 'plots' / 'report.md').read_text()
+    assert 'no ground truth' in text and 'no /cdpr/fdi/broken_cable' in text
+
+
+def test_bag_of_a_killed_recorder_gives_a_report_of_its_prefix(failure_run, tmp_path):
+    _, recording, folder, _ = failure_run
+    data = next((folder / 'bag').glob('*.mcap')).read_bytes()
+    (tmp_path / 'bag').mkdir()
+    (tmp_path / 'bag' / 'bag.mcap').write_bytes(data[:len(data) // 2])
+    metrics = write_report(tmp_path / 'bag', tmp_path / 'plots', PAPER_ROBOT)
+    assert 0.3 * recording.time_s.size < metrics['cycles'] < 0.7 * recording.time_s.size
+
+
+def test_report_refuses_to_overwrite_the_runs_own_metrics(failure_run):
+    _, _, folder, _ = failure_run
+    with pytest.raises(ValueError, match='metrics.json'):
+        write_report(folder / 'bag', folder, PAPER_ROBOT)
+
+
+@pytest.mark.graph
+def test_report_of_a_graph_bag(tmp_path):
+    """The node graph's own bag: cable 4 breaks at 1.501 s, between two ticks so that
+    the first tick without it is unambiguous (1.502 s); the run stops at 3 s."""
+    parameters = {'config_file': str(PAPER_ROBOT), 'motions_file': str(MOTIONS),
+                  'motion': 'along-4', 'clock_mode': 'lockstep', 'fidelity': 'rigid',
+                  'fail_cables': [4], 'fail_at_s': 1.501, 'duration_s': 3.0}
+    bag = tmp_path / 'bag'
+    run_to_completion(graph_nodes(parameters, str(bag)), '/cdpr', timeout_s=60.0,
+                      log=lambda line: None)
+    metrics = write_report(bag, tmp_path / 'plots', PAPER_ROBOT)
+    recording = recording_from_bag(bag)
+    assert metrics['true_broken_cables'] == [4]
+    assert metrics['failure_time_s'] == pytest.approx(1.502)
+    assert metrics['kpi'] == pytest.approx(twin_kpis(load_robot(PAPER_ROBOT), recording, slice(0, 751)))
+    for name in ('torques', 'residuals', 'position', 'path_3d', 'path_top', 'tensions'):
+        assert_figure(tmp_path / 'plots' / f'{name}.png')
