@@ -44,10 +44,11 @@ def test_cusum_trace_accumulates_only_above_the_drift():
 
 def test_calibration_of_white_noise_gives_thresholds_above_every_failure_free_run(rng):
     runs = synthetic_runs(rng)
-    result = calibrate(runs, PERIOD_S, 0.1, cusum_threshold=0.5, false_alarms_per_hour=0.1)
+    result = calibrate(runs, PERIOD_S, 0.1, cusum_drift=5.0, false_alarms_per_hour=0.1)
     assert result.coulomb_friction_nm == pytest.approx(0.1, rel=0.02)
     np.testing.assert_allclose(result.cusum_sigma_nm, 0.02, rtol=0.05)
-    assert result.epsilon_nm > max(np.max(np.abs(run.residual_nm)) for run in runs)
-    # the drift sits above every normalised residual seen: healthy runs never feed the sum
-    assert result.largest_cusum == 0.0 and result.cusum_threshold == 0.5
+    largest = max(np.max(np.abs(run.residual_nm)) for run in runs)
+    assert result.epsilon_nm > largest and result.cusum_epsilon_nm >= result.epsilon_nm
+    # white noise at 5 σ and beyond is rare: the limit on z lies above it
+    assert result.cusum_limit > 5.0 and result.cusum_threshold >= result.largest_cusum
     assert result.hours == pytest.approx(40 * 2000 * PERIOD_S / 3600.0)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from cdpr_control.config import ConfigError
-from cdpr_control.controller import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
+from cdpr_control.controller import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, JointReference
 from cdpr_control.friction import FrictionModel
 from cdpr_control.kinematics import cable_vectors, inverse_kinematics
 from cdpr_control.statics import static_tensions
@@ -18,6 +18,7 @@ from cdpr_fdi.detectors import CusumDetector, ThresholdDetector
 from cdpr_fdi.identification import identify_broken_cables
 from cdpr_fdi.recovery import Recovery, RecoveryInfeasible, initial_tensions, safe_point_for
 from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
+from cdpr_fdi.supervisor import Supervisor
 from cdpr_twin.rigid_model import RigidCableRobot
 
 from conftest import PAPER_ROBOT
@@ -77,7 +78,8 @@ def test_threshold_detector_is_the_papers_condition():
 
 def test_cusum_accumulates_the_excess_over_the_drift_and_ignores_expected_friction():
     friction = FrictionModel(0.2, 0.1)
-    detector = CusumDetector([0.01] * 4, drift=3.0, threshold=10.0, friction=friction)
+    detector = CusumDetector([0.01] * 4, drift=3.0, threshold=10.0, limit=8.0, epsilon_nm=0.5,
+                             friction=friction)
     twin_speed = np.array([2.0, -2.0, 0.0, 1.0])
     # the residual a healthy drive shows: its Coulomb friction, which the twin lacks
     nominal = friction.torque_nm(twin_speed)
@@ -87,6 +89,21 @@ def test_cusum_accumulates_the_excess_over_the_drift_and_ignores_expected_fricti
     alarms = [detector.update(nominal + np.array([0.0, 0.0, 0.05, 0.0]), twin_speed)
               for _ in range(6)]
     assert alarms == [False] * 5 + [True]
+
+
+def test_cusum_alarms_at_once_on_a_jump_in_z_or_in_the_raw_residual():
+    friction = FrictionModel(0.2, 0.1)
+    speed = np.array([2.0, -2.0, 0.0, 1.0])
+    nominal = friction.torque_nm(speed)
+
+    def fresh():
+        return CusumDetector([0.01] * 4, drift=3.0, threshold=100.0, limit=8.0, epsilon_nm=0.25,
+                             friction=friction)
+
+    assert fresh().update(nominal + np.array([0.0, 0.0, 0.09, 0.0]), speed)    # z = 9 > 8
+    assert not fresh().update(nominal + np.array([0.0, 0.0, 0.07, 0.0]), speed)
+    # friction adding to a jump: the raw |r| = 0.2 + 0.07 crosses ε, z = 7 stays below 8
+    assert fresh().update(nominal + np.array([0.07, 0.0, 0.0, 0.0]), speed)
 
 
 def test_config_names_the_missing_key_and_the_file(tmp_path, paper_robot):
@@ -175,3 +192,21 @@ def test_two_cables_left_cannot_recover(paper_robot, recovery_config):
     with pytest.raises(RecoveryInfeasible, match='2 cables left'):
         Recovery(robot, recovery_config, distribution, PERIOD_S, robot.cable_mask([2, 3]), 0,
                  np.zeros(4))
+
+
+def test_a_recovery_that_cannot_be_planned_ends_in_fault_not_in_a_crash(paper_robot, recovery_config):
+    robot = paper_robot
+    fdi = load_fdi_config(PAPER_ROBOT, robot)
+    distribution = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
+    supervisor = Supervisor(robot, fdi, recovery_config, distribution, PERIOD_S)
+    supervisor.recovery = Recovery(robot, recovery_config, distribution, PERIOD_S,
+                                   robot.cable_mask([3]), 0, np.array([10.0, 10.0, 10.0, 0.0]))
+    supervisor.broken, supervisor.mode = [3], RECOVERY_TENSION
+    m = robot.cable_count
+    reference = JointReference(np.zeros(m), np.zeros(m), np.zeros(m))
+    settle = int(round((recovery_config.tension_phase_s + recovery_config.settle_timeout_s) / PERIOD_S))
+    # angles no end-effector pose can have: forward kinematics of the remaining cables fails
+    impossible = np.full(m, 1e3)
+    verdict = supervisor.update(settle + 1, impossible, np.zeros(m), np.zeros(m), np.zeros(m),
+                                np.zeros(m), np.zeros(m), reference)
+    assert verdict.mode == 'FAULT' and 'recovery failed' in supervisor.summary()['fault']

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cdpr_bringup import fdi_offline
 from cdpr_bringup.bag_io import read_messages, read_topics, recording_from_bag
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.graph import Graph, graph_nodes, node_environment, run_to_completion
@@ -126,3 +127,27 @@ def test_outside_tools_and_late_joiners_see_the_broken_cable():
         assert not graph.check(), 'the graph is still running'
     finally:
         graph.stop()
+
+
+def offline_verdict(bag, namespace, tmp_path, scenario) -> dict:
+    out = tmp_path / f'{bag.name}-offline.json'
+    fdi_offline.main([str(bag), '--config', str(PAPER_ROBOT), '--namespace', namespace,
+                      '--calibration', str(scenario.calibration_path), '--out', str(out)])
+    return json.loads(out.read_text())
+
+
+def test_offline_fdi_on_a_recorded_failure_names_the_cable_as_live(lockstep_bags, tmp_path):
+    scenario = failure_scenario()
+    live = run_inprocess(scenario).fdi
+    verdict = offline_verdict(lockstep_bags[0], '/cdpr_test_run0', tmp_path, scenario)
+    assert verdict['identified_cables'] == live['broken_cables'] == [4]
+    assert abs(verdict['detection_time_s'] - live['identified_tick'] * scenario.period_s) \
+        <= scenario.period_s + 1e-9
+
+
+def test_offline_fdi_on_a_failure_free_bag_raises_no_alarm(tmp_path):
+    scenario = failure_scenario()
+    bag = run(tmp_path, 'healthy', motion='along-4', **dict(fdi_parameters(scenario), duration_s=-1.0))
+    verdict = offline_verdict(bag, '/cdpr_test_healthy', tmp_path, scenario)
+    assert verdict['detection_time_s'] is None and verdict['alarm_time_s'] is None
+    assert verdict['ticks_replayed'] > 3000

@@ -26,6 +26,7 @@ setup(
             'cdpr-graph = cdpr_bringup.graph:main',
             'cdpr-scenario = cdpr_bringup.scenario:main',
             'cdpr-calibrate = cdpr_bringup.calibrate:main',
+            'cdpr-fdi-offline = cdpr_bringup.fdi_offline:main',
             'cdpr-campaign = cdpr_bringup.campaign:main',
             'cdpr-report = cdpr_bringup.report:main',
             'bag_recorder = cdpr_bringup.bag_recorder_node:main',

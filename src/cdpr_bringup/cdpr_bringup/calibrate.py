@@ -33,8 +33,7 @@ def parse_args(argv=None):
     parser.add_argument('--seeds', default='0,1,2', help='comma-separated plant seeds')
     parser.add_argument('--false-alarms-per-hour', type=float, default=0.1,
                         help='target rate (default 0.1: one per 10 hours)')
-    parser.add_argument('--cusum-threshold', type=float,
-                        help='least CUSUM decision level h in σ·ticks (default: the config\'s)')
+    parser.add_argument('--drift', type=float, help='CUSUM drift ν in σ (default: the config\'s)')
     parser.add_argument('--jobs', type=int, default=os.cpu_count())
     parser.add_argument('--out', required=True, help='calibration YAML to write')
     return parser.parse_args(argv)
@@ -59,10 +58,10 @@ def main(argv=None):
     with ProcessPoolExecutor(max(args.jobs, 1)) as pool:
         runs = list(pool.map(failure_free_run, jobs))
     control = load_section(config, 'control')
-    least_level = (args.cusum_threshold if args.cusum_threshold is not None
-                   else load_section(config, 'fdi').section('cusum').number('threshold', positive=True))
+    drift = (args.drift if args.drift is not None
+             else load_section(config, 'fdi').section('cusum').number('drift', non_negative=True))
     result = calibrate(runs, control.number('period_s', positive=True),
-                       control.number('coulomb_smoothing_rad_s', positive=True), least_level,
+                       control.number('coulomb_smoothing_rad_s', positive=True), drift,
                        args.false_alarms_per_hour)
     document = {
         'fdi': {
@@ -70,7 +69,9 @@ def main(argv=None):
             'epsilon_nm': round(result.epsilon_nm, 5),
             'cusum': {'sigma_nm': [round(s, 6) for s in result.cusum_sigma_nm],
                       'drift': round(result.cusum_drift, 3),
-                      'threshold': round(result.cusum_threshold, 3)},
+                      'threshold': round(result.cusum_threshold, 3),
+                      'limit': round(result.cusum_limit, 3),
+                      'epsilon_nm': round(result.cusum_epsilon_nm, 5)},
         },
         'calibration': {
             'date': datetime.date.today().isoformat(),
@@ -90,7 +91,8 @@ def main(argv=None):
     print(f'  threshold ε = {result.epsilon_nm:.4f} N·m (largest |r| seen {result.largest_residual_nm:.4f})')
     print(f'  CUSUM: σ = {", ".join(f"{s:.4f}" for s in result.cusum_sigma_nm)} N·m, '
           f'ν = {result.cusum_drift:.2f}, h = {result.cusum_threshold:.2f} (largest sum seen '
-          f'{result.largest_cusum:.2f})')
+          f'{result.largest_cusum:.2f}), z limit = {result.cusum_limit:.2f}, '
+          f'ε = {result.cusum_epsilon_nm:.4f} N·m')
     print(f'written: {out}')
     return 0
 

@@ -171,12 +171,25 @@ def run_to_completion(nodes: list[NodeSpec], namespace: str, timeout_s: float | 
         graph.stop()
 
 
+def run_until_stopped(nodes: list[NodeSpec], namespace: str, log=print) -> None:
+    """Start the graph and keep it until Ctrl-C or until a node dies."""
+    graph = Graph(nodes, namespace, log=log)
+    try:
+        graph.start()
+        graph.wait_until_up()
+        log('[cdpr-graph] all nodes up; waiting for the hardware bridge on joint_states')
+        graph.wait()
+    finally:
+        graph.stop()
+
+
 def graph_nodes(parameters: dict, bag_path: str | None = None,
-                supervised: bool = True) -> list[NodeSpec]:
+                supervised: bool = True, plant: bool = True) -> list[NodeSpec]:
     """The closed loop: generator, controller, twin, supervisor, plant, and a recorder.
 
     Each node gets the `matches` its per-cycle endpoints must reach before it subscribes
-    to its tick (CdprNode.start_when_matched); the plant starts when all have.
+    to its tick (CdprNode.start_when_matched); the plant starts when all have. Without
+    the plant, a hardware bridge takes its place on the same topics.
     """
     c = contract
     listeners = {c.JOINT_STATES: ['trajectory_generator', 'controller'],
@@ -205,7 +218,8 @@ def graph_nodes(parameters: dict, bag_path: str | None = None,
                 names.append('bag_recorder')
                 heard['bag_recorder'].append(topic)
         heard['bag_recorder'].remove(c.JOINT_STATES)
-    specs.append(('cdpr_twin', 'plant_simulator', {}))
+    if plant:
+        specs.append(('cdpr_twin', 'plant_simulator', {}))
     publishes = {c.JOINT_STATES: 'plant_simulator', c.REFERENCE: 'trajectory_generator',
                  c.REFERENCE_POSE: 'trajectory_generator', c.EFFORT_COMMAND: 'controller',
                  c.TWIN_JOINT_STATES: 'digital_twin', c.TWIN_POSE: 'digital_twin',
@@ -227,13 +241,26 @@ def main(argv=None):
     parser.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')
     parser.add_argument('--namespace', default=DEFAULT_NAMESPACE)
     parser.add_argument('--bag', help='record every topic into this bag folder')
+    parser.add_argument('--calibration', help='detector thresholds (cdpr-calibrate) for the supervisor')
+    parser.add_argument('--hardware', action='store_true',
+                        help='no plant simulator: a hardware bridge publishes joint_states and '
+                             'applies effort_command (see README, hardware bridge); realtime; runs '
+                             'until Ctrl-C')
     args = parser.parse_args(argv)
     parameters = {'config_file': str(Path(args.config).resolve()) if Path(args.config).exists()
-                  else args.config, 'motion': args.motion, 'clock_mode': args.clock}
+                  else args.config, 'motion': args.motion,
+                  'clock_mode': 'realtime' if args.hardware else args.clock}
+    if args.calibration:
+        parameters['calibration_file'] = str(Path(args.calibration).resolve()) \
+            if Path(args.calibration).exists() else args.calibration
     signal.signal(signal.SIGTERM, stop_on_sigterm)
+    log = lambda line: print(line, flush=True)  # noqa: E731
     try:
-        run_to_completion(graph_nodes(parameters, args.bag), args.namespace, timeout_s=None,
-                          log=lambda line: print(line, flush=True))
+        if args.hardware:
+            run_until_stopped(graph_nodes(parameters, args.bag, plant=False), args.namespace, log)
+        else:
+            run_to_completion(graph_nodes(parameters, args.bag), args.namespace, timeout_s=None,
+                              log=log)
     except KeyboardInterrupt:
         print('[cdpr-graph] stopped on request', flush=True)
     except GraphError as err:

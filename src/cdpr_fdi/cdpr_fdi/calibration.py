@@ -40,7 +40,10 @@ def gumbel_threshold(maxima: np.ndarray, block_s: float, false_alarms_per_hour: 
         raise ValueError('need at least two failure-free runs')
     scale = float(np.std(maxima, ddof=1)) * np.sqrt(6.0) / np.pi
     location = float(np.mean(maxima)) - EULER_GAMMA * scale
-    exceedance = false_alarms_per_hour * block_s / 3600.0
+    if false_alarms_per_hour <= 0.0:
+        raise ValueError(f'the false-alarm rate must be positive, got {false_alarms_per_hour}')
+    # a rate above one per block cannot be asked of a block maximum: at most almost surely
+    exceedance = min(false_alarms_per_hour * block_s / 3600.0, 1.0 - 1e-12)
     level = location - scale * np.log(-np.log1p(-exceedance))
     return float(max(level, np.max(maxima)))
 
@@ -62,6 +65,8 @@ class Calibration:
     cusum_sigma_nm: list[float]
     cusum_drift: float
     cusum_threshold: float
+    cusum_limit: float
+    cusum_epsilon_nm: float
     hours: float
     runs: int
     largest_residual_nm: float
@@ -69,13 +74,12 @@ class Calibration:
 
 
 def calibrate(runs: list[FailureFreeRun], period_s: float, smoothing_rad_s: float,
-              cusum_threshold: float, false_alarms_per_hour: float) -> Calibration:
+              cusum_drift: float, false_alarms_per_hour: float) -> Calibration:
     """Thresholds for the threshold and CUSUM detectors from failure-free runs.
 
-    CUSUM: σ_i is the spread of the friction-compensated residual; the drift ν is the
-    level the normalised residual z reaches once per 1 / rate hours (half the budget),
-    so a healthy robot almost never feeds the sum; the decision level h is at least
-    `cusum_threshold` and above what the sums did reach (the other half).
+    CUSUM: σ_i is the spread of the friction-compensated residual; with the drift ν
+    given, its three tests (the sum's level h, the limit on z, ε on |r|) each get a third
+    of the budget.
     """
     coulomb = fit_coulomb_friction(runs, smoothing_rad_s)
     friction = FrictionModel(coulomb, smoothing_rad_s)
@@ -85,17 +89,16 @@ def calibrate(runs: list[FailureFreeRun], period_s: float, smoothing_rad_s: floa
     block_s = ticks * period_s / len(runs)
     raw_maxima = np.array([np.max(np.abs(run.residual_nm)) for run in runs])
     normalised = [np.abs(e) / sigma for e in compensated]
-    drift = gumbel_threshold(np.array([np.max(z) for z in normalised]), block_s,
-                             false_alarms_per_hour / 2.0)
-    cusum_maxima = np.array([np.max(cusum_trace(z, drift)) for z in normalised])
-    level = (gumbel_threshold(cusum_maxima, block_s, false_alarms_per_hour / 2.0)
-             if np.any(cusum_maxima > 0.0) else 0.0)
+    cusum_maxima = np.array([np.max(cusum_trace(z, cusum_drift)) for z in normalised])
+    third = false_alarms_per_hour / 3.0
     return Calibration(
         coulomb_friction_nm=coulomb,
         epsilon_nm=gumbel_threshold(raw_maxima, block_s, false_alarms_per_hour),
         cusum_sigma_nm=[float(s) for s in sigma],
-        cusum_drift=drift,
-        cusum_threshold=max(cusum_threshold, level),
+        cusum_drift=cusum_drift,
+        cusum_threshold=gumbel_threshold(cusum_maxima, block_s, third),
+        cusum_limit=gumbel_threshold(np.array([np.max(z) for z in normalised]), block_s, third),
+        cusum_epsilon_nm=gumbel_threshold(raw_maxima, block_s, third),
         hours=ticks * period_s / 3600.0,
         runs=len(runs),
         largest_residual_nm=float(raw_maxima.max()),

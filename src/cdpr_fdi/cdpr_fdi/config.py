@@ -29,6 +29,8 @@ class FdiConfig:
     cusum_sigma_nm: tuple[float, ...]
     cusum_drift: float
     cusum_threshold: float
+    cusum_limit: float
+    cusum_epsilon_nm: float
 
     @classmethod
     def from_section(cls, fdi: Section, cable_count: int, friction: FrictionModel) -> 'FdiConfig':
@@ -46,6 +48,8 @@ class FdiConfig:
             cusum_sigma_nm=tuple(float(s) for s in sigma),
             cusum_drift=cusum.number('drift', non_negative=True),
             cusum_threshold=cusum.number('threshold', positive=True),
+            cusum_limit=cusum.number('limit', positive=True),
+            cusum_epsilon_nm=cusum.number('epsilon_nm', positive=True),
         )
 
     def with_overrides(self, detector: str | None = None, epsilon_nm: float | None = None,

@@ -84,11 +84,18 @@ class Supervisor:
                 events.append(f'alarm from tick {self.alarm_tick} ended without a free motor')
                 self.alarm_tick = None
         tensions = setpoint = None
-        if self.recovery is not None:
+        if self.recovery is not None and self.mode != FAULT:
             previous_mode = self.mode
-            self.mode, tensions, setpoint = self.recovery.setpoint(tick, angle_rad, angular_velocity_rad_s)
+            try:
+                self.mode, tensions, setpoint = self.recovery.setpoint(tick, angle_rad,
+                                                                       angular_velocity_rad_s)
+            except (ValueError, np.linalg.LinAlgError) as err:
+                # the pose cannot be found or the move to SP cannot be planned: hold
+                self.mode, tensions, setpoint = FAULT, None, None
+                self.fault_reason = f'recovery failed at tick {tick}: {err}'
             if self.mode != previous_mode:
-                events.append(f'{self.mode} from tick {tick + 1}')
+                events.append(f'{self.mode} from tick {tick + 1}'
+                              + (f': {self.fault_reason}' if self.mode == FAULT else ''))
         self.previous_speed = np.array(angular_velocity_rad_s, dtype=float)
         self.previous_reference = reference
         return Verdict(tick, residual, alarm, [c + 1 for c in self.broken], self.mode, tensions,
