@@ -71,12 +71,19 @@ def machine() -> str:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument('suite', choices=['model', 'graph', 'fdi'], help='what to measure')
+    parser.add_argument('suite', choices=['model', 'graph', 'fdi', 'soak'], help='what to measure')
+    parser.add_argument('--minutes', type=float, default=10.0, help='soak: how long')
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--json', action='store_true', help='print one JSON object last')
     parser.add_argument('--out', default='runs/bench-fdi', help='fdi: campaign folder')
     args = parser.parse_args(argv)
-    if args.suite == 'fdi':
+    if args.suite == 'soak':
+        from .bench_soak import bench_soak
+        figures = bench_soak(args.config, args.minutes)
+        print(f'cdpr-bench soak on {machine()}: {args.minutes:g} min, realtime, failure-free')
+        for key, value in figures.items():
+            print(f'  {key:<28} {value}')
+    elif args.suite == 'fdi':
         from .bench_fdi import bench_fdi, table as fdi_table
         figures = bench_fdi(args.config, args.out)
         print(f'cdpr-bench fdi on {machine()}; campaign in {args.out} (summary.md)')

@@ -24,7 +24,7 @@ from cdpr_msgs_py import qos
 from cdpr_msgs_py.contract import DIAGNOSTICS
 
 from .engine import run_inprocess
-from .graph import Graph, GraphError, graph_nodes
+from .graph import Graph, GraphError, graph_nodes, private_domain
 from .paths import DEFAULT_MOTIONS, config_file
 from .scenario_setup import ScenarioOptions, build_scenario
 
@@ -49,11 +49,6 @@ TARGETS = [
     ('lockstep_state_to_command_p50_ms', 'state -> command p50 ms (lockstep)', '', None),
     ('lockstep_state_to_command_p99_ms', 'state -> command p99 ms (lockstep)', '', None),
 ]
-
-
-def private_domain() -> None:
-    """A DDS domain of this process's own unless the caller chose one."""
-    os.environ.setdefault('ROS_DOMAIN_ID', str(110 + os.getpid() % 100))
 
 
 class DiagnosticsListener:
@@ -155,12 +150,22 @@ def inprocess_realtime_factor(config: str) -> float:
     return scenario.cycles * scenario.period_s / best
 
 
+def graph_parameters(config: str) -> dict:
+    """The nodes' parameters for the circle, with the FDI thresholds cdpr-scenario would use."""
+    scenario = build_scenario(ScenarioOptions(config=config, motion=MOTION))
+    parameters = {'config_file': str(config_file(config)),
+                  'motions_file': str(config_file(DEFAULT_MOTIONS)), 'motion': MOTION,
+                  'coulomb_friction_nm': scenario.fdi.friction.coulomb_nm}
+    if scenario.calibration_path is not None:
+        parameters['calibration_file'] = str(scenario.calibration_path)
+    return parameters
+
+
 def bench_graph(config: str, log=lambda line: None) -> dict:
     """The figures of this module's docstring, by the keys of TARGETS, plus CPU per node."""
     private_domain()
     figures = {'inprocess_realtime_factor': round(inprocess_realtime_factor(config), 1)}
-    parameters = {'config_file': str(config_file(config)),
-                  'motions_file': str(config_file(DEFAULT_MOTIONS)), 'motion': MOTION}
+    parameters = graph_parameters(config)
     listener = DiagnosticsListener()
     try:
         lockstep, lockstep_cpu = run_graph(dict(parameters, clock_mode='lockstep'), listener, log)

@@ -56,6 +56,12 @@ def executable_command(package: str, executable: str) -> list[str]:
                      f'(looked in {", ".join(map(str, candidates))})')
 
 
+def private_domain() -> str:
+    """The DDS domain of this launch: the caller's ROS_DOMAIN_ID, else one of its own, so
+    that two users (or two runs) on one machine never see each other's robot."""
+    return os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 230))
+
+
 def node_environment() -> dict:
     """The caller's environment, plus what nodes from a venv need and localhost discovery."""
     environment = dict(os.environ, PYTHONUNBUFFERED='1')
@@ -79,6 +85,7 @@ class Graph:
         self.folder = Path(tempfile.mkdtemp(prefix='cdpr-graph-'))
 
     def start(self) -> None:
+        self.log(f'[cdpr-graph] ROS_DOMAIN_ID={private_domain()} (set it to listen from another shell)')
         for spec in self.nodes:
             params = self.folder / f'{spec.name}.yaml'
             params.write_text(yaml.safe_dump({'/**': {'ros__parameters': spec.parameters}}))

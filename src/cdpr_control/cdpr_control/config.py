@@ -33,6 +33,19 @@ def load_yaml(path: str | Path) -> dict:
     return data
 
 
+def _is_number(value: Any) -> bool:
+    """An int or a float as YAML reads them; a bool is not a number here."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _is_finite(value: int | float) -> bool:
+    """Finite as a float: an integer beyond the float range is not (float() would raise)."""
+    try:
+        return bool(np.isfinite(float(value)))
+    except OverflowError:
+        return False
+
+
 class Section:
     """A view on one mapping of a config file that reports dotted key paths."""
 
@@ -65,11 +78,11 @@ class Section:
     def number(self, name: str, default: Any = ..., *, positive: bool = False,
                non_negative: bool = False) -> float:
         value = self.raw(name, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if not _is_number(value):
             raise self.error(name, f'must be a number, got {value!r}')
-        value = float(value)
-        if not np.isfinite(value):
+        if not _is_finite(value):
             raise self.error(name, f'must be finite, got {value!r}')
+        value = float(value)
         if positive and value <= 0.0:
             raise self.error(name, f'must be positive, got {value!r}')
         if non_negative and value < 0.0:
@@ -104,15 +117,14 @@ class Section:
         return np.array(rows)
 
     def _array(self, key: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
-        try:
-            array = np.array(value, dtype=float)
-        except (TypeError, ValueError):
+        # Element by element, as number() does: numpy alone would read True as 1.0 and
+        # '2' as 2.0.
+        if (not isinstance(value, (list, tuple)) or len(value) != shape[0]
+                or not all(map(_is_number, value))):
             raise ConfigError(self.path, key, f'must be a list of {shape[0]} numbers, got {value!r}')
-        if array.shape != shape:
-            raise ConfigError(self.path, key, f'must be a list of {shape[0]} numbers, got {value!r}')
-        if not np.all(np.isfinite(array)):
+        if not all(map(_is_finite, value)):
             raise ConfigError(self.path, key, f'must hold finite numbers, got {value!r}')
-        return array
+        return np.array(value, dtype=float)
 
 
 def load_section(path: str | Path, name: str) -> Section:

@@ -7,6 +7,7 @@ the in-process engine. Realtime: the latest of each, never waiting.
 """
 from __future__ import annotations
 
+import time
 from collections import OrderedDict
 
 import numpy as np
@@ -18,8 +19,8 @@ from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .config import load_section, resolve_config
-from .controller import (RECOVERY_MOVE, RECOVERY_TENSION, JointController, JointReference,
-                         PdGains)
+from .controller import (NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, JointController,
+                         JointReference, PdGains)
 from .friction import FrictionModel
 from .robot import load_robot
 
@@ -35,11 +36,12 @@ class StampedBuffer(OrderedDict):
             self.popitem(last=False)
 
     def at(self, stamp_ns: int, exact: bool):
-        """The value of exactly this stamp, or (not exact) the latest not after it."""
+        """(stamp, value) of exactly this stamp, or (not exact) of the latest not after
+        it; (None, None) when there is none."""
         if exact:
-            return self.get(stamp_ns)
+            return (stamp_ns, self[stamp_ns]) if stamp_ns in self else (None, None)
         earlier = [stamp for stamp in self if stamp <= stamp_ns]
-        return self[max(earlier)] if earlier else None
+        return (max(earlier), self[max(earlier)]) if earlier else (None, None)
 
 
 class ControllerNode(CdprNode):
@@ -50,6 +52,8 @@ class ControllerNode(CdprNode):
         self.robot = load_robot(config)
         control = load_section(config, 'control')
         self.period_ns = int(round(control.number('period_s', positive=True) * 1e9))
+        self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
+        self.last_state_at: float | None = None
         friction = self.parameter('coulomb_friction_nm', -1.0)
         self.controller = JointController(
             self.robot, PdGains.from_section(self.robot, control),
@@ -97,7 +101,8 @@ class ControllerNode(CdprNode):
     def on_residual(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.FDI_RESIDUAL, ('effort',))
         if joints is not None:
-            self.verdict_ns = max(joints.stamp_ns, self.verdict_ns or joints.stamp_ns)
+            self.verdict_ns = (joints.stamp_ns if self.verdict_ns is None
+                               else max(joints.stamp_ns, self.verdict_ns))
             self.retry()
 
     def on_state(self, message: JointState) -> None:
@@ -106,6 +111,7 @@ class ControllerNode(CdprNode):
             return
         if self.first_state_ns is None:
             self.first_state_ns = joints.stamp_ns
+        self.last_state_at = time.monotonic()
         self.diagnostics.count('states')
         self.answer(joints)
 
@@ -126,15 +132,31 @@ class ControllerNode(CdprNode):
         exact = self.clock_mode == 'lockstep'
         mode = self.controller.mode
         if mode == RECOVERY_TENSION:
-            tensions = self.recovery_tensions.at(stamp_ns, exact)
+            _, tensions = self.recovery_tensions.at(stamp_ns, exact)
             if tensions is not None:
                 self.controller.set_tension_setpoint(tensions)
             return tensions is not None or not exact, None
         if mode == RECOVERY_MOVE:
-            reference = self.recovery_references.at(stamp_ns, exact)
+            _, reference = self.recovery_references.at(stamp_ns, exact)
             return reference is not None or not exact, reference
-        reference = self.references.at(stamp_ns, exact)
-        return reference is not None or mode != 'NOMINAL', reference
+        stamp, reference = self.references.at(stamp_ns, exact)
+        if not exact and reference is not None and mode == NOMINAL and stamp_ns - stamp > self.stale_ns:
+            self.go_safe_hold(f'reference stale by {(stamp_ns - stamp) / 1e6:.0f} ms')
+        return reference is not None or mode != NOMINAL, reference
+
+    def go_safe_hold(self, why: str) -> None:
+        """Realtime: a stale input; hold where the last reference was, at rest."""
+        self.controller.set_mode(SAFE_HOLD)
+        self.diagnostics.warning = f'SAFE_HOLD: {why}'
+        self.get_logger().warning(self.diagnostics.warning)
+        self.diagnostics.publish()
+
+    def idle(self) -> None:
+        super().idle()
+        if (self.clock_mode == 'realtime' and self.last_state_at is not None
+                and self.controller.mode == NOMINAL
+                and time.monotonic() - self.last_state_at > self.stale_ns / 1e9):
+            self.go_safe_hold(f'no joint states for {time.monotonic() - self.last_state_at:.3f} s')
 
     def answer(self, joints) -> None:
         if joints.stamp_ns in self.answered:
@@ -150,6 +172,12 @@ class ControllerNode(CdprNode):
             torque = self.controller.command(joints.position, joints.velocity, reference)
             self.answered = {joints.stamp_ns: torque}
         self.pending = None
+        if not np.all(np.isfinite(torque)):
+            # absurd inputs overflowed the PD: send nothing; the drive holds, then brakes
+            self.diagnostics.reject(contract.JOINT_STATES, 'the command would not be finite')
+            return
+        torque = torque.copy()
+        torque[self.controller.broken] = 0.0   # also on a command answered before the break
         self.publisher.publish(joint_state(self.names, joints.stamp_ns, effort=torque))
         self.diagnostics.count('commands')
 
@@ -165,6 +193,8 @@ class ControllerNode(CdprNode):
             self.controller.set_mode(message.data)
         except ValueError as err:
             self.diagnostics.reject(contract.MODE, str(err))
+            return
+        self.answered = {}   # a state sent again is answered in the new mode
 
 
 def main(args=None):

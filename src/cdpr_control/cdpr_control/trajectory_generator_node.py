@@ -20,7 +20,7 @@ from .config import load_section, resolve_config
 from .motions import load_motion
 from .reference import ReferenceTable, tabulate_reference
 from .robot import load_robot
-from .tension_distribution import make_tension_distribution
+from .tension_distribution import InfeasibleTensionError, make_tension_distribution
 from .trajectories import Hold, Sequence, StraightLine
 
 
@@ -59,6 +59,8 @@ class TrajectoryGeneratorNode(CdprNode):
         if self.origin_ns is None:
             self.origin_ns = stamp
         tick = (stamp - self.origin_ns) // self.period_ns
+        # After a jump in time the references of the ticks jumped over are of no use.
+        self.next_index = max(self.next_index, tick)
         while self.next_index <= tick + self.lead:
             self.publish(self.next_index)
             self.next_index += 1
@@ -88,8 +90,15 @@ class TrajectoryGeneratorNode(CdprNode):
             return
         move = StraightLine.with_peak_speed(here, goal, self.goal_speed_m_s)
         trajectory = Sequence([move, Hold(goal, self.period_s)])
-        self.segments.append((begin, tabulate_reference(self.robot, self.distribution, trajectory,
-                                                         self.period_s)))
+        try:
+            table = tabulate_reference(self.robot, self.distribution, trajectory, self.period_s)
+        except InfeasibleTensionError as err:
+            self.diagnostics.reject(contract.GOAL, f'goal {goal} cannot be reached: {err}')
+            return
+        self.segments.append((begin, table))
+        # Segments wholly published are done with: a long run of goals must not pile up.
+        self.segments = [segment for segment in self.segments[:-1]
+                         if segment[0] + len(segment[1]) > self.next_index] + self.segments[-1:]
         self.get_logger().info(f'goal {goal} planned: {move.duration_s:.2f} s from tick {begin}')
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cdpr_control.config import Section, load_section, load_yaml
+from cdpr_control.config import ConfigError, Section, load_section, load_yaml
 from cdpr_control.friction import FrictionModel
 from cdpr_control.robot import Robot
 
@@ -31,6 +31,7 @@ class FdiConfig:
     cusum_threshold: float
     cusum_limit: float
     cusum_epsilon_nm: float
+    late_command_guard_cycles: int
 
     @classmethod
     def from_section(cls, fdi: Section, cable_count: int, friction: FrictionModel) -> 'FdiConfig':
@@ -50,6 +51,7 @@ class FdiConfig:
             cusum_threshold=cusum.number('threshold', positive=True),
             cusum_limit=cusum.number('limit', positive=True),
             cusum_epsilon_nm=cusum.number('epsilon_nm', positive=True),
+            late_command_guard_cycles=fdi.integer('late_command_guard_cycles', minimum=0),
         )
 
     def with_overrides(self, detector: str | None = None, epsilon_nm: float | None = None,
@@ -72,7 +74,10 @@ class FdiConfig:
 def load_fdi_config(config_path: str | Path, robot: Robot,
                     calibration_path: str | Path | None = None) -> FdiConfig:
     """The robot file's `fdi` section, with a calibration file's values on top."""
-    data = dict(load_yaml(config_path).get('fdi') or {})
+    data = load_yaml(config_path).get('fdi') or {}
+    if not isinstance(data, dict):
+        raise ConfigError(config_path, 'fdi', f'must be a mapping, got {data!r}')
+    data = dict(data)
     path = config_path
     if calibration_path:
         calibration = Section(load_yaml(calibration_path), calibration_path).section('fdi')

@@ -58,6 +58,9 @@ class Supervisor:
         self.previous_reference: JointReference | None = None
         self.tension_bounds_n = (np.zeros(robot.cable_count), np.zeros(robot.cable_count))
         self.candidates: list[int] = []
+        self.previous_command: np.ndarray | None = None
+        self.late_commands = 0
+        self.untrusted_until = -1
 
     def update(self, tick: int, angle_rad, angular_velocity_rad_s, applied_torque_nm,
                command_nm, twin_torque_nm, twin_angular_velocity_rad_s,
@@ -69,7 +72,16 @@ class Supervisor:
                 self.previous_speed, np.asarray(angular_velocity_rad_s, float), self.period_s)
         events: list[str] = []
         alarm = False
-        if not self.broken:
+        applied = np.asarray(applied_torque_nm, float)
+        if self.previous_command is not None and not np.array_equal(applied, self.previous_command):
+            # The drive applied something other than the last command (it came late, or
+            # its watchdog acted): the robot now differs from the twin by timing, not by a
+            # failure. The residual is not evidence until that has died out.
+            self.late_commands += 1
+            self.untrusted_until = tick + self.fdi.late_command_guard_cycles
+        if not self.broken and tick <= self.untrusted_until:
+            self.candidates = []
+        elif not self.broken:
             alarm = self.detector.update(residual, np.asarray(twin_angular_velocity_rad_s, float))
             if alarm and self.alarm_tick is None:
                 self.alarm_tick = tick
@@ -97,6 +109,7 @@ class Supervisor:
                 events.append(f'{self.mode} from tick {tick + 1}'
                               + (f': {self.fault_reason}' if self.mode == FAULT else ''))
         self.previous_speed = np.array(angular_velocity_rad_s, dtype=float)
+        self.previous_command = np.array(command_nm, dtype=float)
         self.previous_reference = reference
         return Verdict(tick, residual, alarm, [c + 1 for c in self.broken], self.mode, tensions,
                        setpoint, events)
@@ -156,4 +169,5 @@ class Supervisor:
             'settle_timed_out': bool(recovery is not None and recovery.timed_out),
             'fault': self.fault_reason,
             'unidentified_alarms': self.unidentified_alarms,
+            'late_commands': self.late_commands,
         }

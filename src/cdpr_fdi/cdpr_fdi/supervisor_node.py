@@ -28,6 +28,7 @@ from .supervisor import Supervisor
 
 INPUTS = ('state', 'command', 'twin', 'reference')
 ACK_TIMEOUT = Duration(seconds=1.0)
+BUFFER_LENGTH = 512
 
 
 class SupervisorNode(CdprNode):
@@ -39,6 +40,7 @@ class SupervisorNode(CdprNode):
         control = load_section(config, 'control')
         self.period_s = control.number('period_s', positive=True)
         self.period_ns = int(round(self.period_s * 1e9))
+        self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
         calibration = self.parameter('calibration_file', '')
         epsilon = self.parameter('epsilon_nm', -1.0)
         friction = self.parameter('coulomb_friction_nm', -1.0)
@@ -84,7 +86,11 @@ class SupervisorNode(CdprNode):
     def store(self, name: str, joints) -> None:
         if joints is None or joints.stamp_ns <= self.last_tick_ns:
             return
-        self.inputs[name][joints.stamp_ns] = joints
+        buffer = self.inputs[name]
+        buffer[joints.stamp_ns] = joints
+        if len(buffer) > BUFFER_LENGTH:
+            # an input that stopped (a dead twin) must not make the others pile up
+            del buffer[min(buffer)]
         self.judge_ready_ticks()
 
     def judge_ready_ticks(self) -> None:
@@ -131,6 +137,17 @@ class SupervisorNode(CdprNode):
         if verdict.events:
             self.report()
             self.diagnostics.publish()
+
+    def idle(self) -> None:
+        super().idle()
+        states = self.inputs['state']
+        if self.clock_mode == 'realtime' and states:
+            # States keep coming but ticks cannot be judged: the twin or the commands are
+            # missing. Say so; judging nothing raises no alarm.
+            behind = max(states) - max(self.last_tick_ns, min(states))
+            missing = [name for name in ('twin', 'command') if not self.inputs[name]]
+            self.diagnostics.warning = (f'FDI unavailable: no {" or ".join(missing) or "matching input"} '
+                                        f'for {behind / 1e6:.0f} ms' if behind > self.stale_ns else '')
 
     def report(self) -> None:
         """The supervisor's summary as /diagnostics key-values (JSON texts)."""

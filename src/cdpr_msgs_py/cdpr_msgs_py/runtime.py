@@ -82,6 +82,8 @@ class Diagnostics:
         self.rejected: Counter = Counter()
         # What the node wants reported besides counts (key → text), e.g. its verdicts.
         self.facts: dict[str, str] = {}
+        # A condition the node cannot work normally in (stale inputs); '' when none.
+        self.warning = ''
         self.activity = 0
         self.period_s = period_s
         self.last_publish = time.monotonic()
@@ -110,8 +112,9 @@ class Diagnostics:
         status.name = self.node.get_fully_qualified_name()
         status.hardware_id = 'cdpr'
         problems = sum(self.rejected.values())
-        status.level = DiagnosticStatus.WARN if problems else DiagnosticStatus.OK
-        status.message = f'{problems} rejected messages' if problems else 'ok'
+        status.level = DiagnosticStatus.WARN if problems or self.warning else DiagnosticStatus.OK
+        status.message = '; '.join(filter(None, [self.warning, f'{problems} rejected messages'
+                                                 if problems else ''])) or 'ok'
         pairs = [(f'{key} total', str(value)) for key, value in self.totals.items()]
         if elapsed_s > 0:
             pairs += [(f'{key} rate hz', f'{value / elapsed_s:.1f}') for key, value in self.window.items()]

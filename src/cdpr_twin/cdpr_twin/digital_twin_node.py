@@ -1,6 +1,7 @@
 """digital_twin: the healthy model and its own controller, fed /cdpr/reference only."""
 from __future__ import annotations
 
+import numpy as np
 from geometry_msgs.msg import PointStamped
 from sensor_msgs.msg import JointState
 
@@ -44,8 +45,12 @@ class DigitalTwinNode(CdprNode):
         self.last_stamp_ns = joints.stamp_ns
         if self.twin is None:
             # The twin starts where the reference starts, at rest.
-            start = forward_kinematics(self.robot, joints.position)
-            self.twin = DigitalTwin(self.robot, self.gains, start, self.substeps)
+            try:
+                start = forward_kinematics(self.robot, joints.position)
+                self.twin = DigitalTwin(self.robot, self.gains, start, self.substeps)
+            except (ValueError, np.linalg.LinAlgError) as err:
+                self.diagnostics.reject(contract.REFERENCE, f'no pose to start the twin from: {err}')
+                return
         output = self.twin.step(JointReference(joints.position, joints.velocity, joints.effort),
                                 self.period_s)
         self.joints.publish(joint_state(self.names, joints.stamp_ns, output.angle_rad,

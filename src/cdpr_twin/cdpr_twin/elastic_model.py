@@ -36,6 +36,8 @@ class ElasticCableRobot:
         self.coulomb_velocity_rad_s = coulomb_velocity_rad_s
         self.position_m = np.array(position_m, dtype=float)
         self.velocity_m_s = np.zeros(3)
+        # A brake holds every drum still (θ̇ = 0), whatever the torque.
+        self.drums_locked = False
         self.attached = np.ones(robot.cable_count, dtype=bool)
         # Start in equilibrium: each cable stretched by its static tension.
         tension = np.maximum(static_tensions(robot, self.position_m, self.attached), 0.0)
@@ -98,10 +100,13 @@ class ElasticCableRobot:
             next_angle, next_speed, next_tensions = [], [], []
             for (ax, ay, az, offset), theta, w, c, tension, is_attached in zip(
                     self.cables, angle, speed, torque_nm, tensions, attached):
-                # Motor: J θ̈ = c − (b θ̇ + f_c tanh(θ̇ / ω_c)) + ρ τ
-                w += h * ((c - (viscous * w + coulomb * tanh(w / smoothing)) + radius * tension)
-                          / inertia)
-                theta += h * w
+                if self.drums_locked:
+                    w = 0.0
+                else:
+                    # Motor: J θ̈ = c − (b θ̇ + f_c tanh(θ̇ / ω_c)) + ρ τ
+                    w += h * ((c - (viscous * w + coulomb * tanh(w / smoothing))
+                               + radius * tension) / inertia)
+                    theta += h * w
                 next_speed.append(w)
                 next_angle.append(theta)
                 # Cable: stiffness EA / l on the stretch beyond its unstretched length

@@ -60,7 +60,7 @@ class PlantConfig:
             angle_noise_rad=resolver.number('angle_noise_rad', non_negative=True),
             velocity_noise_rad_s=resolver.number('velocity_noise_rad_s', non_negative=True),
             counts_per_revolution=resolver.integer('counts_per_revolution', minimum=1),
-            seed=plant.integer('seed') if seed is None else seed,
+            seed=plant.integer('seed', minimum=0) if seed is None else seed,
         )
 
 
@@ -93,6 +93,14 @@ class PlantSimulator:
         self.time_s = 0.0
         self.rng = np.random.default_rng(config.seed)
         self.angle_step_rad = 2.0 * np.pi / config.counts_per_revolution
+
+    def lock_drums(self, locked: bool) -> None:
+        """Engage (True) or release the motor brakes: locked drums neither pay out nor wind."""
+        self.model.drums_locked = locked
+
+    @property
+    def drums_locked(self) -> bool:
+        return self.model.drums_locked
 
     def inject_failure(self, cable: int) -> None:
         """Break the 0-based `cable` now."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
 from geometry_msgs.msg import PointStamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -23,6 +24,7 @@ from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .plant import PlantConfig, PlantSimulator
+from .watchdog import BRAKING, CommandWatchdog
 from .tick_timing import TickTiming
 
 
@@ -67,6 +69,8 @@ class PlantSimulatorNode(CdprNode):
         self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
         if self.clock_mode == 'realtime':
             self.timer = None
+        self.watchdog = CommandWatchdog(
+            load_section(config, 'plant').integer('command_timeout_cycles', minimum=1))
 
     def stamp_ns(self) -> int:
         return self.tick * self.period_ns
@@ -126,8 +130,12 @@ class PlantSimulatorNode(CdprNode):
         if joints is None:
             return
         self.timing.command_received(joints.stamp_ns)
+        # what the motors get, and report as applied: never beyond their limit
+        limit = self.robot.motor.torque_limit_nm
+        joints.effort = np.clip(joints.effort, -limit, limit)
         if self.clock_mode == 'realtime':
             self.command = joints.effort
+            self.watchdog.command_arrived()
             return
         if joints.stamp_ns != self.stamp_ns() or not self.started:
             return
@@ -147,6 +155,17 @@ class PlantSimulatorNode(CdprNode):
 
     def realtime_step(self) -> None:
         self.publish_state()
+        state = self.watchdog.tick()
+        braking = state == BRAKING
+        if braking != self.plant.drums_locked:
+            self.plant.lock_drums(braking)
+            message = (f'no command for {self.watchdog.silent_cycles} cycles: drums braked'
+                       if braking else 'commands are back: brake released')
+            self.get_logger().warning(message)
+            self.diagnostics.facts['command watchdog'] = message
+            self.diagnostics.publish()
+        if braking:
+            self.diagnostics.count('braked ticks')
         self.advance()
 
     def on_inject(self, message: Int32) -> None:

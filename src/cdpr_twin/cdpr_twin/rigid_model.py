@@ -30,6 +30,8 @@ class RigidCableRobot:
         self.velocity_m_s = np.zeros(3)
         self.angle_rad = inverse_kinematics(robot, self.position_m)
         self.angular_velocity_rad_s = np.zeros(robot.cable_count)
+        # A brake holds every drum still; taut rigid cables then hold the end-effector.
+        self.drums_locked = False
         self.attached = np.ones(robot.cable_count, dtype=bool)
         self.tension_n = static_tensions(robot, self.position_m, self.attached)
         self.taut = self.attached.copy()
@@ -52,6 +54,10 @@ class RigidCableRobot:
         Plain floats throughout: a sub-step on numpy arrays of m ≈ 4 entries spends its
         time in numpy's per-call overhead, not in the arithmetic.
         """
+        if self.drums_locked:
+            self.velocity_m_s = np.zeros(3)
+            self.angular_velocity_rad_s = np.zeros(self.robot.cable_count)
+            return
         radius = self.robot.motor.drum_radius_m
         h = period_s / self.substeps
         torque = np.asarray(torque_nm, dtype=float).tolist()

@@ -1,0 +1,86 @@
+"""cdpr-bench soak: the graph in realtime, failure-free, for minutes on end.
+
+The end-effector shuttles between two points of the workspace (a goal every few
+seconds on /cdpr/goal), so the whole graph works all the time. Reported: the memory
+growth of every node (resident set after a warm-up against at the end), the plant's
+deadline misses and tick rate, the supervisor's alarms (false, since nothing fails)
+and the commands that came too late to be applied, and the state→command latency.
+"""
+from __future__ import annotations
+
+import json
+import time
+
+from geometry_msgs.msg import PointStamped
+
+from cdpr_msgs_py import qos
+from cdpr_msgs_py.contract import GOAL
+
+from .bench_graph import DiagnosticsListener, graph_parameters
+from .graph import Graph, graph_nodes, private_domain
+
+NAMESPACE = '/cdpr_soak'
+WARM_UP_S = 30.0
+GOAL_PERIOD_S = 6.0
+GOALS_M = ((0.6, 1.2, 1.2), (1.1, 0.8, 1.35))
+SAMPLE_S = 1.0
+
+
+def resident_kib(pid: int) -> int:
+    """Resident memory (KiB) of `pid` and the processes it started."""
+    try:
+        with open(f'/proc/{pid}/status') as file:
+            rss = next(int(line.split()[1]) for line in file if line.startswith('VmRSS:'))
+        with open(f'/proc/{pid}/task/{pid}/children') as file:
+            children = [int(child) for child in file.read().split()]
+    except (FileNotFoundError, ProcessLookupError, StopIteration):
+        return 0
+    return rss + sum(resident_kib(child) for child in children)
+
+
+def bench_soak(config: str, minutes: float, log=lambda line: None) -> dict:
+    private_domain()
+    duration_s = minutes * 60.0
+    parameters = dict(graph_parameters(config), clock_mode='realtime', duration_s=duration_s + 60.0)
+    listener = DiagnosticsListener()
+    goal = listener.node.create_publisher(PointStamped, f'{NAMESPACE}/{GOAL}', qos.STREAM)
+    graph = Graph(graph_nodes(parameters), NAMESPACE, log=log)
+    try:
+        graph.start()
+        graph.wait_until_up()
+        start = time.monotonic()
+        memory_after_warm_up = None
+        sent = 0
+        while time.monotonic() - start < duration_s:
+            graph.check()
+            elapsed = time.monotonic() - start
+            if elapsed >= sent * GOAL_PERIOD_S:
+                message = PointStamped()
+                message.header.frame_id = 'world'
+                message.point.x, message.point.y, message.point.z = GOALS_M[sent % 2]
+                goal.publish(message)
+                sent += 1
+            if memory_after_warm_up is None and elapsed >= WARM_UP_S:
+                memory_after_warm_up = {name: resident_kib(process.pid)
+                                        for name, process in graph.processes.items()}
+            time.sleep(SAMPLE_S)
+        memory_end = {name: resident_kib(process.pid) for name, process in graph.processes.items()}
+        plant = dict(listener.latest.get(f'{NAMESPACE}/plant_simulator', {}))
+        supervisor = dict(listener.latest.get(f'{NAMESPACE}/supervisor', {}))
+    finally:
+        graph.stop()
+        listener.close()
+    return {
+        'minutes': minutes,
+        'goals': sent,
+        'memory_growth_kib': {name: memory_end[name] - memory_after_warm_up[name]
+                              for name in memory_end},
+        'memory_end_kib': memory_end,
+        'realtime_rate_hz': float(plant.get('tick rate wall hz', 'nan')),
+        'realtime_deadline_miss_pct': float(plant.get('deadline misses pct', 'nan')),
+        'state_to_command_p99_ms': float(plant.get('state to command p99 ms', 'nan')),
+        'false_alarms': len(json.loads(supervisor.get('fdi broken_cables', '[]'))),
+        'late_commands': int(json.loads(supervisor.get('fdi late_commands', '0'))),
+        'brake': plant.get('command watchdog', 'never engaged'),
+    }
+

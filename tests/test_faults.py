@@ -1,0 +1,64 @@
+"""Node faults: each node killed (SIGKILL) mid-run in realtime mode.
+
+The launcher names the node that died and stops the graph; nothing raises a false
+failure alarm; the bag stays readable; the end-effector does not fall (the plant brakes
+its drums a few cycles after the commands stop).
+"""
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from cdpr_bringup.bag_io import read_messages
+from cdpr_bringup.graph import Graph, GraphError, graph_nodes
+from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+
+from conftest import MOTIONS, PAPER_ROBOT
+
+pytestmark = pytest.mark.graph
+RUN_BEFORE_KILL_S = 3.0
+NODES = ['controller', 'digital_twin', 'supervisor', 'trajectory_generator', 'bag_recorder',
+         'plant_simulator']
+
+
+def realtime_parameters() -> dict:
+    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+                                              motion='circle'))
+    return {'config_file': str(PAPER_ROBOT), 'motions_file': str(MOTIONS), 'motion': 'circle',
+            'clock_mode': 'realtime', 'duration_s': 60.0,
+            'calibration_file': str(scenario.calibration_path),
+            'coulomb_friction_nm': scenario.fdi.friction.coulomb_nm}
+
+
+@pytest.mark.parametrize('victim', NODES)
+def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_path):
+    namespace = f'/cdpr_kill_{victim}'
+    bag = tmp_path / 'bag'
+    graph = Graph(graph_nodes(realtime_parameters(), str(bag)), namespace,
+                  completion='plant_simulator', log=lambda line: None)
+    try:
+        graph.start()
+        graph.wait_until_up()
+        time.sleep(RUN_BEFORE_KILL_S)
+        assert not graph.check(), 'the graph runs before the kill'
+        os.killpg(graph.processes[victim].pid, signal.SIGKILL)
+        with pytest.raises(GraphError, match=f'node {victim} died'):
+            graph.wait(timeout_s=10.0)
+    finally:
+        graph.stop()
+    topics = [f'{namespace}/fdi/broken_cable', f'{namespace}/ground_truth/pose', '/diagnostics']
+    found = read_messages(bag, topics)   # a killed recorder leaves a readable prefix
+    assert all(message.data == 0 for _, message in found[topics[0]]), 'no false alarm'
+    heights = np.array([message.point.z for _, message in found[topics[1]]])
+    assert heights.size > 250, 'the bag holds the run before the kill'
+    # the circle is flat at z = 1.25 m: nothing sags or falls, whatever stopped
+    assert heights.min() > 1.25 - 0.02
+    if victim == 'controller':
+        facts = [value.value for _, message in found['/diagnostics'] for status in message.status
+                 if status.name.endswith('/plant_simulator') for value in status.values
+                 if value.key == 'command watchdog']
+        assert any('drums braked' in fact for fact in facts)

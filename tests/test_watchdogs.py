@@ -1,0 +1,158 @@
+"""Watchdogs without DDS: the drive's command watchdog and brake, the FDI's late-command guard."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_control.controller import JointReference
+from cdpr_control.statics import static_tensions
+from cdpr_fdi.supervisor import Supervisor
+from cdpr_twin.plant import PlantSimulator
+from cdpr_twin.watchdog import BRAKING, HOLDING, OK, CommandWatchdog
+
+from conftest import MOTIONS, PAPER_ROBOT
+
+
+def test_watchdog_holds_then_brakes_and_a_fresh_command_releases():
+    watchdog = CommandWatchdog(hold_cycles=3)
+    watchdog.command_arrived()
+    assert [watchdog.tick() for _ in range(5)] == [OK, HOLDING, HOLDING, BRAKING, BRAKING]
+    watchdog.command_arrived()
+    assert watchdog.tick() == OK
+    with pytest.raises(ValueError):
+        CommandWatchdog(0)
+
+
+@pytest.mark.parametrize('fidelity', ['rigid', 'elastic'])
+def test_braked_drums_hold_the_load_where_zero_torque_drops_it(fidelity):
+    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+                                              motion='circle', fidelity=fidelity))
+    robot, start = scenario.robot, scenario.reference.position_m[0]
+    braked = PlantSimulator(robot, scenario.plant, start)
+    dropped = PlantSimulator(robot, scenario.plant, start)
+    braked.lock_drums(True)
+    angles = braked.model.angle_rad.copy()
+    for _ in range(250):   # half a second without any command
+        braked.step(np.zeros(robot.cable_count), scenario.period_s)
+        dropped.step(np.zeros(robot.cable_count), scenario.period_s)
+    np.testing.assert_array_equal(braked.model.angle_rad, angles)
+    assert start[2] - braked.position_m[2] < 0.005
+    assert start[2] - dropped.position_m[2] > 0.1
+    # released, the drive holds the load again with its holding torques
+    braked.lock_drums(False)
+    hold = -robot.motor.drum_radius_m * static_tensions(robot, braked.position_m, robot.cable_mask())
+    braked.step(hold, scenario.period_s)
+    assert not braked.drums_locked
+
+
+def test_late_commands_suspend_judgement_instead_of_raising_an_alarm():
+    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+                                              motion='along-2', fidelity='rigid'))
+    robot, m = scenario.robot, scenario.robot.cable_count
+    supervisor = Supervisor(robot, scenario.fdi, scenario.recovery, scenario.distribution,
+                            scenario.period_s)
+    guard = scenario.fdi.late_command_guard_cycles
+    reference = JointReference(np.zeros(m), np.zeros(m), np.zeros(m))
+    command = np.full(m, -0.4)
+    off_by_timing = command + np.array([0.5, 0.0, 0.0, 0.0])   # far above ε = 0.03 N·m
+    zero = np.zeros(m)
+    supervisor.update(0, zero, zero, command, command, command, zero, reference)
+    # tick 1: the drive applied an older command; the residual of the next ticks is timing
+    verdicts = [supervisor.update(1, zero, zero, command + 0.1, off_by_timing, command, zero, reference)]
+    verdicts += [supervisor.update(k, zero, zero, off_by_timing, off_by_timing, command, zero, reference)
+                 for k in range(2, guard + 2)]
+    assert not any(v.alarm for v in verdicts) and supervisor.late_commands == 1
+    # once the guard has run out, the same residual is evidence again
+    assert supervisor.update(guard + 2, zero, zero, off_by_timing, off_by_timing, command, zero,
+                             reference).alarm
+
+
+@pytest.fixture(scope='module')
+def realtime_ros():
+    """rclpy in this process, nodes in realtime clock mode; no peers: callbacks are called."""
+    import rclpy
+    rclpy.init(args=['--ros-args', '-p', f'config_file:={PAPER_ROBOT}', '-p', 'clock_mode:=realtime'])
+    yield
+    rclpy.shutdown()
+
+
+def joint_state_message(robot, stamp_ns, values):
+    from cdpr_msgs_py.contract import joint_names
+    from cdpr_msgs_py.conversions import joint_state
+    m = robot.cable_count
+    return joint_state(joint_names(m), stamp_ns, np.full(m, values), np.zeros(m), np.full(m, -0.4))
+
+
+@pytest.fixture
+def controller_node(realtime_ros):
+    from cdpr_control.controller_node import ControllerNode
+    node = ControllerNode()
+    yield node
+    node.destroy_node()
+
+
+def test_controller_holds_when_joint_states_stop(controller_node, paper_robot):
+    node = controller_node
+    node.on_reference(joint_state_message(paper_robot, 0, 0.0))
+    node.on_state(joint_state_message(paper_robot, 0, 0.0))
+    assert node.controller.mode == 'NOMINAL'
+    time.sleep(node.stale_ns / 1e9 * 1.5)
+    node.idle()
+    assert node.controller.mode == 'SAFE_HOLD' and 'no joint states' in node.diagnostics.warning
+
+
+def test_controller_holds_when_the_reference_goes_stale(controller_node, paper_robot):
+    node = controller_node
+    node.on_reference(joint_state_message(paper_robot, 0, 0.0))
+    node.on_state(joint_state_message(paper_robot, node.stale_ns + node.period_ns, 0.0))
+    assert node.controller.mode == 'SAFE_HOLD' and 'reference stale' in node.diagnostics.warning
+
+
+def test_supervisor_says_fdi_unavailable_and_raises_no_alarm_without_the_twin(realtime_ros, paper_robot):
+    from cdpr_fdi.supervisor_node import SupervisorNode
+    node = SupervisorNode()
+    try:
+        period = node.period_ns
+        for k in range(3 * node.stale_ns // period):
+            node.on_state(joint_state_message(paper_robot, k * period, 0.0))
+            node.on_command(joint_state_message(paper_robot, k * period, 0.0))
+            node.on_reference(joint_state_message(paper_robot, k * period, 0.0))
+        node.idle()
+        assert node.diagnostics.warning.startswith('FDI unavailable: no twin')
+        assert node.supervisor.alarm_tick is None and node.published_broken == []
+    finally:
+        node.destroy_node()
+
+
+def test_controller_withholds_a_command_that_would_not_be_finite(controller_node, paper_robot):
+    from cdpr_msgs_py.contract import joint_names
+    from cdpr_msgs_py.conversions import joint_state
+    node, m = controller_node, paper_robot.cable_count
+    sent = []
+    node.publisher.publish = sent.append
+    node.on_reference(joint_state(joint_names(m), 0, [1e308] * m, [-1e308] * m, [0.0] * m))
+    node.on_state(joint_state(joint_names(m), 0, [0.0] * m, [1e308] * m))
+    assert sent == [] and node.diagnostics.rejected['joint_states'] == 1
+
+
+def test_generator_rejects_a_goal_it_cannot_plan_and_survives_a_jump_in_time(realtime_ros):
+    from geometry_msgs.msg import PointStamped
+    from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
+    node = TrajectoryGeneratorNode()
+    try:
+        sent = []
+        node.reference.publish = sent.append
+        node.pose.publish = lambda message: None
+        goal = PointStamped()
+        goal.point.x, goal.point.y, goal.point.z = 0.0, 0.0, 2.2   # a corner: no tensions
+        node.on_goal(goal)
+        assert node.diagnostics.rejected['goal'] == 1 and len(node.segments) == 1
+        node.on_state(joint_state_message(node.robot, 0, 0.0))
+        # 2**31 s later: only the references from there on, not 1e12 of them
+        node.on_state(joint_state_message(node.robot, 2 ** 31 * 1_000_000_000, 0.0))
+        assert len(sent) == 2 * (node.lead + 1)
+    finally:
+        node.destroy_node()
