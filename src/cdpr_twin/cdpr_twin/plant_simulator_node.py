@@ -118,9 +118,8 @@ class PlantSimulatorNode(CdprNode):
             if self.ready_since is not None and time.monotonic() - self.ready_since >= self.start_delay_s:
                 self.started = True
                 self.get_logger().info(f'starting, {self.clock_mode}, {self.last_tick} ticks')
-                if self.clock_mode == 'lockstep':
-                    self.publish_state()
-                else:
+                self.publish_state()
+                if self.clock_mode == 'realtime':
                     self.timer = self.create_timer(self.period_s, self.realtime_step)
         elif self.clock_mode == 'lockstep' and time.monotonic() - self.sent_at > self.resend_s:
             self.resend_state()
@@ -154,7 +153,12 @@ class PlantSimulatorNode(CdprNode):
             self.diagnostics.publish()
 
     def realtime_step(self) -> None:
-        self.publish_state()
+        """The period that just ended ran under the latest command (sample and hold: the
+        answer to its state if it came in time, else an older one); then the next state.
+
+        Stepping before publishing, not after, keeps an answer that arrives within the
+        period from waiting a whole extra period, which the twin does not wait.
+        """
         state = self.watchdog.tick()
         braking = state == BRAKING
         if braking != self.plant.drums_locked:
@@ -167,6 +171,8 @@ class PlantSimulatorNode(CdprNode):
         if braking:
             self.diagnostics.count('braked ticks')
         self.advance()
+        if not self.finished:
+            self.publish_state()
 
     def on_inject(self, message: Int32) -> None:
         if not 1 <= message.data <= self.robot.cable_count:
