@@ -16,7 +16,7 @@ from pathlib import Path
 from cdpr_control.config import load_section
 from cdpr_control.controller import JointReference, PdGains
 from cdpr_control.robot import load_robot
-from cdpr_control.tension_distribution import make_tension_distribution
+from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.offline import RecordedTick, replay
 from cdpr_msgs_py import contract
@@ -71,8 +71,7 @@ def main(argv=None):
     verdict = replay(ticks, robot, PdGains.from_section(robot, control),
                      load_section(config, 'twin').integer('substeps', minimum=1), fdi,
                      load_recovery_config(config, robot),
-                     make_tension_distribution(control.string('tension_distribution'),
-                                               robot.tension_min_n, robot.tension_max_n), period)
+                     configured_tension_distribution(control, robot), period)
     failure_time, true_broken, source = failure_of(bag, recording_from_bag(bag, args.namespace))
 
     def time_of(tick):

@@ -9,7 +9,7 @@ from cdpr_control.controller import PdGains
 from cdpr_control.motions import Motion, load_motion
 from cdpr_control.reference import ReferenceTable, tabulate_reference
 from cdpr_control.robot import Robot, load_robot
-from cdpr_control.tension_distribution import make_tension_distribution
+from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_fdi.config import FdiConfig, RecoveryConfig, load_fdi_config, load_recovery_config
 from cdpr_twin.plant import PlantConfig
@@ -77,8 +77,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
     robot = load_robot(config_path)
     control = load_section(config_path, 'control')
     period = control.number('period_s', positive=True)
-    distribution = make_tension_distribution(
-        control.string('tension_distribution'), robot.tension_min_n, robot.tension_max_n)
+    distribution = configured_tension_distribution(control, robot)
     motion = load_motion(motions_path, options.motion, options.reverse)
     reference = tabulate_reference(robot, distribution, motion.trajectory, period)
     failures = []

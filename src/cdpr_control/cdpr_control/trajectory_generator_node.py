@@ -20,7 +20,7 @@ from .config import load_section, resolve_config
 from .motions import load_motion
 from .reference import ReferenceTable, tabulate_reference
 from .robot import load_robot
-from .tension_distribution import InfeasibleTensionError, make_tension_distribution
+from .tension_distribution import InfeasibleTensionError, configured_tension_distribution
 from .trajectories import Hold, Sequence, StraightLine
 
 
@@ -35,8 +35,7 @@ class TrajectoryGeneratorNode(CdprNode):
         self.period_s = control.number('period_s', positive=True)
         self.period_ns = int(round(self.period_s * 1e9))
         self.lead = control.integer('reference_lead_cycles', minimum=1)
-        self.distribution = make_tension_distribution(
-            control.string('tension_distribution'), self.robot.tension_min_n, self.robot.tension_max_n)
+        self.distribution = configured_tension_distribution(control, self.robot)
         self.goal_speed_m_s = load_section(motions, 'motion_defaults').number('peak_speed_m_s', positive=True)
         motion = load_motion(motions, self.parameter('motion', 'circle'), self.parameter('reverse', False))
         self.segments: list[tuple[int, ReferenceTable]] = [

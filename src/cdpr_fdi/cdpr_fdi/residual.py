@@ -17,8 +17,6 @@ import numpy as np
 from cdpr_control.friction import FrictionModel
 from cdpr_control.robot import Motor
 
-__all__ = ['FrictionModel', 'sensorless_tension_bounds', 'sensorless_tensions']
-
 
 def sensorless_tensions(motor: Motor, friction: FrictionModel, applied_torque_nm: np.ndarray,
                         speed_before_rad_s: np.ndarray, speed_after_rad_s: np.ndarray,

@@ -18,7 +18,7 @@ from std_msgs.msg import Int32, String
 from cdpr_control.config import load_section, resolve_config
 from cdpr_control.controller import NOMINAL, JointReference
 from cdpr_control.robot import load_robot
-from cdpr_control.tension_distribution import make_tension_distribution
+from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.runtime import CdprNode, run
@@ -47,8 +47,7 @@ class SupervisorNode(CdprNode):
         fdi = load_fdi_config(config, self.robot, resolve_config(calibration) if calibration else None)
         fdi = fdi.with_overrides(self.parameter('detector', '') or None,
                                  None if epsilon < 0 else epsilon, None if friction < 0 else friction)
-        distribution = make_tension_distribution(control.string('tension_distribution'),
-                                                 self.robot.tension_min_n, self.robot.tension_max_n)
+        distribution = configured_tension_distribution(control, self.robot)
         self.supervisor = Supervisor(self.robot, fdi, load_recovery_config(config, self.robot),
                                      distribution, self.period_s)
         self.names = contract.joint_names(self.robot.cable_count)

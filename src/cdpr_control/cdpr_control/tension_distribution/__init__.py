@@ -17,5 +17,13 @@ def make_tension_distribution(name: str, tension_min_n: float, tension_max_n: fl
     return method(tension_min_n, tension_max_n, **options)
 
 
+def configured_tension_distribution(control, robot) -> TensionDistribution:
+    """The method the `control` section names (`tension_distribution`), within the
+    robot's tension bounds: what the generator, the scenarios and the supervisor use."""
+    return make_tension_distribution(control.string('tension_distribution'),
+                                     robot.tension_min_n, robot.tension_max_n)
+
+
 __all__ = ['InfeasibleTensionError', 'TensionDistribution', 'PseudoInverse',
-           'BoundedMinimumNorm', 'METHODS', 'make_tension_distribution', 'minimum_norm']
+           'BoundedMinimumNorm', 'METHODS', 'configured_tension_distribution',
+           'make_tension_distribution', 'minimum_norm']
