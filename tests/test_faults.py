@@ -1,10 +1,9 @@
 """Node faults: each node killed (SIGKILL) mid-run in realtime mode.
 
-The launcher names the node that died and stops the graph; the kill raises no failure
-alarm; the bag stays readable; the end-effector does not fall (the plant brakes its
-drums when the commands stop). What happened before the kill is realtime on a shared
-2-core machine, where a late command can still make the supervisor alarm (README,
-Faults); these tests judge what the kill does.
+The launcher names the node that died and stops the graph; no failure alarm is raised,
+before or after the kill; the bag stays readable; the end-effector does not fall (the
+plant brakes its drums when the commands stop). The control loop runs under SCHED_FIFO
+(config `scheduling`), as realtime FDI needs on a shared 2-core machine (README).
 """
 from __future__ import annotations
 
@@ -55,9 +54,10 @@ def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_pa
     topics = [f'{namespace}/fdi/broken_cable', f'{namespace}/ground_truth/pose', '/diagnostics']
     found = read_messages(bag, topics)   # a killed recorder leaves a readable prefix
     verdicts = found[topics[0]]
-    alarmed_before = any(message.data for at, message in verdicts if at < killed_ns)
-    assert alarmed_before or all(message.data == 0 for _, message in verdicts), \
-        'the kill raised a failure alarm'
+    scheduling = {value.value for _, message in found['/diagnostics'] for status in message.status
+                  for value in status.values if value.key == 'scheduling'}
+    assert verdicts and all(message.data == 0 for _, message in verdicts), \
+        f'a false failure alarm (node scheduling: {scheduling})'
     poses = found[topics[1]]
     assert len(poses) > 250, 'the bag holds the run before the kill'
     before = [message.point.z for at, message in poses if at < killed_ns]

@@ -48,26 +48,52 @@ def test_braked_drums_hold_the_load_where_zero_torque_drops_it(fidelity):
     assert not braked.drums_locked
 
 
-def test_late_commands_suspend_judgement_instead_of_raising_an_alarm():
+def late_command_supervisor():
     scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
                                               motion='along-2', fidelity='rigid'))
-    robot, m = scenario.robot, scenario.robot.cable_count
-    supervisor = Supervisor(robot, scenario.fdi, scenario.recovery, scenario.distribution,
+    supervisor = Supervisor(scenario.robot, scenario.fdi, scenario.recovery, scenario.distribution,
                             scenario.period_s)
-    guard = scenario.fdi.late_command_guard_cycles
+    return supervisor, scenario.fdi, scenario.robot.cable_count
+
+
+def test_a_burst_of_late_commands_suspends_judgement_instead_of_raising_an_alarm():
+    supervisor, fdi, m = late_command_supervisor()
     reference = JointReference(np.zeros(m), np.zeros(m), np.zeros(m))
     command = np.full(m, -0.4)
     off_by_timing = command + np.array([0.5, 0.0, 0.0, 0.0])   # far above ε = 0.03 N·m
     zero = np.zeros(m)
     supervisor.update(0, zero, zero, command, command, command, zero, reference)
-    # tick 1: the drive applied an older command; the residual of the next ticks is timing
-    verdicts = [supervisor.update(1, zero, zero, command + 0.1, off_by_timing, command, zero, reference)]
+    # a burst: every tick the drive applied something older than the last command
+    burst = fdi.late_command_burst
+    verdicts = [supervisor.update(k, zero, zero, command + 0.1 * k, off_by_timing, command, zero,
+                                  reference) for k in range(1, burst + 1)]
+    assert supervisor.late_commands == burst
+    # the residual of the following ticks is timing
+    last = burst + fdi.late_command_guard_cycles
     verdicts += [supervisor.update(k, zero, zero, off_by_timing, off_by_timing, command, zero, reference)
-                 for k in range(2, guard + 2)]
-    assert not any(v.alarm for v in verdicts) and supervisor.late_commands == 1
+                 for k in range(burst + 1, last + 1)]
+    assert not any(v.alarm for v in verdicts[burst - 1:])
+    assert supervisor.summary()['unjudged_ticks'] == last - burst + 1
     # once the guard has run out, the same residual is evidence again
-    assert supervisor.update(guard + 2, zero, zero, off_by_timing, off_by_timing, command, zero,
+    assert supervisor.update(last + 1, zero, zero, off_by_timing, off_by_timing, command, zero,
                              reference).alarm
+
+
+def test_an_isolated_late_command_does_not_blind_detection():
+    supervisor, fdi, m = late_command_supervisor()
+    reference = JointReference(np.zeros(m), np.zeros(m), np.zeros(m))
+    command = np.full(m, -0.4)
+    zero = np.zeros(m)
+    supervisor.update(0, zero, zero, command, command, command, zero, reference)
+    spacing = fdi.late_command_window_cycles   # never `burst` of them within the window
+    alarms = []
+    for k in range(1, 3 * spacing + 2):
+        applied = command + 0.1 if k % spacing == 0 else command
+        failed = command + np.array([0.5, 0.0, 0.0, 0.0]) if k == 3 * spacing + 1 else command
+        alarms.append(supervisor.update(k, zero, zero, applied, failed, command, zero, reference).alarm)
+    assert supervisor.late_commands == 3 and supervisor.summary()['unjudged_ticks'] == 0
+    # the tick right after an isolated late command is judged: its residual raises the alarm
+    assert alarms.index(True) == 3 * spacing
 
 
 @pytest.fixture(scope='module')

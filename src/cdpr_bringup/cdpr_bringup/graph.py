@@ -20,11 +20,16 @@ from pathlib import Path
 
 import yaml
 
+from cdpr_control.config import load_section, resolve_config
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
+from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 
 STOP_TIMEOUT_S = 5.0
 UP_TIMEOUT_S = 30.0
+# Realtime: the nodes a command waits on, and those that may lag a few ticks.
+CONTROL_LOOP = ('plant_simulator', 'controller', 'trajectory_generator')
+BACKGROUND = ('digital_twin', 'supervisor', 'bag_recorder')
 
 
 class GraphError(RuntimeError):
@@ -210,18 +215,20 @@ def graph_nodes(parameters: dict, bag_path: str | None = None,
     specs = [('cdpr_control', 'trajectory_generator', {}),
              ('cdpr_control', 'controller', {'wait_for_supervisor': supervised}),
              ('cdpr_twin', 'digital_twin', {})]
+    realtime = parameters.get('clock_mode', 'lockstep') == 'realtime'
     if supervised:
         specs.append(('cdpr_fdi', 'supervisor', {}))
         for topic in (c.JOINT_STATES, c.REFERENCE, c.EFFORT_COMMAND, c.TWIN_JOINT_STATES):
             listeners[topic].append('supervisor')
-        listeners[c.FDI_RESIDUAL].append('controller')
-        heard['controller'].append(c.FDI_RESIDUAL)
+        if not realtime:
+            listeners[c.FDI_RESIDUAL].append('controller')
+            heard['controller'].append(c.FDI_RESIDUAL)
         heard['supervisor'] = [c.EFFORT_COMMAND, c.TWIN_JOINT_STATES, c.REFERENCE]
     if bag_path is not None:
         specs.append(('cdpr_bringup', 'bag_recorder', {'bag_path': bag_path}))
         heard['bag_recorder'] = []
         for topic, names in listeners.items():
-            if topic != c.CLOCK or parameters.get('clock_mode', 'lockstep') == 'lockstep':
+            if topic != c.CLOCK or not realtime:
                 names.append('bag_recorder')
                 heard['bag_recorder'].append(topic)
         heard['bag_recorder'].remove(c.JOINT_STATES)
@@ -232,13 +239,26 @@ def graph_nodes(parameters: dict, bag_path: str | None = None,
                  c.TWIN_JOINT_STATES: 'digital_twin', c.TWIN_POSE: 'digital_twin',
                  c.FDI_RESIDUAL: 'supervisor', c.GROUND_TRUTH_POSE: 'plant_simulator',
                  c.GROUND_TRUTH_TENSIONS: 'plant_simulator', c.CLOCK: 'plant_simulator'}
+    scheduling = realtime_scheduling(parameters) if realtime else {}
     nodes = []
     for package, executable, extra in specs:
         matches = [f'publisher:{topic}={len(names)}' for topic, names in listeners.items()
                    if names and publishes[topic] == executable]
         matches += [f'subscription:{topic}=1' for topic in heard[executable]]
-        nodes.append(NodeSpec(package, executable, dict(parameters, **extra, matches=matches)))
+        nodes.append(NodeSpec(package, executable, dict(parameters, **extra, matches=matches,
+                                                        **scheduling.get(executable, {}))))
     return nodes
+
+
+def realtime_scheduling(parameters: dict) -> dict[str, dict]:
+    """Per node, the scheduling parameters the config's `scheduling` section asks for in
+    realtime mode: SCHED_FIFO on the control loop, niceness off it."""
+    section = load_section(resolve_config(parameters.get('config_file', 'paper_robot.yaml')),
+                           'scheduling')
+    loop = {'realtime_priority': section.integer('control_loop_priority', minimum=0,
+                                                 maximum=PRIORITY_RANGE[1])}
+    background = {'nice': section.integer('background_nice', minimum=0, maximum=NICE_RANGE[1])}
+    return {name: loop for name in CONTROL_LOOP} | {name: background for name in BACKGROUND}
 
 
 def main(argv=None):

@@ -89,12 +89,15 @@ class Section:
             raise self.error(name, f'must not be negative, got {value!r}')
         return value
 
-    def integer(self, name: str, default: Any = ..., *, minimum: int | None = None) -> int:
+    def integer(self, name: str, default: Any = ..., *, minimum: int | None = None,
+                maximum: int | None = None) -> int:
         value = self.raw(name, default)
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(name, f'must be an integer, got {value!r}')
         if minimum is not None and value < minimum:
             raise self.error(name, f'must be at least {minimum}, got {value!r}')
+        if maximum is not None and value > maximum:
+            raise self.error(name, f'must be at most {maximum}, got {value!r}')
         return value
 
     def string(self, name: str, default: Any = ..., *, choices: tuple[str, ...] = ()) -> str:

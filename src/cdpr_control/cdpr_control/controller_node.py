@@ -74,7 +74,9 @@ class ControllerNode(CdprNode):
         self.create_subscription(JointState, contract.RECOVERY_TENSIONS, self.on_tensions, qos.STREAM)
         self.create_subscription(JointState, contract.RECOVERY_REFERENCE, self.on_recovery_reference,
                                  qos.STREAM)
-        self.create_subscription(JointState, contract.FDI_RESIDUAL, self.on_residual, qos.STREAM)
+        if self.wait_for_supervisor and self.clock_mode == 'lockstep':
+            # the residual only paces lockstep; in realtime it would cost a third of the loop
+            self.create_subscription(JointState, contract.FDI_RESIDUAL, self.on_residual, qos.STREAM)
         self.start_when_matched(lambda: self.create_subscription(
             JointState, contract.JOINT_STATES, self.on_state, qos.STREAM))
 

@@ -32,6 +32,8 @@ class FdiConfig:
     cusum_limit: float
     cusum_epsilon_nm: float
     late_command_guard_cycles: int
+    late_command_burst: int
+    late_command_window_cycles: int
 
     @classmethod
     def from_section(cls, fdi: Section, cable_count: int, friction: FrictionModel) -> 'FdiConfig':
@@ -52,6 +54,8 @@ class FdiConfig:
             cusum_limit=cusum.number('limit', positive=True),
             cusum_epsilon_nm=cusum.number('epsilon_nm', positive=True),
             late_command_guard_cycles=fdi.integer('late_command_guard_cycles', minimum=0),
+            late_command_burst=fdi.integer('late_command_burst', minimum=1),
+            late_command_window_cycles=fdi.integer('late_command_window_cycles', minimum=1),
         )
 
     def with_overrides(self, detector: str | None = None, epsilon_nm: float | None = None,

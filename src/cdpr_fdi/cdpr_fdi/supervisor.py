@@ -7,6 +7,7 @@ the controller uses from tick k + 1 on.
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,7 +61,9 @@ class Supervisor:
         self.candidates: list[int] = []
         self.previous_command: np.ndarray | None = None
         self.late_commands = 0
+        self.recent_late_ticks: deque[int] = deque()
         self.untrusted_until = -1
+        self.unjudged_ticks = 0
 
     def update(self, tick: int, angle_rad, angular_velocity_rad_s, applied_torque_nm,
                command_nm, twin_torque_nm, twin_angular_velocity_rad_s,
@@ -75,12 +78,17 @@ class Supervisor:
         applied = np.asarray(applied_torque_nm, float)
         if self.previous_command is not None and not np.array_equal(applied, self.previous_command):
             # The drive applied something other than the last command (it came late, or
-            # its watchdog acted): the robot now differs from the twin by timing, not by a
-            # failure. The residual is not evidence until that has died out.
+            # its watchdog acted). After a burst of that the robot differs from the twin by
+            # timing, not by a failure: the residual is not evidence until that has died out.
             self.late_commands += 1
-            self.untrusted_until = tick + self.fdi.late_command_guard_cycles
+            self.recent_late_ticks.append(tick)
+            while self.recent_late_ticks[0] <= tick - self.fdi.late_command_window_cycles:
+                self.recent_late_ticks.popleft()
+            if len(self.recent_late_ticks) >= self.fdi.late_command_burst:
+                self.untrusted_until = tick + self.fdi.late_command_guard_cycles
         if not self.broken and tick <= self.untrusted_until:
             self.candidates = []
+            self.unjudged_ticks += 1
         elif not self.broken:
             alarm = self.detector.update(residual, np.asarray(twin_angular_velocity_rad_s, float))
             if alarm and self.alarm_tick is None:
@@ -170,4 +178,5 @@ class Supervisor:
             'fault': self.fault_reason,
             'unidentified_alarms': self.unidentified_alarms,
             'late_commands': self.late_commands,
+            'unjudged_ticks': self.unjudged_ticks,
         }

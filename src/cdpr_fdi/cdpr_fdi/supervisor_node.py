@@ -53,7 +53,7 @@ class SupervisorNode(CdprNode):
         self.names = contract.joint_names(self.robot.cable_count)
         self.inputs: dict[str, dict[int, object]] = {name: {} for name in INPUTS}
         self.origin_ns: int | None = None
-        self.last_tick_ns = -1
+        self.last_tick_ns: int | None = None
         self.published_broken: list[int] = []
         self.published_mode = NOMINAL
         self.residual = self.create_publisher(JointState, contract.FDI_RESIDUAL, qos.STREAM)
@@ -68,7 +68,6 @@ class SupervisorNode(CdprNode):
             JointState, contract.JOINT_STATES, self.on_state, qos.STREAM))
         self.broken_cable.publish(Int32(data=0))
         self.mode.publish(String(data=NOMINAL))
-        self.report()
 
     def on_state(self, message: JointState) -> None:
         self.store('state', self.joints_or_reject(message, contract.JOINT_STATES))
@@ -83,7 +82,7 @@ class SupervisorNode(CdprNode):
         self.store('reference', self.joints_or_reject(message, contract.REFERENCE))
 
     def store(self, name: str, joints) -> None:
-        if joints is None or joints.stamp_ns <= self.last_tick_ns:
+        if joints is None or (self.last_tick_ns is not None and joints.stamp_ns <= self.last_tick_ns):
             return
         buffer = self.inputs[name]
         buffer[joints.stamp_ns] = joints
@@ -134,7 +133,6 @@ class SupervisorNode(CdprNode):
         for event in verdict.events:
             self.get_logger().warning(event)
         if verdict.events:
-            self.report()
             self.diagnostics.publish()
 
     def idle(self) -> None:
@@ -143,15 +141,15 @@ class SupervisorNode(CdprNode):
         if self.clock_mode == 'realtime' and states:
             # States keep coming but ticks cannot be judged: the twin or the commands are
             # missing. Say so; judging nothing raises no alarm.
-            behind = max(states) - max(self.last_tick_ns, min(states))
+            judged = min(states) if self.last_tick_ns is None else max(self.last_tick_ns, min(states))
+            behind = max(states) - judged
             missing = [name for name in ('twin', 'command') if not self.inputs[name]]
             self.diagnostics.warning = (f'FDI unavailable: no {" or ".join(missing) or "matching input"} '
                                         f'for {behind / 1e6:.0f} ms' if behind > self.stale_ns else '')
 
-    def report(self) -> None:
+    def current_facts(self) -> dict[str, str]:
         """The supervisor's summary as /diagnostics key-values (JSON texts)."""
-        self.diagnostics.facts = {f'fdi {key}': json.dumps(value)
-                                  for key, value in self.supervisor.summary().items()}
+        return {f'fdi {key}': json.dumps(value) for key, value in self.supervisor.summary().items()}
 
 
 def main(args=None):

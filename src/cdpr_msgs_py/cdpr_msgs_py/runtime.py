@@ -12,6 +12,7 @@ from rclpy.node import Node
 
 from . import contract, qos
 from .conversions import InvalidMessage, joints_from_message
+from .scheduling import apply_scheduling
 
 SPIN_TIMEOUT_S = 0.05
 # On a stop request a node keeps handling what is queued until it has been quiet this
@@ -119,7 +120,7 @@ class Diagnostics:
         if elapsed_s > 0:
             pairs += [(f'{key} rate hz', f'{value / elapsed_s:.1f}') for key, value in self.window.items()]
         pairs += [(f'rejected {key}', str(value)) for key, value in self.rejected.items()]
-        pairs += list(self.facts.items())
+        pairs += list({**self.facts, **self.node.current_facts()}.items())
         status.values = [KeyValue(key=k, value=v) for k, v in pairs]
         message = DiagnosticArray()
         message.header.stamp = self.node.get_clock().now().to_msg()
@@ -155,6 +156,22 @@ class CdprNode(Node):
         self.finished = False
         self.match_requirements = parse_matches(self.declare_parameter('matches', ['']).value)
         self.pending_start = None
+        self.schedule()
+
+    def schedule(self) -> None:
+        """The OS scheduling the `realtime_priority` and `nice` parameters ask for
+        (cdpr-graph sets them in realtime mode from the config's scheduling section)."""
+        applied, outcome = apply_scheduling(self.parameter('realtime_priority', 0),
+                                            self.parameter('nice', 0))
+        self.diagnostics.facts['scheduling'] = outcome
+        if applied:
+            self.get_logger().info(f'scheduling: {outcome}')
+        else:
+            self.get_logger().warning(f'scheduling: {outcome}')
+
+    def current_facts(self) -> dict[str, str]:
+        """Figures computed when /diagnostics goes out (key → text), besides `facts`."""
+        return {}
 
     def parameter(self, name: str, default):
         """Declare and read one parameter."""

@@ -28,7 +28,7 @@ class DigitalTwinNode(CdprNode):
         self.substeps = load_section(config, 'twin').integer('substeps', minimum=1)
         self.names = contract.joint_names(self.robot.cable_count)
         self.twin: DigitalTwin | None = None
-        self.last_stamp_ns = -1
+        self.last_stamp_ns: int | None = None
         self.joints = self.create_publisher(JointState, contract.TWIN_JOINT_STATES, qos.STREAM)
         self.pose = self.create_publisher(PointStamped, contract.TWIN_POSE, qos.STREAM)
         # The twin's tick is the reference: it listens once its outputs have listeners.
@@ -39,7 +39,7 @@ class DigitalTwinNode(CdprNode):
         joints = self.joints_or_reject(message, contract.REFERENCE)
         if joints is None:
             return
-        if joints.stamp_ns <= self.last_stamp_ns:
+        if self.last_stamp_ns is not None and joints.stamp_ns <= self.last_stamp_ns:
             self.diagnostics.reject(contract.REFERENCE, 'stamp not after the previous one')
             return
         self.last_stamp_ns = joints.stamp_ns

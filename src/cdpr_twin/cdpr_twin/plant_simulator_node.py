@@ -67,8 +67,7 @@ class PlantSimulatorNode(CdprNode):
         self.clock = self.create_publisher(Clock, contract.CLOCK, qos.STREAM)
         self.create_subscription(JointState, contract.EFFORT_COMMAND, self.on_command, qos.STREAM)
         self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
-        if self.clock_mode == 'realtime':
-            self.timer = None
+        self.timer = None
         self.watchdog = CommandWatchdog(
             load_section(config, 'plant').integer('command_timeout_cycles', minimum=1))
 
@@ -106,10 +105,11 @@ class PlantSimulatorNode(CdprNode):
             return self.matched()
         return self.count_publishers(contract.EFFORT_COMMAND) >= 1
 
+    def current_facts(self) -> dict[str, str]:
+        # Timing figures only when diagnostics go out: percentiles cost more than a tick.
+        return self.timing.facts()
+
     def idle(self) -> None:
-        # Timing figures only when diagnostics are due: percentiles cost more than a tick.
-        if time.monotonic() - self.diagnostics.last_publish >= self.diagnostics.period_s:
-            self.diagnostics.facts.update(self.timing.facts())
         super().idle()
         if not self.started:
             if self.ready_since is None and self.ready():
@@ -148,8 +148,10 @@ class PlantSimulatorNode(CdprNode):
         self.tick += 1
         if self.tick > self.last_tick:
             self.finished = True
+            if self.timer is not None:
+                # the run is over: no more steps (nor watchdog braking) while the node drains
+                self.timer.cancel()
             # The run's figures now, while the node still spins to deliver them.
-            self.diagnostics.facts.update(self.timing.facts())
             self.diagnostics.publish()
 
     def realtime_step(self) -> None:

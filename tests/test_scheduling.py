@@ -1,0 +1,116 @@
+"""Realtime scheduling: what the nodes ask the OS for, and what they do when refused."""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import threading
+
+import pytest
+import yaml
+
+from cdpr_bringup.graph import BACKGROUND, CONTROL_LOOP, graph_nodes
+from cdpr_control.config import ConfigError, load_section
+from cdpr_msgs_py import scheduling
+
+from conftest import PAPER_ROBOT
+
+
+def thread_settings() -> list[tuple[int, int]]:
+    """(policy, nice) of every thread of this process."""
+    return [(os.sched_getscheduler(tid), os.getpriority(os.PRIO_PROCESS, tid))
+            for tid in scheduling.process_threads()]
+
+
+def schedule_in_child(priority: int, nice: int, results) -> None:
+    """A thread started before the call and one started after must both be set."""
+    stop = threading.Event()
+    before = threading.Thread(target=stop.wait)
+    before.start()
+    applied, outcome = scheduling.apply_scheduling(priority, nice)
+    after = threading.Thread(target=stop.wait)
+    after.start()
+    results.put((applied, outcome, len(scheduling.process_threads()), thread_settings()))
+    stop.set()
+    before.join()
+    after.join()
+
+
+def run_in_child(priority: int, nice: int):
+    context = multiprocessing.get_context('fork')
+    results = context.Queue()
+    child = context.Process(target=schedule_in_child, args=(priority, nice, results))
+    child.start()
+    outcome = results.get(timeout=30)
+    child.join(timeout=30)
+    assert child.exitcode == 0
+    return outcome
+
+
+def test_niceness_reaches_every_thread_including_later_ones():
+    applied, outcome, threads, settings = run_in_child(0, 7)
+    assert applied and outcome == 'nice 7'
+    assert threads == 3 and len(settings) == 3
+    assert all(nice == 7 for _, nice in settings)
+
+
+def test_sched_fifo_reaches_every_thread_or_the_refusal_is_reported():
+    applied, outcome, _, settings = run_in_child(20, 0)
+    if applied:
+        assert outcome == 'SCHED_FIFO priority 20'
+        assert all(policy == os.SCHED_FIFO for policy, _ in settings)
+    else:
+        assert 'refused' in outcome and 'ulimit -r 20' in outcome
+        assert all(policy != os.SCHED_FIFO for policy, _ in settings)
+
+
+def test_a_refusal_leaves_normal_scheduling_and_says_how_to_allow_it(monkeypatch):
+    def refuse(*_args):
+        raise PermissionError(1, 'Operation not permitted')
+    monkeypatch.setattr(os, 'sched_setscheduler', refuse)
+    applied, outcome = scheduling.apply_scheduling(50, 0)
+    assert not applied
+    assert outcome.startswith('SCHED_FIFO priority 50 refused') and 'ulimit -r 50' in outcome
+
+
+def test_zero_asks_for_nothing():
+    assert scheduling.apply_scheduling(0, 0) == (True, 'normal scheduling')
+
+
+@pytest.mark.parametrize('priority, nice, name', [(100, 0, 'realtime_priority'), (-1, 0, 'realtime_priority'),
+                                                  (True, 0, 'realtime_priority'), (0, 20, 'nice'),
+                                                  (0, -21, 'nice'), (0, 1.5, 'nice')])
+def test_out_of_range_values_name_the_parameter(priority, nice, name):
+    with pytest.raises(ValueError, match=f'parameter {name}'):
+        scheduling.apply_scheduling(priority, nice)
+
+
+def scheduling_of(nodes) -> dict[str, dict]:
+    return {node.name: {key: node.parameters[key] for key in ('realtime_priority', 'nice')
+                        if key in node.parameters} for node in nodes}
+
+
+def test_realtime_graph_puts_the_loop_first_as_configured(tmp_path):
+    section = load_section(PAPER_ROBOT, 'scheduling')
+    nodes = graph_nodes({'config_file': str(PAPER_ROBOT), 'clock_mode': 'realtime'}, str(tmp_path))
+    settings = scheduling_of(nodes)
+    assert set(settings) == set(CONTROL_LOOP) | set(BACKGROUND)
+    for name in CONTROL_LOOP:
+        assert settings[name] == {'realtime_priority': section.integer('control_loop_priority')}
+    for name in BACKGROUND:
+        assert settings[name] == {'nice': section.integer('background_nice')}
+    assert section.integer('control_loop_priority') > 0 and section.integer('background_nice') > 0
+
+
+def test_lockstep_graph_leaves_scheduling_alone(tmp_path):
+    nodes = graph_nodes({'config_file': str(PAPER_ROBOT), 'clock_mode': 'lockstep'}, str(tmp_path))
+    assert all(not values for values in scheduling_of(nodes).values())
+
+
+def test_a_bad_scheduling_value_names_the_key_and_the_file(tmp_path):
+    config = yaml.safe_load(PAPER_ROBOT.read_text())
+    config['scheduling']['control_loop_priority'] = 120
+    path = tmp_path / 'robot.yaml'
+    path.write_text(yaml.safe_dump(config))
+    with pytest.raises(ConfigError, match=r'scheduling\.control_loop_priority') as error:
+        graph_nodes({'config_file': str(path), 'clock_mode': 'realtime'})
+    assert str(path) in str(error.value)
