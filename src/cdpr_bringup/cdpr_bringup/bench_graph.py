@@ -5,9 +5,12 @@
   and last tick, as the plant measures them.
 - in-process: `engine.run_inprocess` on the elastic circle; simulated s per wall s
   (best of a few runs: the machine is shared).
-- realtime: the same graph on the 2 ms wall-clock timer; the plant's tick rate, its
-  deadline misses (a tick more than one period late), and the latency from its
-  publishing the state of a tick to its receiving the command stamped with it.
+- realtime: the same graph on the 2 ms wall-clock timer, scheduled as the config's
+  `scheduling` section says (SCHED_FIFO for the control loop); the plant's tick rate, its
+  deadline misses (a tick more than one period late), the latency from its publishing
+  the state of a tick to its receiving the command stamped with it, and the % of
+  commands that came too late to be applied (the supervisor's count). Then once more
+  with normal scheduling for every node, to show what the scheduling buys.
 - CPU: per node process (and its children), % of one core over the ticking window,
   from /proc/<pid>/stat.
 
@@ -46,6 +49,11 @@ TARGETS = [
     ('realtime_deadline_miss_pct', 'realtime deadline misses %', '< 0.1', lambda v: v < 0.1),
     ('state_to_command_p50_ms', 'state -> command p50 ms (realtime)', '', None),
     ('state_to_command_p99_ms', 'state -> command p99 ms (realtime)', '< 1', lambda v: v < 1.0),
+    ('realtime_late_command_pct', 'late commands % (realtime)', '', None),
+    ('normal_scheduling_rate_hz', 'tick rate Hz, normal scheduling', '', None),
+    ('normal_scheduling_deadline_miss_pct', 'deadline misses %, normal sched.', '', None),
+    ('normal_scheduling_state_to_command_p99_ms', 'state -> command p99 ms, normal', '', None),
+    ('normal_scheduling_late_command_pct', 'late commands %, normal scheduling', '', None),
     ('lockstep_state_to_command_p50_ms', 'state -> command p50 ms (lockstep)', '', None),
     ('lockstep_state_to_command_p99_ms', 'state -> command p99 ms (lockstep)', '', None),
 ]
@@ -112,10 +120,12 @@ def cpu_percent(samples, first_s: float, last_s: float) -> dict[str, float]:
 
 
 def run_graph(parameters: dict, listener: DiagnosticsListener, log) -> tuple[dict, dict]:
-    """Run the graph to completion; the plant's final timing facts and CPU % per node."""
+    """Run the graph to completion; the plant's final timing facts (with the supervisor's
+    late-command %) and CPU % per node."""
     graph = Graph(graph_nodes(parameters), NAMESPACE, completion='plant_simulator', log=log)
-    plant = f'{NAMESPACE}/plant_simulator'
+    plant, supervisor = f'{NAMESPACE}/plant_simulator', f'{NAMESPACE}/supervisor'
     listener.latest.pop(plant, None)
+    listener.latest.pop(supervisor, None)
     samples = []
     try:
         graph.start()
@@ -134,7 +144,11 @@ def run_graph(parameters: dict, listener: DiagnosticsListener, log) -> tuple[dic
         if time.monotonic() > deadline:
             raise GraphError(f'{plant} reported no tick timing on {DIAGNOSTICS}')
         time.sleep(0.05)
-    facts = listener.latest[plant]
+    facts = dict(listener.latest[plant])
+    judged = listener.latest.get(supervisor, {})
+    if 'ticks total' in judged:
+        facts['late command pct'] = (100.0 * int(judged['fdi late_commands'])
+                                     / max(int(judged['ticks total']), 1))
     cpu = cpu_percent(samples, float(facts['first tick monotonic s']),
                       float(facts['last tick monotonic s']))
     return facts, cpu
@@ -171,6 +185,8 @@ def bench_graph(config: str, log=lambda line: None) -> dict:
         lockstep, lockstep_cpu = run_graph(dict(parameters, clock_mode='lockstep'), listener, log)
         realtime, realtime_cpu = run_graph(
             dict(parameters, clock_mode='realtime', duration_s=REALTIME_DURATION_S), listener, log)
+        normal, _ = run_graph(dict(parameters, clock_mode='realtime', duration_s=REALTIME_DURATION_S,
+                                   realtime_priority=0, nice=0), listener, log)
     finally:
         listener.close()
     figures.update({
@@ -179,6 +195,11 @@ def bench_graph(config: str, log=lambda line: None) -> dict:
         'realtime_deadline_miss_pct': float(realtime['deadline misses pct']),
         'state_to_command_p50_ms': float(realtime['state to command p50 ms']),
         'state_to_command_p99_ms': float(realtime['state to command p99 ms']),
+        'realtime_late_command_pct': round(realtime.get('late command pct', float('nan')), 3),
+        'normal_scheduling_rate_hz': float(normal['tick rate wall hz']),
+        'normal_scheduling_deadline_miss_pct': float(normal['deadline misses pct']),
+        'normal_scheduling_state_to_command_p99_ms': float(normal['state to command p99 ms']),
+        'normal_scheduling_late_command_pct': round(normal.get('late command pct', float('nan')), 3),
         'lockstep_state_to_command_p50_ms': float(lockstep['state to command p50 ms']),
         'lockstep_state_to_command_p99_ms': float(lockstep['state to command p99 ms']),
         'state_to_command_measured_by': 'plant_simulator',

@@ -245,8 +245,9 @@ def graph_nodes(parameters: dict, bag_path: str | None = None,
         matches = [f'publisher:{topic}={len(names)}' for topic, names in listeners.items()
                    if names and publishes[topic] == executable]
         matches += [f'subscription:{topic}=1' for topic in heard[executable]]
-        nodes.append(NodeSpec(package, executable, dict(parameters, **extra, matches=matches,
-                                                        **scheduling.get(executable, {}))))
+        # parameters given here override the config's scheduling
+        nodes.append(NodeSpec(package, executable, dict(scheduling.get(executable, {}), **parameters,
+                                                        **extra, matches=matches)))
     return nodes
 
 

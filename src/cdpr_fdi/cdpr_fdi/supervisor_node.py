@@ -55,6 +55,9 @@ class SupervisorNode(CdprNode):
         self.origin_ns: int | None = None
         self.last_tick_ns: int | None = None
         self.published_broken: list[int] = []
+        # Realtime: how far judging trails the newest state (ns), which adds to the reaction.
+        self.max_lag_ns = 0
+        self.verdict_lag_ns: int | None = None
         self.published_mode = NOMINAL
         self.residual = self.create_publisher(JointState, contract.FDI_RESIDUAL, qos.STREAM)
         self.broken_cable = self.create_publisher(Int32, contract.FDI_BROKEN_CABLE, qos.LATCHED)
@@ -104,6 +107,8 @@ class SupervisorNode(CdprNode):
         if self.origin_ns is None:
             self.origin_ns = stamp
         self.last_tick_ns = stamp
+        lag = max(self.inputs['state'], default=stamp) - stamp
+        self.max_lag_ns = max(self.max_lag_ns, lag)
         tick = (stamp - self.origin_ns) // self.period_ns
         verdict = self.supervisor.update(
             tick, state.position, state.velocity, state.effort, command.effort, twin.effort,
@@ -119,6 +124,8 @@ class SupervisorNode(CdprNode):
         # the controller then handles it before the residual that releases its next tick
         # (separate topics keep no order between them), and a second broken cable cannot
         # overwrite the first in the depth-1 latched history before it was delivered.
+        if verdict.broken_cables and self.verdict_lag_ns is None:
+            self.verdict_lag_ns = lag
         for cable in verdict.broken_cables:
             if cable not in self.published_broken:
                 self.broken_cable.publish(Int32(data=cable))
@@ -149,7 +156,11 @@ class SupervisorNode(CdprNode):
 
     def current_facts(self) -> dict[str, str]:
         """The supervisor's summary as /diagnostics key-values (JSON texts)."""
-        return {f'fdi {key}': json.dumps(value) for key, value in self.supervisor.summary().items()}
+        facts = {f'fdi {key}': json.dumps(value) for key, value in self.supervisor.summary().items()}
+        facts['judging lag max ms'] = f'{self.max_lag_ns / 1e6:.1f}'
+        if self.verdict_lag_ns is not None:
+            facts['judging lag at the verdict ms'] = f'{self.verdict_lag_ns / 1e6:.1f}'
+        return facts
 
 
 def main(args=None):
