@@ -80,7 +80,12 @@ def bench_soak(config: str, minutes: float, log=lambda line: None) -> dict:
         'realtime_deadline_miss_pct': float(plant.get('deadline misses pct', 'nan')),
         'state_to_command_p99_ms': float(plant.get('state to command p99 ms', 'nan')),
         'false_alarms': len(json.loads(supervisor.get('fdi broken_cables', '[]'))),
+        'unidentified_alarms': int(json.loads(supervisor.get('fdi unidentified_alarms', '0'))),
+        'ticks_judged': int(supervisor.get('ticks total', '0')),
         'late_commands': int(json.loads(supervisor.get('fdi late_commands', '0'))),
+        # ticks not judged after bursts of late commands: detection was blind then
+        'unjudged_ticks': int(json.loads(supervisor.get('fdi unjudged_ticks', '0'))),
+        'judging_lag_max_ms': float(supervisor.get('judging lag max ms', 'nan')),
         'brake': plant.get('command watchdog', 'never engaged'),
     }
 

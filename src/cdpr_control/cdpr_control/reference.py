@@ -56,3 +56,36 @@ def tabulate_reference(robot: Robot, tension_distribution: TensionDistribution,
         columns['c'][k] = dynamics.torque_nm
     return ReferenceTable(period_s, columns['p'], columns['v'], columns['q'], columns['qd'],
                           columns['c'])
+
+
+class IncrementalTabulation:
+    """`tabulate_reference` of a whole trajectory, a few rows per call, for a caller that
+    must not stall (a realtime tick); the rows are those of one call."""
+
+    def __init__(self, robot: Robot, tension_distribution: TensionDistribution,
+                 trajectory: Trajectory, period_s: float):
+        self.robot = robot
+        self.tension_distribution = tension_distribution
+        self.trajectory = trajectory
+        self.period_s = period_s
+        self.count = int(round(trajectory.duration_s / period_s)) + 1
+        self.parts: list[ReferenceTable] = []
+        self.rows_done = 0
+
+    def advance(self, rows: int) -> bool:
+        """Tabulate up to `rows` more rows; True when every row is done. Raises what
+        tabulate_reference raises (InfeasibleTensionError) for the rows it reaches."""
+        rows = min(rows, self.count - self.rows_done)
+        if rows > 0:
+            self.parts.append(tabulate_reference(
+                self.robot, self.tension_distribution, self.trajectory, self.period_s,
+                start_s=self.rows_done * self.period_s, duration_s=(rows - 1) * self.period_s))
+            self.rows_done += rows
+        return self.rows_done >= self.count
+
+    def table(self) -> ReferenceTable:
+        """The whole table, once `advance` has returned True."""
+        return ReferenceTable(self.period_s, *(
+            np.concatenate([getattr(part, name) for part in self.parts])
+            for name in ('position_m', 'velocity_m_s', 'angle_rad', 'angular_velocity_rad_s',
+                         'feedforward_nm')))

@@ -4,8 +4,18 @@ Time comes from the stamps of /cdpr/joint_states (sim time in lockstep, the robo
 clock in realtime); each reference is published `reference_lead_cycles` ahead, so the
 controller and the twin never wait for it. A goal on /cdpr/goal is reached by a
 straight quintic move that starts when the current motion has come to rest.
+
+Planning a move takes ~0.1 s here (tens of periods). In lockstep nothing moves
+meanwhile, so it is planned at once. In realtime it is planned
+`realtime_planning_rows_per_tick` rows per tick and adopted when complete, so the
+references keep flowing: a generator that stops for longer than the lead leaves the
+controller on a stale reference and the twin a tick behind the robot for every
+reference it skips, which the FDI reads as a failure. (A worker thread does not help:
+it holds the GIL for tens of ms at a time.)
 """
 from __future__ import annotations
+
+from collections import deque
 
 import numpy as np
 from geometry_msgs.msg import PointStamped
@@ -18,7 +28,7 @@ from cdpr_msgs_py.runtime import CdprNode, run
 
 from .config import load_section, resolve_config
 from .motions import load_motion
-from .reference import ReferenceTable, tabulate_reference
+from .reference import IncrementalTabulation, ReferenceTable, tabulate_reference
 from .robot import load_robot
 from .tension_distribution import InfeasibleTensionError, configured_tension_distribution
 from .trajectories import Hold, Sequence, StraightLine
@@ -43,6 +53,9 @@ class TrajectoryGeneratorNode(CdprNode):
         self.names = contract.joint_names(self.robot.cable_count)
         self.origin_ns: int | None = None
         self.next_index = 0
+        self.goals: deque[np.ndarray] = deque()   # accepted, waiting to be planned, in order
+        self.planning: tuple[np.ndarray, IncrementalTabulation] | None = None
+        self.rows_per_tick = control.integer('realtime_planning_rows_per_tick', minimum=1)
         self.reference = self.create_publisher(JointState, contract.REFERENCE, qos.STREAM)
         self.pose = self.create_publisher(PointStamped, contract.REFERENCE_POSE, qos.STREAM)
         self.create_subscription(PointStamped, contract.GOAL, self.on_goal, qos.STREAM)
@@ -58,6 +71,7 @@ class TrajectoryGeneratorNode(CdprNode):
         if self.origin_ns is None:
             self.origin_ns = stamp
         tick = (stamp - self.origin_ns) // self.period_ns
+        self.plan_goals()
         # After a jump in time the references of the ticks jumped over are of no use.
         self.next_index = max(self.next_index, tick)
         while self.next_index <= tick + self.lead:
@@ -79,26 +93,49 @@ class TrajectoryGeneratorNode(CdprNode):
         except InvalidMessage as err:
             self.diagnostics.reject(contract.GOAL, str(err))
             return
-        start, table = self.segments[-1]
-        begin = max(start + len(table), self.next_index)
-        here = table.position_m[-1]
         if np.any(goal < self.robot.workspace_min_m) or np.any(goal > self.robot.workspace_max_m):
             self.diagnostics.reject(contract.GOAL, f'goal {goal} outside the workspace')
             return
-        if np.allclose(goal, here):
-            return
-        move = StraightLine.with_peak_speed(here, goal, self.goal_speed_m_s)
-        trajectory = Sequence([move, Hold(goal, self.period_s)])
-        try:
-            table = tabulate_reference(self.robot, self.distribution, trajectory, self.period_s)
-        except InfeasibleTensionError as err:
-            self.diagnostics.reject(contract.GOAL, f'goal {goal} cannot be reached: {err}')
-            return
+        self.goals.append(goal)
+        self.plan_goals()
+
+    def plan_goals(self) -> None:
+        """Go on planning: the waiting goals in order, each from where the last planned move
+        ends; a whole move at once in lockstep, `rows_per_tick` rows per call in realtime."""
+        while True:
+            if self.planning is not None:
+                goal, tabulation = self.planning
+                try:
+                    done = tabulation.advance(tabulation.count if self.clock_mode == 'lockstep'
+                                              else self.rows_per_tick)
+                except InfeasibleTensionError as err:
+                    self.diagnostics.reject(contract.GOAL, f'goal {goal} cannot be reached: {err}')
+                    done, tabulation = True, None
+                if not done:
+                    return
+                self.planning = None
+                if tabulation is not None:
+                    self.adopt(goal, tabulation.table())
+            if not self.goals:
+                return
+            goal = self.goals.popleft()
+            here = self.segments[-1][1].position_m[-1]
+            if not np.allclose(goal, here):
+                trajectory = Sequence([StraightLine.with_peak_speed(here, goal, self.goal_speed_m_s),
+                                       Hold(goal, self.period_s)])
+                self.planning = (goal, IncrementalTabulation(self.robot, self.distribution,
+                                                             trajectory, self.period_s))
+
+    def adopt(self, goal: np.ndarray, table: ReferenceTable) -> None:
+        """The planned move starts when the last segment ends, and never in the past."""
+        start, last = self.segments[-1]
+        begin = max(start + len(last), self.next_index)
         self.segments.append((begin, table))
         # Segments wholly published are done with: a long run of goals must not pile up.
         self.segments = [segment for segment in self.segments[:-1]
                          if segment[0] + len(segment[1]) > self.next_index] + self.segments[-1:]
-        self.get_logger().info(f'goal {goal} planned: {move.duration_s:.2f} s from tick {begin}')
+        self.get_logger().info(f'goal {goal} planned: {len(table) * self.period_s:.2f} s '
+                               f'from tick {begin}')
 
 
 def main(args=None):
