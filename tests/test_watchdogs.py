@@ -228,3 +228,42 @@ def test_realtime_generator_keeps_publishing_while_it_plans_a_goal(realtime_ros)
         node.destroy_node()
 
 
+def test_twin_bridges_a_gap_in_the_references_as_the_controller_does(realtime_ros, paper_robot):
+    """Ticks that got no reference were answered by the controller with the last one it
+    had; the twin steps them with that one too, and stays on the robot's clock."""
+    from cdpr_control.controller import JointReference, PdGains
+    from cdpr_control.config import load_section
+    from cdpr_control.kinematics import forward_kinematics
+    from cdpr_control.motions import load_motion
+    from cdpr_control.reference import tabulate_reference
+    from cdpr_control.tension_distribution import configured_tension_distribution
+    from cdpr_msgs_py.contract import joint_names
+    from cdpr_msgs_py.conversions import joint_state
+    from cdpr_twin.digital_twin_node import DigitalTwinNode
+    from cdpr_twin.twin import DigitalTwin
+    control = load_section(PAPER_ROBOT, 'control')
+    motion = load_motion(MOTIONS, 'along-2', False)
+    table = tabulate_reference(paper_robot, configured_tension_distribution(control, paper_robot),
+                               motion.trajectory, control.number('period_s'), duration_s=0.2)
+    rows = [JointReference(table.angle_rad[k], table.angular_velocity_rad_s[k], table.feedforward_nm[k])
+            for k in range(len(table))]
+    node = DigitalTwinNode()
+    try:
+        published = []
+        node.joints.publish = published.append
+        node.pose.publish = lambda message: None
+        names = joint_names(paper_robot.cable_count)
+        received = [0, 1, 2, 40, 41]   # the references of ticks 3 … 39 never came
+        for k in received:
+            row = rows[k]
+            node.on_reference(joint_state(names, k * node.period_ns, row.angle_rad,
+                                          row.angular_velocity_rad_s, row.feedforward_nm))
+        assert node.diagnostics.totals['reference gaps'] == 1
+        twin = DigitalTwin(paper_robot, PdGains.from_section(paper_robot, control),
+                           forward_kinematics(paper_robot, rows[0].angle_rad), node.substeps)
+        expected = [twin.step(rows[k if k in received else 2], node.period_s) for k in range(42)]
+        for message, k in zip(published, received):
+            np.testing.assert_allclose(message.position, expected[k].angle_rad, atol=1e-12)
+            np.testing.assert_allclose(message.effort, expected[k].torque_nm, atol=1e-12)
+    finally:
+        node.destroy_node()

@@ -24,11 +24,14 @@ class DigitalTwinNode(CdprNode):
         self.robot = load_robot(config)
         control = load_section(config, 'control')
         self.period_s = control.number('period_s', positive=True)
+        self.period_ns = int(round(self.period_s * 1e9))
+        self.stale_cycles = control.integer('stale_cycles', minimum=1)
         self.gains = PdGains.from_section(self.robot, control)
         self.substeps = load_section(config, 'twin').integer('substeps', minimum=1)
         self.names = contract.joint_names(self.robot.cable_count)
         self.twin: DigitalTwin | None = None
         self.last_stamp_ns: int | None = None
+        self.last_reference: JointReference | None = None
         self.joints = self.create_publisher(JointState, contract.TWIN_JOINT_STATES, qos.STREAM)
         self.pose = self.create_publisher(PointStamped, contract.TWIN_POSE, qos.STREAM)
         # The twin's tick is the reference: it listens once its outputs have listeners.
@@ -42,7 +45,16 @@ class DigitalTwinNode(CdprNode):
         if self.last_stamp_ns is not None and joints.stamp_ns <= self.last_stamp_ns:
             self.diagnostics.reject(contract.REFERENCE, 'stamp not after the previous one')
             return
+        missed = (0 if self.last_stamp_ns is None
+                  else (joints.stamp_ns - self.last_stamp_ns) // self.period_ns - 1)
         self.last_stamp_ns = joints.stamp_ns
+        if self.twin is not None and missed > 0:
+            # Realtime: the controller answered the ticks that got no reference with the last
+            # one it had; so does the twin, to stay on the robot's clock (a controller left
+            # without references for stale_cycles holds, and so the twin stops following).
+            self.diagnostics.count('reference gaps')
+            for _ in range(min(missed, self.stale_cycles)):
+                self.twin.step(self.last_reference, self.period_s)
         if self.twin is None:
             # The twin starts where the reference starts, at rest.
             try:
@@ -51,8 +63,8 @@ class DigitalTwinNode(CdprNode):
             except (ValueError, np.linalg.LinAlgError) as err:
                 self.diagnostics.reject(contract.REFERENCE, f'no pose to start the twin from: {err}')
                 return
-        output = self.twin.step(JointReference(joints.position, joints.velocity, joints.effort),
-                                self.period_s)
+        self.last_reference = JointReference(joints.position, joints.velocity, joints.effort)
+        output = self.twin.step(self.last_reference, self.period_s)
         self.joints.publish(joint_state(self.names, joints.stamp_ns, output.angle_rad,
                                         output.angular_velocity_rad_s, output.torque_nm))
         self.pose.publish(point_stamped(joints.stamp_ns, output.position_m))
