@@ -8,7 +8,7 @@ import threading
 import pytest
 import yaml
 
-from cdpr_bringup.graph import BACKGROUND, CONTROL_LOOP, graph_nodes
+from cdpr_bringup.graph import BACKGROUND, CONTROL_LOOP, FDI, graph_nodes
 from cdpr_control.config import ConfigError, load_section
 from cdpr_msgs_py import scheduling
 
@@ -93,12 +93,16 @@ def test_realtime_graph_puts_the_loop_first_as_configured(tmp_path):
     section = load_section(PAPER_ROBOT, 'scheduling')
     nodes = graph_nodes({'config_file': str(PAPER_ROBOT), 'clock_mode': 'realtime'}, str(tmp_path))
     settings = scheduling_of(nodes)
-    assert set(settings) == set(CONTROL_LOOP) | set(BACKGROUND)
+    assert set(settings) == set(CONTROL_LOOP) | set(FDI) | set(BACKGROUND)
     for name in CONTROL_LOOP:
         assert settings[name] == {'realtime_priority': section.integer('control_loop_priority')}
+    for name in FDI:
+        assert settings[name] == {'realtime_priority': section.integer('fdi_priority')}
     for name in BACKGROUND:
         assert settings[name] == {'nice': section.integer('background_nice')}
-    assert section.integer('control_loop_priority') > 0 and section.integer('background_nice') > 0
+    # the loop first, then the FDI, then the rest
+    assert section.integer('control_loop_priority') > section.integer('fdi_priority') > 0
+    assert section.integer('background_nice') > 0
 
 
 def test_lockstep_graph_leaves_scheduling_alone(tmp_path):

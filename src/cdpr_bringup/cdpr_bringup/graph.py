@@ -27,9 +27,11 @@ from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 
 STOP_TIMEOUT_S = 5.0
 UP_TIMEOUT_S = 30.0
-# Realtime: the nodes a command waits on, and those that may lag a few ticks.
+# Realtime: the nodes a command waits on; the FDI, whose recovery setpoints a command
+# waits on after a failure; and what may lag without harm.
 CONTROL_LOOP = ('plant_simulator', 'controller', 'trajectory_generator')
-BACKGROUND = ('digital_twin', 'supervisor', 'bag_recorder')
+FDI = ('digital_twin', 'supervisor')
+BACKGROUND = ('bag_recorder',)
 
 
 class GraphError(RuntimeError):
@@ -253,13 +255,17 @@ def graph_nodes(parameters: dict, bag_path: str | None = None,
 
 def realtime_scheduling(parameters: dict) -> dict[str, dict]:
     """Per node, the scheduling parameters the config's `scheduling` section asks for in
-    realtime mode: SCHED_FIFO on the control loop, niceness off it."""
+    realtime mode: SCHED_FIFO for the control loop and, below it, the FDI; niceness for
+    the rest."""
     section = load_section(resolve_config(parameters.get('config_file', 'paper_robot.yaml')),
                            'scheduling')
     loop = {'realtime_priority': section.integer('control_loop_priority', minimum=0,
                                                  maximum=PRIORITY_RANGE[1])}
+    fdi = {'realtime_priority': section.integer('fdi_priority', minimum=0,
+                                                maximum=PRIORITY_RANGE[1])}
     background = {'nice': section.integer('background_nice', minimum=0, maximum=NICE_RANGE[1])}
-    return {name: loop for name in CONTROL_LOOP} | {name: background for name in BACKGROUND}
+    return ({name: loop for name in CONTROL_LOOP} | {name: fdi for name in FDI}
+            | {name: background for name in BACKGROUND})
 
 
 def main(argv=None):

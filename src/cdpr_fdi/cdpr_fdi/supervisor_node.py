@@ -120,20 +120,27 @@ class SupervisorNode(CdprNode):
             self.recovery_reference.publish(joint_state(
                 self.names, following, verdict.reference.angle_rad,
                 verdict.reference.angular_velocity_rad_s, verdict.reference.feedforward_nm))
-        # A verdict change is acknowledged by every reader before the residual goes out:
-        # the controller then handles it before the residual that releases its next tick
-        # (separate topics keep no order between them), and a second broken cable cannot
-        # overwrite the first in the depth-1 latched history before it was delivered.
+        # Lockstep: a verdict change is acknowledged by every reader before the residual
+        # goes out, so the controller handles it before the residual that releases its next
+        # tick (separate topics keep no order between them). Realtime: nothing waits on the
+        # residual, and waiting (~6 ms per topic here) would start the recovery ticks late;
+        # only a further broken cable waits for the one before, which it would otherwise
+        # overwrite in the depth-1 latched history before every reader had it.
+        lockstep = self.clock_mode == 'lockstep'
         if verdict.broken_cables and self.verdict_lag_ns is None:
             self.verdict_lag_ns = lag
         for cable in verdict.broken_cables:
             if cable not in self.published_broken:
+                if self.published_broken and not lockstep:
+                    self.broken_cable.wait_for_all_acked(ACK_TIMEOUT)
                 self.broken_cable.publish(Int32(data=cable))
-                self.broken_cable.wait_for_all_acked(ACK_TIMEOUT)
-        self.published_broken = list(verdict.broken_cables)
+                self.published_broken.append(cable)
+                if lockstep:
+                    self.broken_cable.wait_for_all_acked(ACK_TIMEOUT)
         if verdict.mode != self.published_mode:
             self.mode.publish(String(data=verdict.mode))
-            self.mode.wait_for_all_acked(ACK_TIMEOUT)
+            if lockstep:
+                self.mode.wait_for_all_acked(ACK_TIMEOUT)
             self.published_mode = verdict.mode
         self.residual.publish(joint_state(self.names, stamp, effort=verdict.residual_nm))
         self.diagnostics.count('ticks')
