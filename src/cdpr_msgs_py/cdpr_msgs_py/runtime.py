@@ -7,6 +7,7 @@ from collections import Counter
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
@@ -19,6 +20,8 @@ SPIN_TIMEOUT_S = 0.05
 # long (s), at most DRAIN_LIMIT_S, so the last ticks still reach the twin and the bag.
 DRAIN_QUIET_S = 0.3
 DRAIN_LIMIT_S = 3.0
+# On the way out, how long a node waits for its reliable readers to have what it sent (s).
+ACKNOWLEDGE_LIMIT_S = 2.0
 
 
 def make_executor():
@@ -223,3 +226,8 @@ class CdprNode(Node):
     def close(self) -> None:
         """Called once on the way out."""
         self.diagnostics.publish()
+        # Samples a writer still holds go with its process: a reader that lags (the
+        # recorder) would lose the last ticks. Wait until every reliable reader has them.
+        deadline = time.monotonic() + ACKNOWLEDGE_LIMIT_S
+        for publisher in self.publishers:
+            publisher.wait_for_all_acked(Duration(seconds=max(deadline - time.monotonic(), 0.0)))
