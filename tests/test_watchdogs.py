@@ -164,68 +164,66 @@ def test_controller_withholds_a_command_that_would_not_be_finite(controller_node
     assert sent == [] and node.diagnostics.rejected['joint_states'] == 1
 
 
-def test_generator_rejects_a_goal_it_cannot_plan_and_survives_a_jump_in_time(realtime_ros):
-    from geometry_msgs.msg import PointStamped
+@pytest.fixture
+def realtime_generator(realtime_ros):
+    """A realtime trajectory generator that has had the state of tick 0, and the
+    references it published."""
     from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
     node = TrajectoryGeneratorNode()
-    try:
-        sent = []
-        node.reference.publish = sent.append
-        node.pose.publish = lambda message: None
-        node.on_state(joint_state_message(node.robot, 0, 0.0))
-        goal = PointStamped()
-        goal.point.x, goal.point.y, goal.point.z = 0.0, 0.0, 2.2   # a corner: no tensions
-        node.on_goal(goal)
-        # realtime plans a few rows per tick; the ticks go on meanwhile
-        ticks = 0
-        while node.planning is not None and ticks < 1000:
-            ticks += 1
-            node.on_state(joint_state_message(node.robot, ticks * node.period_ns, 0.0))
-        assert node.diagnostics.rejected['goal'] == 1 and len(node.segments) == 1
-        # 2**31 s later: only the references from there on, not 1e12 of them
-        node.on_state(joint_state_message(node.robot, 2 ** 31 * 1_000_000_000, 0.0))
-        assert len(sent) == 2 * (node.lead + 1) + ticks
-    finally:
-        node.destroy_node()
+    sent = []
+    node.reference.publish = sent.append
+    node.pose.publish = lambda message: None
+    node.on_state(joint_state_message(node.robot, 0, 0.0))
+    yield node, sent
+    node.destroy_node()
 
 
-def test_realtime_generator_keeps_publishing_while_it_plans_a_goal(realtime_ros):
+def test_generator_rejects_a_goal_it_cannot_plan_and_survives_a_jump_in_time(realtime_generator):
+    from geometry_msgs.msg import PointStamped
+    node, sent = realtime_generator
+    goal = PointStamped()
+    goal.point.x, goal.point.y, goal.point.z = 0.0, 0.0, 2.2   # a corner: no tensions
+    node.on_goal(goal)
+    # realtime plans a few rows per tick; the ticks go on meanwhile
+    ticks = 0
+    while node.planning is not None and ticks < 1000:
+        ticks += 1
+        node.on_state(joint_state_message(node.robot, ticks * node.period_ns, 0.0))
+    assert node.diagnostics.rejected['goal'] == 1 and len(node.segments) == 1
+    # 2**31 s later: only the references from there on, not 1e12 of them
+    node.on_state(joint_state_message(node.robot, 2 ** 31 * 1_000_000_000, 0.0))
+    assert len(sent) == 2 * (node.lead + 1) + ticks
+
+
+def test_realtime_generator_keeps_publishing_while_it_plans_a_goal(realtime_generator):
     from cdpr_control.reference import tabulate_reference
     from cdpr_control.trajectories import Hold, Sequence, StraightLine
-    from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
     from cdpr_msgs_py.conversions import point_stamped, stamp_to_ns
-    node = TrajectoryGeneratorNode()
-    try:
-        sent = []
-        node.reference.publish = sent.append
-        node.pose.publish = lambda message: None
-        period_ns = node.period_ns
-        node.on_state(joint_state_message(node.robot, 0, 0.0))
-        here = node.segments[-1][1].position_m[-1]   # where the circle ends
-        goal = np.array([1.1, 0.8, 1.35])
-        node.on_goal(point_stamped(0, goal))
-        rows = node.planning[1].count
-        # while the move is planned every tick still gets its reference, in order
-        tick = 0
-        while node.planning is not None:
-            tick += 1
-            node.on_state(joint_state_message(node.robot, tick * period_ns, 0.0))
-            assert len(sent) == tick + node.lead + 1
-        # on_goal planned the first rows, each tick the next ones
-        assert tick == -(-rows // node.rows_per_tick) - 1
-        stamps = [stamp_to_ns(message.header.stamp) for message in sent]
-        assert stamps == [index * period_ns for index in range(len(sent))]
-        # adopted after the circle and after what was already published; the rows are
-        # those of planning the move at once
-        begin, table = node.segments[-1]
-        assert len(node.segments) == 2 and begin == max(len(node.segments[0][1]), tick + node.lead)
-        at_once = tabulate_reference(node.robot, node.distribution, Sequence([
-            StraightLine.with_peak_speed(here, goal, node.goal_speed_m_s), Hold(goal, node.period_s)]),
-            node.period_s)
-        for name in ('position_m', 'angle_rad', 'angular_velocity_rad_s', 'feedforward_nm'):
-            np.testing.assert_allclose(getattr(table, name), getattr(at_once, name), atol=1e-9)
-    finally:
-        node.destroy_node()
+    node, sent = realtime_generator
+    period_ns = node.period_ns
+    here = node.segments[-1][1].position_m[-1]   # where the circle ends
+    goal = np.array([1.1, 0.8, 1.35])
+    node.on_goal(point_stamped(0, goal))
+    rows = node.planning[1].count
+    # while the move is planned every tick still gets its reference, in order
+    tick = 0
+    while node.planning is not None:
+        tick += 1
+        node.on_state(joint_state_message(node.robot, tick * period_ns, 0.0))
+        assert len(sent) == tick + node.lead + 1
+    # on_goal planned the first rows, each tick the next ones
+    assert tick == -(-rows // node.rows_per_tick) - 1
+    stamps = [stamp_to_ns(message.header.stamp) for message in sent]
+    assert stamps == [index * period_ns for index in range(len(sent))]
+    # adopted after the circle and after what was already published; the rows are
+    # those of planning the move at once
+    begin, table = node.segments[-1]
+    assert len(node.segments) == 2 and begin == max(len(node.segments[0][1]), tick + node.lead)
+    at_once = tabulate_reference(node.robot, node.distribution, Sequence([
+        StraightLine.with_peak_speed(here, goal, node.goal_speed_m_s), Hold(goal, node.period_s)]),
+        node.period_s)
+    for name in ('position_m', 'angle_rad', 'angular_velocity_rad_s', 'feedforward_nm'):
+        np.testing.assert_allclose(getattr(table, name), getattr(at_once, name), atol=1e-9)
 
 
 def test_twin_bridges_a_gap_in_the_references_as_the_controller_does(realtime_ros, paper_robot):

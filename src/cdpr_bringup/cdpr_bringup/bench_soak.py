@@ -40,6 +40,11 @@ def resident_kib(pid: int) -> int:
     return rss + sum(resident_kib(child) for child in children)
 
 
+def graph_memory_kib(graph: Graph) -> dict[str, int]:
+    """Resident memory (KiB) of every node of the graph."""
+    return {name: resident_kib(process.pid) for name, process in graph.processes.items()}
+
+
 def bench_soak(config: str, minutes: float, log=lambda line: None) -> dict:
     private_domain()
     duration_s = minutes * 60.0
@@ -63,13 +68,11 @@ def bench_soak(config: str, minutes: float, log=lambda line: None) -> dict:
                 goal.publish(message)
                 sent += 1
             if memory_after_warm_up is None and elapsed >= WARM_UP_S:
-                memory_after_warm_up = {name: resident_kib(process.pid)
-                                        for name, process in graph.processes.items()}
+                memory_after_warm_up = graph_memory_kib(graph)
             if memory_halfway is None and elapsed >= (WARM_UP_S + duration_s) / 2:
-                memory_halfway = {name: resident_kib(process.pid)
-                                  for name, process in graph.processes.items()}
+                memory_halfway = graph_memory_kib(graph)
             time.sleep(SAMPLE_S)
-        memory_end = {name: resident_kib(process.pid) for name, process in graph.processes.items()}
+        memory_end = graph_memory_kib(graph)
         plant = dict(listener.latest.get(f'{NAMESPACE}/plant_simulator', {}))
         supervisor = dict(listener.latest.get(f'{NAMESPACE}/supervisor', {}))
     finally:

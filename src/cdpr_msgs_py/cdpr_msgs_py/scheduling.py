@@ -1,11 +1,13 @@
-"""How the OS schedules a node: SCHED_FIFO for the control loop, niceness for the rest.
+"""How the OS schedules a node: SCHED_FIFO priority and niceness, for all its threads.
 
 In realtime mode a command must reach the drive within the 2 ms period. Under the
 default time-sharing scheduler, five or six Python processes on two cores delay it in
 bursts (measured here: 14–30 % of commands late, the robot drifting from the twin).
-The nodes on the loop (plant or hardware bridge, controller, trajectory generator) ask
-for SCHED_FIFO, as ros2_control's controller manager does; the twin, the supervisor
-and the recorder, which may lag by a few ticks without harm, yield to them.
+So the nodes ask for what cdpr-graph passes them from the config's `scheduling`
+section: SCHED_FIFO for the loop (plant or hardware bridge, controller, trajectory
+generator), as ros2_control's controller manager does; a lower SCHED_FIFO priority for
+the twin and the supervisor, whose recovery setpoints the loop needs after a failure;
+niceness for the recorder, which may lag without harm.
 
 Linux applies both per thread: every thread of the process is set, and threads
 created later inherit the setting of the thread that creates them.

@@ -40,8 +40,8 @@ class PlantSimulatorNode(CdprNode):
         motion = load_motion(motions, self.parameter('motion', 'circle'), self.parameter('reverse', False))
         fidelity = self.parameter('fidelity', '') or None
         seed = self.parameter('seed', -1)
-        plant_config = PlantConfig.from_section(load_section(config, 'plant'), fidelity,
-                                                None if seed < 0 else seed)
+        plant_section = load_section(config, 'plant')
+        plant_config = PlantConfig.from_section(plant_section, fidelity, None if seed < 0 else seed)
         fail_at_s = self.parameter('fail_at_s', -1.0)
         fail_at_fraction = self.parameter('fail_at_fraction', -1.0)
         failure_time = motion.failure_time(None if fail_at_s < 0 else fail_at_s,
@@ -68,8 +68,7 @@ class PlantSimulatorNode(CdprNode):
         self.create_subscription(JointState, contract.EFFORT_COMMAND, self.on_command, qos.STREAM)
         self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
         self.timer = None
-        self.watchdog = CommandWatchdog(
-            load_section(config, 'plant').integer('command_timeout_cycles', minimum=1))
+        self.watchdog = CommandWatchdog(plant_section.integer('command_timeout_cycles', minimum=1))
 
     def stamp_ns(self) -> int:
         return self.tick * self.period_ns
