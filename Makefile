@@ -8,10 +8,10 @@ STAMP := $(VENV)/.cdpr-setup
 PACKAGES := cdpr_msgs_py cdpr_control cdpr_twin cdpr_fdi cdpr_bringup
 PACKAGE_FILES := $(foreach p,$(PACKAGES),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
 
-# What rclpy needs in a venv, and DDS discovery kept on this machine unless told otherwise.
+# What rclpy needs in a venv. The DDS set-up (loopback only, no shared memory) is applied
+# by the launchers and the test session themselves (cdpr_msgs_py/dds.py).
 export AMENT_PREFIX_PATH := $(VENV_ABS)$(if $(AMENT_PREFIX_PATH),:$(AMENT_PREFIX_PATH))
 export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
-export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 
 .PHONY: setup demo test bench clean
 
@@ -21,7 +21,8 @@ $(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.txt
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps $(foreach p,$(PACKAGES),-e src/$(p))
-	grep -q 'cdpr environment' $(VENV)/bin/activate || cat tools/venv-activate.sh >> $(VENV)/bin/activate
+	sed -i '/^# cdpr environment/,$$d' $(VENV)/bin/activate
+	cat tools/venv-activate.sh >> $(VENV)/bin/activate
 	touch $(STAMP)
 
 demo: setup

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from cdpr_control.robot import load_robot
+from cdpr_msgs_py.dds import use_shipped_setup
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPO / 'src' / 'cdpr_bringup' / 'config'
@@ -19,7 +20,7 @@ MOTIONS = CONFIG_DIR / 'motions.yaml'
 def pytest_configure(config):
     # One DDS domain per test session so parallel sessions never see each other's graph.
     os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 101))
-    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    use_shipped_setup()
 
 
 @pytest.fixture(scope='session')

@@ -21,6 +21,8 @@ from conftest import MOTIONS, PAPER_ROBOT
 
 pytestmark = pytest.mark.graph
 RUN_BEFORE_KILL_S = 3.0
+# From every node up to the plant's first tick: the start handshake (DDS matching).
+START_TIMEOUT_S = 30.0
 NODES = ['controller', 'digital_twin', 'supervisor', 'trajectory_generator', 'bag_recorder',
          'plant_simulator']
 
@@ -38,11 +40,16 @@ def realtime_parameters() -> dict:
 def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_path):
     namespace = f'/cdpr_kill_{victim}'
     bag = tmp_path / 'bag'
+    lines = []
     graph = Graph(graph_nodes(realtime_parameters(), str(bag)), namespace,
-                  completion='plant_simulator', log=lambda line: None)
+                  completion='plant_simulator', log=lines.append)
     try:
         graph.start()
         graph.wait_until_up()
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while not any(line.startswith('[plant_simulator]') and 'starting' in line for line in lines):
+            assert time.monotonic() < deadline, 'the plant did not start its run'
+            time.sleep(0.05)
         time.sleep(RUN_BEFORE_KILL_S)
         assert not graph.check(), 'the graph runs before the kill'
         killed_ns = time.time_ns()   # the recorder stamps messages with the wall clock

@@ -23,10 +23,18 @@ import yaml
 from cdpr_control.config import load_section, resolve_config
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
+from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, shipped_environment,
+                              use_shipped_setup)
+from cdpr_msgs_py.runtime import READY_MARK, SHUTDOWN_LIMIT_S
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 
-STOP_TIMEOUT_S = 5.0
-UP_TIMEOUT_S = 30.0
+# After SIGINT a node drains, waits for acknowledgements and exits; SIGKILL comes only
+# after that has had its time (a killed node can leave DDS state behind).
+STOP_GRACE_S = SHUTDOWN_LIMIT_S + 2.0
+# Longer than a node's own bound on its DDS start, so that its one-line reason arrives first.
+UP_TIMEOUT_S = INITIALISATION_LIMIT_S + 10.0
+TEMP_PREFIX = 'cdpr-graph-'
+LAST_LINES = 5
 # Realtime: the nodes a command waits on; the FDI, whose recovery setpoints a command
 # waits on after a failure; and what may lag without harm.
 CONTROL_LOOP = ('plant_simulator', 'controller', 'trajectory_generator')
@@ -50,12 +58,11 @@ class NodeSpec:
 
 
 def executable_command(package: str, executable: str) -> list[str]:
-    """`ros2 run` where there is a ros2 CLI; else the installed entry point itself."""
-    if shutil.which('ros2'):
-        return ['ros2', 'run', package, executable]
-    candidates = [Path(sys.prefix) / 'bin' / executable]
-    for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)):
-        candidates.append(Path(prefix) / 'lib' / package / executable)
+    """The executable `ros2 run` would start (lib/PACKAGE/ of the ament prefixes), else the
+    venv's entry point: started directly, so that it is this launcher's child."""
+    candidates = [Path(prefix) / 'lib' / package / executable
+                  for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep))]
+    candidates.append(Path(sys.prefix) / 'bin' / executable)
     for candidate in candidates:
         if candidate.is_file() and os.access(candidate, os.X_OK):
             return [str(candidate)]
@@ -70,16 +77,22 @@ def private_domain() -> str:
 
 
 def node_environment() -> dict:
-    """The caller's environment, plus what nodes from a venv need and localhost discovery."""
-    environment = dict(os.environ, PYTHONUNBUFFERED='1')
+    """The caller's environment, plus what nodes from a venv need and the shipped DDS
+    set-up (loopback only, no shared memory; dds.py), and this launcher's PID, whose death
+    stops them."""
+    environment = shipped_environment(os.environ)
+    environment.update(PYTHONUNBUFFERED='1', **{LAUNCHER_PID_VARIABLE: str(os.getpid())})
     environment.setdefault('AMENT_PREFIX_PATH', sys.prefix)
-    environment.setdefault('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')
-    environment.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     return environment
 
 
 class Graph:
-    """A set of node processes in one namespace, started and stopped together."""
+    """A set of node processes in one namespace, started and stopped together.
+
+    Nodes die with this launcher (dds.follow_launcher). Their parameter files live in a
+    folder that is removed as soon as every node has read its own (and, should this
+    launcher be killed before that, by the next launch).
+    """
 
     def __init__(self, nodes: list[NodeSpec], namespace: str = DEFAULT_NAMESPACE,
                  completion: str | None = None, log=print):
@@ -89,9 +102,13 @@ class Graph:
         self.log = log
         self.processes: dict[str, subprocess.Popen] = {}
         self.threads: list[threading.Thread] = []
-        self.folder = Path(tempfile.mkdtemp(prefix='cdpr-graph-'))
+        self.ready: set[str] = set()
+        self.last_lines: dict[str, list[str]] = {}
+        remove_abandoned_folders()
+        self.folder = Path(tempfile.mkdtemp(prefix=f'{TEMP_PREFIX}{os.getpid()}-'))
 
     def start(self) -> None:
+        use_shipped_setup()
         self.log(f'[cdpr-graph] ROS_DOMAIN_ID={private_domain()} (set it to listen from another shell)')
         for spec in self.nodes:
             params = self.folder / f'{spec.name}.yaml'
@@ -102,36 +119,33 @@ class Graph:
                                        stdin=subprocess.DEVNULL, text=True, start_new_session=True,
                                        env=node_environment())
             self.processes[spec.name] = process
+            self.log(f'[cdpr-graph] started {spec.name} (pid {process.pid})')
             thread = threading.Thread(target=self._stream, args=(spec.name, process), daemon=True)
             thread.start()
             self.threads.append(thread)
 
     def _stream(self, name: str, process: subprocess.Popen) -> None:
+        lines = self.last_lines.setdefault(name, [])
         for line in process.stdout:
-            self.log(f'[{name}] {line.rstrip()}')
+            line = line.rstrip()
+            if line.startswith(READY_MARK):
+                self.ready.add(name)
+                continue
+            lines[:] = lines[-(LAST_LINES - 1):] + [line]
+            self.log(f'[{name}] {line}')
 
     def wait_until_up(self, timeout_s: float = UP_TIMEOUT_S) -> None:
-        """Block until every node is visible in the ROS graph."""
-        import rclpy
-        context = rclpy.Context()
-        rclpy.init(context=context)
-        try:
-            probe = rclpy.create_node('cdpr_graph_probe', context=context)
-            deadline = time.monotonic() + timeout_s
-            wanted = {spec.name for spec in self.nodes}
-            while True:
-                self.check()
-                names = {name for name, namespace in probe.get_node_names_and_namespaces()
-                         if namespace == self.namespace}
-                if wanted <= names:
-                    break
-                if time.monotonic() > deadline:
-                    raise GraphError(f'nodes not up after {timeout_s:.0f} s: '
-                                     f'{", ".join(sorted(wanted - names))}')
-                time.sleep(0.05)
-            probe.destroy_node()
-        finally:
-            rclpy.shutdown(context=context)
+        """Block until every node has started DDS and built itself (each says so on its
+        stdout), then remove the parameter files, which every node has read."""
+        deadline = time.monotonic() + timeout_s
+        wanted = {spec.name for spec in self.nodes}
+        while not wanted <= self.ready:
+            self.check()
+            if time.monotonic() > deadline:
+                raise GraphError(f'nodes not up after {timeout_s:.0f} s: '
+                                 f'{", ".join(sorted(wanted - self.ready))}')
+            time.sleep(0.02)
+        shutil.rmtree(self.folder, ignore_errors=True)
 
     def check(self) -> bool:
         """True when the completion node has finished; GraphError if any node died."""
@@ -141,7 +155,11 @@ class Graph:
                 continue
             if name == self.completion and code == 0:
                 return True
-            raise GraphError(f'node {name} died (exit code {code}); stopping the graph')
+            for thread in self.threads:
+                thread.join(timeout=0.2)
+            last = self.last_lines.get(name)
+            raise GraphError(f'node {name} died (exit code {code})'
+                             + (f': {last[-1]}' if last else '') + '; stopping the graph')
         return False
 
     def wait(self, timeout_s: float | None = None) -> None:
@@ -153,22 +171,31 @@ class Graph:
             time.sleep(0.02)
 
     def stop(self) -> dict[str, int]:
-        """SIGINT every node, then SIGTERM and SIGKILL those that linger; exit codes."""
+        """SIGINT every node; SIGKILL only those still there after STOP_GRACE_S, longer
+        than a node's own shutdown; exit codes."""
         for process in self.processes.values():
             if process.poll() is None:
                 os.killpg(process.pid, signal.SIGINT)
-        deadline = time.monotonic() + STOP_TIMEOUT_S
+        deadline = time.monotonic() + STOP_GRACE_S
         for name, process in self.processes.items():
             try:
                 process.wait(timeout=max(deadline - time.monotonic(), 0.1))
             except subprocess.TimeoutExpired:
-                self.log(f'[cdpr-graph] {name} ignored SIGINT; killing it')
+                self.log(f'[cdpr-graph] {name} still running {STOP_GRACE_S:.1f} s after SIGINT; killing it')
                 os.killpg(process.pid, signal.SIGKILL)
-                process.wait()
+                process.wait(timeout=STOP_GRACE_S)
         for thread in self.threads:
             thread.join(timeout=1.0)
         shutil.rmtree(self.folder, ignore_errors=True)
         return {name: process.returncode for name, process in self.processes.items()}
+
+
+def remove_abandoned_folders() -> None:
+    """Parameter folders of launchers that were killed before their nodes were up."""
+    for folder in Path(tempfile.gettempdir()).glob(f'{TEMP_PREFIX}*'):
+        owner = folder.name[len(TEMP_PREFIX):].split('-')[0]
+        if owner.isdigit() and not Path(f'/proc/{owner}').exists():
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def run_to_completion(nodes: list[NodeSpec], namespace: str, timeout_s: float | None,

@@ -12,6 +12,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 from . import contract, qos
+from .dds import bounded_initialisation, follow_launcher
 from .conversions import InvalidMessage, joints_from_message
 from .scheduling import apply_scheduling
 
@@ -22,6 +23,11 @@ DRAIN_QUIET_S = 0.3
 DRAIN_LIMIT_S = 3.0
 # On the way out, how long a node waits for its reliable readers to have what it sent (s).
 ACKNOWLEDGE_LIMIT_S = 2.0
+EXECUTOR_SHUTDOWN_S = 0.5
+# The longest a node takes from a stop request to its exit (s): a launcher's grace.
+SHUTDOWN_LIMIT_S = DRAIN_LIMIT_S + ACKNOWLEDGE_LIMIT_S + EXECUTOR_SHUTDOWN_S
+# Printed on stdout once the node is constructed: launchers wait for it.
+READY_MARK = 'cdpr-node-ready'
 
 
 def make_executor():
@@ -32,7 +38,6 @@ def make_executor():
 
 def run(node_class, args=None) -> int:
     """Create `node_class`, spin it until a stop request or until it sets `finished`."""
-    rclpy.init(args=args)
     stopping = []
 
     def request_stop(signum, _frame):
@@ -40,7 +45,11 @@ def run(node_class, args=None) -> int:
 
     signal.signal(signal.SIGINT, request_stop)
     signal.signal(signal.SIGTERM, request_stop)
-    node = node_class()
+    follow_launcher(request_stop)
+    with bounded_initialisation(node_class.__name__):
+        rclpy.init(args=args)
+        node = node_class()
+    print(f'{READY_MARK} {node.get_name()}', flush=True)
     executor = make_executor()
     executor.add_node(node)
     try:
@@ -55,7 +64,7 @@ def run(node_class, args=None) -> int:
         raise
     finally:
         node.close()
-        executor.shutdown(timeout_sec=0.5)
+        executor.shutdown(timeout_sec=EXECUTOR_SHUTDOWN_S)
         node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()

@@ -1,0 +1,108 @@
+"""The DDS set-up cdpr ships, and the guards around a node's DDS start and its launcher.
+
+Fast DDS's default transports on one machine include shared memory: segments in
+/dev/shm named fastdds_port<N>, port 7000 being the discovery port of every domain. A
+process killed while it created such a segment leaves it at zero size, and every later
+participant that opens it spins for ever inside rcl_node_init, deaf to SIGTERM and
+holding the GIL. The shipped profile (fastdds_loopback.xml) uses UDP on the loopback
+interface only: no segment is ever opened, and traffic stays on this machine as with
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST — which cannot be used with it, since rmw_fastrtps
+then adds the shared-memory transport back.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import select
+import signal
+import sys
+from contextlib import contextmanager
+from pathlib import Path
+
+PROFILE = Path(__file__).with_name('fastdds_loopback.xml')
+PROFILE_VARIABLE = 'FASTDDS_DEFAULT_PROFILES_FILE'
+SHARED_MEMORY = Path('/dev/shm')
+# How long rclpy.init and the node's construction may take (s) before the node gives
+# up: a healthy start takes well under a second, ten under full load of two cores.
+INITIALISATION_LIMIT_S = 20.0
+# Set by a launcher for its nodes: its PID, whose death stops them.
+LAUNCHER_PID_VARIABLE = 'CDPR_LAUNCHER_PID'
+PR_SET_PDEATHSIG = 1
+
+
+def shipped_environment(environment) -> dict:
+    """`environment` with the shipped DDS set-up, unless it names a Fast DDS profile of
+    its own (then it is taken as it is: the user has chosen their DDS set-up)."""
+    result = dict(environment)
+    result.setdefault('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')
+    if PROFILE_VARIABLE not in result:
+        result[PROFILE_VARIABLE] = str(PROFILE)
+        result['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'SUBNET'
+    return result
+
+
+def use_shipped_setup() -> None:
+    """Give this process (and what it starts) the shipped DDS set-up, before rclpy.init."""
+    os.environ.update(shipped_environment(os.environ))
+
+
+def stale_segments(folder: Path = SHARED_MEMORY) -> list[Path]:
+    """Fast DDS port segments of zero size: half-created by a process that died."""
+    try:
+        return sorted(path for path in folder.glob('fastdds_port*')
+                      if not path.name.endswith('_el') and path.stat().st_size == 0)
+    except OSError:
+        return []
+
+
+def initialisation_failure(name: str, limit_s: float) -> str:
+    """The one line a node prints when its DDS start did not finish."""
+    stale = stale_segments()
+    if stale:
+        cause = (f'stale Fast DDS shared-memory segment(s) {", ".join(map(str, stale))} '
+                 f'(left by a killed process)')
+    else:
+        cause = 'the DDS participant did not start (a stale Fast DDS segment in /dev/shm is the usual cause)'
+    return (f'{name}: DDS initialisation did not finish within {limit_s:.0f} s: {cause}; '
+            f'fix: use the shipped set-up ({PROFILE_VARIABLE}={PROFILE}, '
+            f'ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET), or remove the segment(s) once no ROS 2 '
+            f'process runs')
+
+
+@contextmanager
+def bounded_initialisation(name: str, limit_s: float = INITIALISATION_LIMIT_S):
+    """Run the body (rclpy.init, node construction); if it has not finished within
+    `limit_s`, print one line naming the cause and the fix, and kill this process.
+
+    A thread cannot do this: the stuck call holds the GIL. A forked watchdog waits on a
+    pipe that the body's end (or this process's death) closes.
+    """
+    read_end, write_end = os.pipe()
+    parent = os.getpid()
+    watchdog = os.fork()
+    if watchdog == 0:
+        os.close(write_end)
+        finished, _, _ = select.select([read_end], [], [], limit_s)
+        if not finished:
+            os.write(2, (initialisation_failure(name, limit_s) + '\n').encode())
+            os.kill(parent, signal.SIGKILL)
+        os._exit(0)
+    os.close(read_end)
+    try:
+        yield
+    finally:
+        os.close(write_end)
+        os.waitpid(watchdog, 0)
+
+
+def follow_launcher(stop) -> None:
+    """When a launcher started this process (LAUNCHER_PID_VARIABLE), ask the kernel for
+    SIGTERM at its death, so a killed launcher leaves no orphans; call `stop` now if it
+    is already gone."""
+    launcher = os.environ.get(LAUNCHER_PID_VARIABLE)
+    if not launcher or not sys.platform.startswith('linux'):
+        return
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+    if os.getppid() != int(launcher):
+        stop(signal.SIGTERM, None)
