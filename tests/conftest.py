@@ -1,7 +1,10 @@
 """Shared fixtures: the shipped robot configs, and a private ROS domain per session."""
 from __future__ import annotations
 
+import faulthandler
+import functools
 import os
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -17,10 +20,50 @@ EIGHT_CABLE_ROBOT = CONFIG_DIR / 'eight_cable_robot.yaml'
 MOTIONS = CONFIG_DIR / 'motions.yaml'
 
 
+# No test may take longer (s), setup and teardown included. A test stuck in C code that
+# holds the GIL (a DDS start that spins) is beyond pytest's reach; faulthandler's
+# watchdog thread is not: it prints every thread's stack and ends the session, so
+# `make test` can fail but cannot hang.
+TEST_LIMIT_S = 600.0
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    faulthandler.dump_traceback_later(TEST_LIMIT_S, exit=True)
+    yield
+    faulthandler.cancel_dump_traceback_later()
+
+
 def pytest_configure(config):
     # One DDS domain per test session so parallel sessions never see each other's graph.
     os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 101))
     use_shipped_setup()
+
+
+# Zero-size port segments as a process killed mid-creation leaves them: 7000 is the
+# shared-memory discovery port of every domain.
+STALE = ('fastdds_port7000',)
+
+
+@functools.cache
+def private_shm_allowed() -> bool:
+    probe = subprocess.run(['unshare', '-m', 'sh', '-c', 'mount -t tmpfs tmpfs /dev/shm'],
+                           capture_output=True, timeout=10)
+    return probe.returncode == 0
+
+
+needs_private_shm = pytest.mark.skipif(
+    not private_shm_allowed(), reason='unshare -m with a tmpfs /dev/shm is not allowed here '
+                                      '(needs root or user namespaces)')
+
+
+def in_private_shm(command: list[str], stale: tuple[str, ...] = STALE) -> list[str]:
+    """`command` in a private /dev/shm holding `stale` zero-size segments; it lists
+    /dev/shm on its way out."""
+    plant = ' '.join(f': > /dev/shm/{name};' for name in stale)
+    script = (f'mount -t tmpfs tmpfs /dev/shm && {plant} "$@"; code=$?; '
+              f'echo "shm: $(ls /dev/shm | tr "\\n" " ")"; exit $code')
+    return ['unshare', '-m', 'sh', '-c', script, 'sh', *command]
 
 
 @pytest.fixture(scope='session')

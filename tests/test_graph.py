@@ -16,7 +16,9 @@ from cdpr_bringup.graph import Graph, graph_nodes, node_environment, run_to_comp
 from cdpr_bringup.metrics import fdi_summary_from_diagnostics
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 
-from conftest import MOTIONS, PAPER_ROBOT
+from cdpr_msgs_py.dds import PROFILE_VARIABLE
+
+from conftest import MOTIONS, PAPER_ROBOT, in_private_shm, private_shm_allowed
 
 pytestmark = pytest.mark.graph
 QUIET = lambda line: None  # noqa: E731
@@ -94,18 +96,33 @@ def test_realtime_smoke_run_answers_every_state(tmp_path):
     assert len(states - commands) <= 1
 
 
+def user_environment() -> dict:
+    """A ROS 2 user's shell: Fast DDS's own transports (shared memory too) and discovery
+    on localhost, not the set-up the graph ships."""
+    environment = {key: value for key, value in node_environment().items()
+                   if key != PROFILE_VARIABLE}
+    return dict(environment, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+
+
 def listen(namespace: str, timeout_s: float) -> dict:
-    """Run the outside listener (plain rclpy, nothing of ours) and return what it saw."""
+    """Run the outside listener (plain rclpy, nothing of ours) and return what it saw.
+
+    It runs as a user's tool would, in its own /dev/shm where the machine allows that
+    (so it meets no stale segment of this machine), else with the graph's set-up."""
     script = Path(__file__).parent / 'tools' / 'outside_listener.py'
-    process = subprocess.Popen([sys.executable, str(script), namespace, str(timeout_s)],
-                               stdout=subprocess.PIPE, text=True, env=node_environment())
+    command = [sys.executable, str(script), namespace, str(timeout_s)]
+    if private_shm_allowed():
+        command, environment = in_private_shm(command, stale=()), user_environment()
+    else:
+        environment = node_environment()
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True, env=environment)
     try:
         output, _ = process.communicate(timeout=timeout_s + 20.0)
     finally:
         if process.poll() is None:
             process.kill()
-            process.wait()
-    return json.loads(output.strip().splitlines()[-1])
+            process.wait(timeout=10)
+    return json.loads([line for line in output.splitlines() if line.startswith('{')][-1])
 
 
 def test_outside_tools_and_late_joiners_see_the_broken_cable():

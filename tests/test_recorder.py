@@ -226,7 +226,7 @@ def record(tmp_path: Path, name: str, stop_signal: int, storage: str = 'mcap'):
     finally:
         if recorder.poll() is None:
             os.killpg(recorder.pid, signal.SIGKILL)
-            recorder.wait()
+            recorder.wait(timeout=10)
         publisher.close()
     print(f'\n{name}: {sum(publisher.published.values())} messages published in '
           f'{publisher.elapsed_s:.2f} s ({len(STREAMS)} streams at {RATE_HZ:.0f} Hz)')

@@ -37,6 +37,8 @@ class Recording:
     true_tension_n: np.ndarray
     residual_nm: np.ndarray | None = None
     fdi: dict = field(default_factory=dict)
+    # Ctrl-C ended the run early: the rows are the cycles that ran.
+    interrupted: bool = False
 
 
 def reference_at(scenario: Scenario, k: int) -> JointReference:
@@ -71,31 +73,36 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
         ('reference_position', 3), ('reference_angle', m), ('residual', m))}
     applied = np.zeros(m)
     recovery_reference = None
-    for k in range(cycles):
-        reference = reference_at(scenario, k)
-        angle, speed = plant.measure()
-        rows['true_position'][k] = plant.position_m
-        rows['true_tension'][k] = plant.tension_n
-        command = controller.command(
-            angle, speed, recovery_reference if controller.mode == RECOVERY_MOVE else reference)
-        twin_output = twin.step(reference, scenario.period_s)
-        if supervisor is not None:
-            verdict = supervisor.update(k, angle, speed, applied, command, twin_output.torque_nm,
-                                        twin_output.angular_velocity_rad_s, reference)
-            recovery_reference = apply_verdict(controller, verdict)
-            rows['residual'][k] = verdict.residual_nm
-        plant.step(command, scenario.period_s)
-        applied = command
-        rows['angle'][k], rows['speed'][k], rows['command'][k] = angle, speed, command
-        rows['twin_angle'][k] = twin_output.angle_rad
-        rows['twin_speed'][k] = twin_output.angular_velocity_rad_s
-        rows['twin_torque'][k] = twin_output.torque_nm
-        rows['twin_position'][k] = twin_output.position_m
-        row = min(k, len(scenario.reference) - 1)
-        rows['reference_position'][k] = scenario.reference.position_m[row]
-        rows['reference_angle'][k] = scenario.reference.angle_rad[row]
+    ran = 0
+    try:
+        for k in range(cycles):
+            reference = reference_at(scenario, k)
+            angle, speed = plant.measure()
+            rows['true_position'][k] = plant.position_m
+            rows['true_tension'][k] = plant.tension_n
+            command = controller.command(
+                angle, speed, recovery_reference if controller.mode == RECOVERY_MOVE else reference)
+            twin_output = twin.step(reference, scenario.period_s)
+            if supervisor is not None:
+                verdict = supervisor.update(k, angle, speed, applied, command, twin_output.torque_nm,
+                                            twin_output.angular_velocity_rad_s, reference)
+                recovery_reference = apply_verdict(controller, verdict)
+                rows['residual'][k] = verdict.residual_nm
+            plant.step(command, scenario.period_s)
+            applied = command
+            rows['angle'][k], rows['speed'][k], rows['command'][k] = angle, speed, command
+            rows['twin_angle'][k] = twin_output.angle_rad
+            rows['twin_speed'][k] = twin_output.angular_velocity_rad_s
+            rows['twin_torque'][k] = twin_output.torque_nm
+            rows['twin_position'][k] = twin_output.position_m
+            row = min(k, len(scenario.reference) - 1)
+            rows['reference_position'][k] = scenario.reference.position_m[row]
+            rows['reference_angle'][k] = scenario.reference.angle_rad[row]
+            ran = k + 1
+    except KeyboardInterrupt:
+        rows = {name: values[:ran] for name, values in rows.items()}
     return Recording(
-        time_s=np.arange(cycles) * scenario.period_s,
+        time_s=np.arange(ran) * scenario.period_s,
         angle_rad=rows['angle'], angular_velocity_rad_s=rows['speed'], command_nm=rows['command'],
         twin_angle_rad=rows['twin_angle'], twin_angular_velocity_rad_s=rows['twin_speed'],
         twin_torque_nm=rows['twin_torque'], twin_position_m=rows['twin_position'],
@@ -103,4 +110,5 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
         reference_angle_rad=rows['reference_angle'],
         true_position_m=rows['true_position'], true_tension_n=rows['true_tension'],
         residual_nm=rows['residual'] if supervisor is not None else None,
-        fdi=supervisor.summary() if supervisor is not None else {})
+        fdi=supervisor.summary() if supervisor is not None else {},
+        interrupted=ran < cycles)

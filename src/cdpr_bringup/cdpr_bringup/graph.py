@@ -28,6 +28,9 @@ from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, shi
 from cdpr_msgs_py.runtime import READY_MARK, SHUTDOWN_LIMIT_S
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 
+from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
+from .scenario_setup import ScenarioOptions, build_scenario
+
 # After SIGINT a node drains, waits for acknowledgements and exits; SIGKILL comes only
 # after that has had its time (a killed node can leave DDS state behind).
 STOP_GRACE_S = SHUTDOWN_LIMIT_S + 2.0
@@ -35,6 +38,8 @@ STOP_GRACE_S = SHUTDOWN_LIMIT_S + 2.0
 UP_TIMEOUT_S = INITIALISATION_LIMIT_S + 10.0
 TEMP_PREFIX = 'cdpr-graph-'
 LAST_LINES = 5
+# What a shell reports for a command ended by Ctrl-C (128 + SIGINT).
+INTERRUPTED_EXIT_CODE = 130
 # Realtime: the nodes a command waits on; the FDI, whose recovery setpoints a command
 # waits on after a failure; and what may lag without harm.
 CONTROL_LOOP = ('plant_simulator', 'controller', 'trajectory_generator')
@@ -297,8 +302,12 @@ def realtime_scheduling(parameters: dict) -> dict[str, dict]:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument('--config', default='paper_robot.yaml', help='robot YAML')
+    parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
+    parser.add_argument('--motions', default=DEFAULT_MOTIONS, help='motions YAML')
     parser.add_argument('--motion', default='circle', help='named motion')
+    parser.add_argument('--fidelity', choices=['rigid', 'elastic'],
+                        help="plant model (default: the config's plant.fidelity); the supervisor "
+                             "gets the thresholds calibrated for it")
     parser.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')
     parser.add_argument('--namespace', default=DEFAULT_NAMESPACE)
     parser.add_argument('--bag', help='record every topic into this bag folder')
@@ -308,12 +317,11 @@ def main(argv=None):
                              'applies effort_command (see README, hardware bridge); realtime; runs '
                              'until Ctrl-C')
     args = parser.parse_args(argv)
-    parameters = {'config_file': str(Path(args.config).resolve()) if Path(args.config).exists()
-                  else args.config, 'motion': args.motion,
-                  'clock_mode': 'realtime' if args.hardware else args.clock}
-    if args.calibration:
-        parameters['calibration_file'] = str(Path(args.calibration).resolve()) \
-            if Path(args.calibration).exists() else args.calibration
+    # The same settling as cdpr-scenario: thresholds that match the plant, among the rest.
+    scenario = build_scenario(ScenarioOptions(config=args.config, motions=args.motions,
+                                              motion=args.motion, fidelity=args.fidelity,
+                                              calibration=args.calibration))
+    parameters = scenario.node_parameters('realtime' if args.hardware else args.clock)
     signal.signal(signal.SIGTERM, stop_on_sigterm)
     log = lambda line: print(line, flush=True)  # noqa: E731
     try:
@@ -324,6 +332,7 @@ def main(argv=None):
                               log=log)
     except KeyboardInterrupt:
         print('[cdpr-graph] stopped on request', flush=True)
+        return INTERRUPTED_EXIT_CODE
     except GraphError as err:
         print(f'[cdpr-graph] {err}', flush=True)
         return 1

@@ -68,7 +68,8 @@ def fdi_metrics(robot: Robot, period_s: float, failure_time_s: float | None,
         'recovery': {
             'reached_safe_point': None if final_error is None else final_error <= reached_tolerance_m,
             'final_error_m': final_error,
-            'min_tension_n': float(np.min(recording.true_tension_n[after][:, remaining])),
+            'min_tension_n': (float(np.min(recording.true_tension_n[after][:, remaining]))
+                              if recording.true_tension_n[after].size else None),
             'min_height_m': float(np.min(recording.true_position_m[:, 2])),
             'duration_s': (None if hold_tick is None or identified_tick is None
                            else (hold_tick - identified_tick) * period_s),

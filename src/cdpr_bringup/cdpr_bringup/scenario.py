@@ -17,7 +17,7 @@ from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 
 from .bag_io import BagWriter, read_messages, recording_from_bag, write_recording
 from .engine import run_inprocess
-from .graph import GraphError, graph_nodes, run_to_completion
+from .graph import INTERRUPTED_EXIT_CODE, GraphError, graph_nodes, run_to_completion
 from .metrics import (PAPER_KPI, fdi_metrics, fdi_summary_from_diagnostics, ticks_before,
                       tracking_error_m, twin_kpis)
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
@@ -56,49 +56,48 @@ def parse_args(argv=None):
     return parser.parse_args(argv)
 
 
-def node_parameters(args, scenario) -> dict:
-    parameters = {
-        'config_file': str(scenario.config_path.resolve()),
-        'motions_file': str(scenario.motions_path.resolve()),
-        'motion': args.motion, 'reverse': args.reverse, 'clock_mode': args.clock,
-        'fail_cables': args.fail_cable or [0],
-        'fail_at_s': -1.0 if args.fail_at is None else args.fail_at,
-        'fail_at_fraction': -1.0 if args.fail_at_fraction is None else args.fail_at_fraction,
-        'duration_s': scenario.duration_s,
-        'detector': scenario.fdi.detector,
-        'epsilon_nm': scenario.fdi.epsilon_nm,
-        'coulomb_friction_nm': scenario.fdi.friction.coulomb_nm,
-    }
-    if scenario.calibration_path is not None:
-        parameters['calibration_file'] = str(scenario.calibration_path.resolve())
-    if args.fidelity:
-        parameters['fidelity'] = args.fidelity
-    if args.seed is not None:
-        parameters['seed'] = args.seed
-    return parameters
-
-
 def run_graph(args, scenario, out: Path):
+    """The graph's recording, and whether Ctrl-C cut the run short (the graph is stopped
+    cleanly either way, so the bag holds what ran)."""
     bag = out / 'bag'
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
     timeout = RUN_TIMEOUT_FACTOR * scenario.cycles * scenario.period_s + 30.0
-    run_to_completion(graph_nodes(node_parameters(args, scenario), str(bag)), args.namespace,
-                      timeout, log)
-    recording = recording_from_bag(bag, args.namespace)
+    interrupted = False
+    try:
+        run_to_completion(graph_nodes(scenario.node_parameters(args.clock), str(bag)),
+                          args.namespace, timeout, log)
+    except KeyboardInterrupt:
+        interrupted = True
+    if interrupted and not bag.exists():
+        return None, True
+    try:
+        recording = recording_from_bag(bag, args.namespace)
+    except ValueError:
+        if interrupted:
+            return None, True
+        raise
     recording.fdi = fdi_summary_from_diagnostics(read_messages(bag, ['/diagnostics'])['/diagnostics'])
-    return recording
+    return recording, interrupted
 
 
-def metrics_of(scenario, recording, wall_time_s: float) -> dict:
-    true_broken = sorted({cable + 1 for _, cable in scenario.failures})
-    before_failure = slice(0, ticks_before(recording, scenario.failure_time_s))
+def metrics_of(scenario, recording, wall_time_s: float, interrupted: bool = False) -> dict:
+    """metrics.json; of an interrupted run, for the ticks it ran (failures scheduled after
+    its last tick did not happen)."""
     metrics = {
         'motion': scenario.motion.name,
         'fidelity': scenario.plant.fidelity,
         'detector': scenario.fdi.detector,
         'epsilon_nm': scenario.fdi.epsilon_nm,
     }
-    metrics.update(fdi_metrics(scenario.robot, scenario.period_s, scenario.failure_time_s,
+    if interrupted:
+        metrics['interrupted'] = True
+    if recording is None or recording.time_s.size == 0:
+        return dict(metrics, cycles=0, wall_time_s=wall_time_s)
+    failures = [(at, cable) for at, cable in scenario.failures if at <= recording.time_s[-1]]
+    failure_time = failures[0][0] if failures else None
+    true_broken = sorted({cable + 1 for _, cable in failures})
+    before_failure = slice(0, ticks_before(recording, failure_time))
+    metrics.update(fdi_metrics(scenario.robot, scenario.period_s, failure_time,
                                true_broken, recording, scenario.recovery.reached_tolerance_m))
     metrics.update({
         'kpi': twin_kpis(scenario.robot, recording, before_failure),
@@ -137,7 +136,14 @@ def print_summary(metrics: dict, engine: str) -> None:
 
 
 def main(argv=None):
-    args = parse_args(argv)
+    try:
+        return run_scenario(parse_args(argv))
+    except KeyboardInterrupt:
+        print('cdpr-scenario: interrupted before metrics.json was written', file=sys.stderr)
+        return INTERRUPTED_EXIT_CODE
+
+
+def run_scenario(args) -> int:
     options = ScenarioOptions(config=args.config, motions=args.motions, motion=args.motion,
                               reverse=args.reverse, fail_cables=args.fail_cable,
                               fail_at_s=args.fail_at, fail_at_fraction=args.fail_at_fraction,
@@ -150,13 +156,20 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     start = time.monotonic()
     try:
-        recording = (run_graph(args, scenario, out) if args.engine == 'graph'
-                     else run_inprocess(scenario))
+        if args.engine == 'graph':
+            recording, interrupted = run_graph(args, scenario, out)
+        else:
+            recording = run_inprocess(scenario)
+            interrupted = recording.interrupted
     except GraphError as err:
         print(f'cdpr-scenario: {err}', file=sys.stderr)
         return 1
-    metrics = metrics_of(scenario, recording, time.monotonic() - start)
+    metrics = metrics_of(scenario, recording, time.monotonic() - start, interrupted)
     (out / 'metrics.json').write_text(json.dumps(metrics, indent=2))
+    if interrupted:
+        print(f'cdpr-scenario: interrupted after {metrics["cycles"]} of {scenario.cycles} cycles; '
+              f'metrics of what ran: {out / "metrics.json"}', file=sys.stderr)
+        return INTERRUPTED_EXIT_CODE
     print_summary(metrics, args.engine)
     print(f'metrics: {out / "metrics.json"}')
     if not args.no_plots:

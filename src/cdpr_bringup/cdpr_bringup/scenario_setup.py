@@ -70,6 +70,28 @@ class Scenario:
     def duration_s(self) -> float:
         return (self.cycles - 1) * self.period_s
 
+    def node_parameters(self, clock_mode: str) -> dict:
+        """The ROS parameters every node of the graph gets for this run."""
+        options = self.options
+        parameters = {
+            'config_file': str(self.config_path.resolve()),
+            'motions_file': str(self.motions_path.resolve()),
+            'motion': options.motion, 'reverse': options.reverse, 'clock_mode': clock_mode,
+            'fail_cables': options.fail_cables or [0],
+            'fail_at_s': -1.0 if options.fail_at_s is None else options.fail_at_s,
+            'fail_at_fraction': -1.0 if options.fail_at_fraction is None else options.fail_at_fraction,
+            'duration_s': self.duration_s,
+            'fidelity': self.plant.fidelity,
+            'detector': self.fdi.detector,
+            'epsilon_nm': self.fdi.epsilon_nm,
+            'coulomb_friction_nm': self.fdi.friction.coulomb_nm,
+        }
+        if self.calibration_path is not None:
+            parameters['calibration_file'] = str(self.calibration_path.resolve())
+        if options.seed is not None:
+            parameters['seed'] = options.seed
+        return parameters
+
 
 def build_scenario(options: ScenarioOptions) -> Scenario:
     config_path = config_file(options.config)

@@ -23,8 +23,10 @@ PROFILE = Path(__file__).with_name('fastdds_loopback.xml')
 PROFILE_VARIABLE = 'FASTDDS_DEFAULT_PROFILES_FILE'
 SHARED_MEMORY = Path('/dev/shm')
 # How long rclpy.init and the node's construction may take (s) before the node gives
-# up: a healthy start takes well under a second, ten under full load of two cores.
+# up: a healthy start takes well under a second, a few under full load of two cores.
+# ROS parameters do not exist yet at that point: LIMIT_VARIABLE overrides it.
 INITIALISATION_LIMIT_S = 20.0
+LIMIT_VARIABLE = 'CDPR_DDS_START_LIMIT_S'
 # Set by a launcher for its nodes: its PID, whose death stops them.
 LAUNCHER_PID_VARIABLE = 'CDPR_LAUNCHER_PID'
 PR_SET_PDEATHSIG = 1
@@ -69,14 +71,30 @@ def initialisation_failure(name: str, limit_s: float) -> str:
             f'process runs')
 
 
+def initialisation_limit_s() -> float:
+    """INITIALISATION_LIMIT_S, or the positive number of seconds LIMIT_VARIABLE gives."""
+    text = os.environ.get(LIMIT_VARIABLE)
+    if text is None:
+        return INITIALISATION_LIMIT_S
+    try:
+        value = float(text)
+    except ValueError:
+        value = float('nan')
+    if not value > 0 or value == float('inf'):
+        raise SystemExit(f'{LIMIT_VARIABLE} must be a positive number of seconds, got {text!r}')
+    return value
+
+
 @contextmanager
-def bounded_initialisation(name: str, limit_s: float = INITIALISATION_LIMIT_S):
+def bounded_initialisation(name: str):
     """Run the body (rclpy.init, node construction); if it has not finished within
-    `limit_s`, print one line naming the cause and the fix, and kill this process.
+    initialisation_limit_s(), print one line naming the cause and the fix, and kill
+    this process.
 
     A thread cannot do this: the stuck call holds the GIL. A forked watchdog waits on a
     pipe that the body's end (or this process's death) closes.
     """
+    limit_s = initialisation_limit_s()
     read_end, write_end = os.pipe()
     parent = os.getpid()
     watchdog = os.fork()

@@ -10,6 +10,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 from . import contract, qos
 from .dds import bounded_initialisation, follow_launcher
@@ -47,7 +48,8 @@ def run(node_class, args=None) -> int:
     signal.signal(signal.SIGTERM, request_stop)
     follow_launcher(request_stop)
     with bounded_initialisation(node_class.__name__):
-        rclpy.init(args=args)
+        # rclpy's own handlers would invalidate the context on SIGINT, before the drain
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         node = node_class()
     print(f'{READY_MARK} {node.get_name()}', flush=True)
     executor = make_executor()

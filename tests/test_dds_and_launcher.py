@@ -1,0 +1,191 @@
+"""The graph in a ROS 2 system that misbehaves around it: stale shared memory, a DDS start
+that never finishes, a launcher killed or stopped with Ctrl-C.
+
+Stale segments are planted in a private /dev/shm (`unshare -m`), so the machine's own
+is never touched; where the machine does not allow that, those tests are skipped.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+from cdpr_bringup.graph import STOP_GRACE_S, TEMP_PREFIX, node_environment
+from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_msgs_py import dds
+
+from conftest import STALE, MOTIONS, PAPER_ROBOT, in_private_shm, needs_private_shm
+
+pytestmark = pytest.mark.graph
+BIN = Path(sys.executable).parent
+RUN_LIMIT_S = 240.0
+
+
+def run_bounded(command, limit_s, **kwargs) -> subprocess.CompletedProcess:
+    """subprocess.run that kills the whole session of a child that overruns."""
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True, **kwargs)
+    try:
+        out, err = process.communicate(timeout=limit_s)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        out, err = process.communicate(timeout=10)
+        pytest.fail(f'{command[0]} did not finish within {limit_s} s:\n{out[-2000:]}\n{err[-2000:]}')
+    return subprocess.CompletedProcess(command, process.returncode, out, err)
+
+
+def alive(pid: int) -> bool:
+    """True while `pid` runs (a zombie has finished)."""
+    try:
+        state = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state != 'Z'
+
+
+def scenario_command(out: Path, *extra: str) -> list[str]:
+    return [str(BIN / 'cdpr-scenario'), '--config', str(PAPER_ROBOT), '--motions', str(MOTIONS),
+            '--motion', 'along-2', '--fail-cable', '4', '--fidelity', 'rigid', '--engine', 'graph',
+            '--no-plots', '--out', str(out), *extra]
+
+
+@needs_private_shm
+def test_a_stale_segment_does_not_stop_the_graph(tmp_path):
+    """The shipped set-up opens no shared memory: the failure run completes as ever."""
+    result = run_bounded(in_private_shm(scenario_command(tmp_path / 'run', '--quiet')),
+                         RUN_LIMIT_S, env=node_environment())
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    metrics = json.loads((tmp_path / 'run' / 'metrics.json').read_text())
+    assert metrics['identified_cables'] == [4] and metrics['recovery']['reached_safe_point']
+    shm = result.stdout.strip().splitlines()[-1]
+    segments = [name for name in shm.split()[1:] if 'fastdds' in name]
+    assert segments == list(STALE), f'the graph opened shared memory: {shm}'
+
+
+@needs_private_shm
+def test_a_node_whose_dds_start_hangs_exits_with_one_line_naming_cause_and_fix():
+    """With Fast DDS's shared memory forced on (LOCALHOST, no profile), a stale segment
+    makes rcl_node_init spin for ever; the node gives up at its bound with one line."""
+    environment = {key: value for key, value in node_environment().items()
+                   if key != dds.PROFILE_VARIABLE}
+    environment.update(ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', **{dds.LIMIT_VARIABLE: '3'})
+    start = time.monotonic()
+    result = run_bounded(in_private_shm([str(BIN / 'digital_twin')]), 60.0, env=environment)
+    elapsed = time.monotonic() - start
+    lines = [line for line in result.stderr.splitlines() if 'DDS initialisation' in line]
+    assert result.returncode != 0 and elapsed < 20.0, (result.returncode, elapsed)
+    assert len(lines) == 1, result.stderr
+    assert '/dev/shm/fastdds_port7000' in lines[0] and 'fix:' in lines[0]
+    assert 'Traceback' not in result.stderr
+
+
+def test_a_bad_start_limit_is_one_line():
+    environment = dict(node_environment(), **{dds.LIMIT_VARIABLE: 'soon'})
+    result = run_bounded([str(BIN / 'digital_twin')], 60.0, env=environment)
+    assert result.returncode == 1
+    assert result.stderr.strip() == f"{dds.LIMIT_VARIABLE} must be a positive number of seconds, got 'soon'"
+
+
+def start_launcher(command: list[str]) -> tuple[subprocess.Popen, list[str]]:
+    """Start a launcher with Ctrl-C's default action (a background shell ignores it)."""
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                               env=node_environment(), start_new_session=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    return process, []
+
+
+def read_until(process: subprocess.Popen, lines: list[str], text: str, limit_s: float) -> None:
+    """Read the launcher's output into `lines` until a line contains `text`."""
+    deadline = time.monotonic() + limit_s
+    os.set_blocking(process.stdout.fileno(), False)
+    while not any(text in line for line in lines):
+        assert time.monotonic() < deadline, f'no {text!r} within {limit_s} s:\n' + '\n'.join(lines[-30:])
+        assert process.poll() is None, 'the launcher ended:\n' + '\n'.join(lines[-30:])
+        chunk = process.stdout.readline()
+        if chunk:
+            lines.append(chunk.rstrip())
+        else:
+            time.sleep(0.05)
+
+
+def node_pids(lines: list[str]) -> dict[str, int]:
+    return {match[1]: int(match[2]) for line in lines
+            if (match := re.search(r'\[cdpr-graph\] started (\S+) \(pid (\d+)\)', line))}
+
+
+def stop_all(process: subprocess.Popen, pids) -> None:
+    for pid in [process.pid, *pids]:
+        try:
+            os.killpg(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    process.wait(timeout=10)
+
+
+def test_nodes_exit_when_their_launcher_is_killed():
+    process, lines = start_launcher([str(BIN / 'cdpr-graph'), '--config', str(PAPER_ROBOT),
+                                     '--motion', 'circle', '--fidelity', 'rigid'])
+    pids = {}
+    try:
+        read_until(process, lines, 'all nodes up', 60.0)
+        pids = node_pids(lines)
+        assert len(pids) == 5, lines
+        os.kill(process.pid, signal.SIGKILL)
+        process.wait(timeout=10)
+        deadline = time.monotonic() + STOP_GRACE_S + 5.0
+        while any(alive(pid) for pid in pids.values()) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        orphans = [name for name, pid in pids.items() if alive(pid)]
+        assert not orphans, f'nodes outlived their launcher: {orphans}'
+        assert not list(Path(tempfile.gettempdir()).glob(f'{TEMP_PREFIX}{process.pid}-*')), \
+            'the parameter folder was left behind'
+    finally:
+        stop_all(process, pids.values())
+
+
+def test_ctrl_c_writes_the_metrics_of_what_ran_and_exits_130(tmp_path):
+    out = tmp_path / 'run'
+    command = scenario_command(out)
+    process, lines = start_launcher(command)
+    pids = {}
+    try:
+        read_until(process, lines, 'all nodes up', 60.0)
+        read_until(process, lines, 'starting', 60.0)
+        pids = node_pids(lines)
+        time.sleep(2.0)
+        process.send_signal(signal.SIGINT)
+        rest, _ = process.communicate(timeout=STOP_GRACE_S + 30.0)
+        lines += rest.splitlines()
+    finally:
+        stop_all(process, pids.values())
+    assert process.returncode == 130, '\n'.join(lines[-20:])
+    assert lines[-1].startswith('cdpr-scenario: interrupted after'), lines[-1]
+    assert not any('Traceback' in line for line in lines), '\n'.join(lines)
+    assert not any('killing it' in line for line in lines), 'a node was SIGKILLed on stop'
+    metrics = json.loads((out / 'metrics.json').read_text())
+    assert metrics['interrupted'] and 0 < metrics['cycles'] < build_scenario(
+        ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS), motion='along-2',
+                        fail_cables=[4], fidelity='rigid')).cycles
+    assert not any(alive(pid) for pid in pids.values())
+    assert not list(Path(tempfile.gettempdir()).glob(f'{TEMP_PREFIX}{process.pid}-*'))
+
+
+@pytest.mark.parametrize('fidelity', ['rigid', 'elastic'])
+def test_the_launcher_gives_the_supervisor_the_thresholds_of_its_plant(fidelity):
+    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+                                              motion='circle', fidelity=fidelity))
+    parameters = scenario.node_parameters('lockstep')
+    assert parameters['fidelity'] == fidelity
+    if fidelity == 'elastic':
+        assert Path(parameters['calibration_file']).name == 'fdi_calibration_elastic.yaml'
+        assert parameters['epsilon_nm'] > 0.1   # calibrated for the elastic plant's noise
+    else:
+        assert 'calibration_file' not in parameters and parameters['coulomb_friction_nm'] == 0.0
