@@ -9,7 +9,7 @@ setup(
     package_data={package_name: ['fastdds_loopback.xml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
-        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name, ['package.xml', package_name + '/fastdds_loopback.xml']),
     ],
     install_requires=['setuptools', 'numpy'],
     zip_safe=True,

@@ -30,7 +30,7 @@ from cdpr_msgs_py import qos
 from cdpr_msgs_py.contract import DIAGNOSTICS
 
 from .engine import run_inprocess
-from .graph import Graph, GraphError, graph_nodes, private_domain
+from .graph import Graph, GraphError, graph_nodes, launch_environment
 from .paths import DEFAULT_MOTIONS, config_file
 from .scenario_setup import ScenarioOptions, build_scenario
 
@@ -191,7 +191,7 @@ def graph_parameters(config: str) -> dict:
 
 def bench_graph(config: str, log=lambda line: None) -> dict:
     """The figures of this module's docstring, by the keys of TARGETS, plus CPU per node."""
-    private_domain()
+    launch_environment()
     figures = {'inprocess_realtime_factor': round(inprocess_realtime_factor(config), 1)}
     parameters = graph_parameters(config)
     listener = DiagnosticsListener()

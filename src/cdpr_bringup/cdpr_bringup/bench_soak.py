@@ -19,7 +19,7 @@ from cdpr_msgs_py import qos
 from cdpr_msgs_py.contract import GOAL
 
 from .bench_graph import DiagnosticsListener, graph_parameters
-from .graph import Graph, graph_nodes, private_domain
+from .graph import Graph, graph_nodes, launch_environment
 
 NAMESPACE = '/cdpr_soak'
 WARM_UP_S = 30.0
@@ -46,7 +46,7 @@ def graph_memory_kib(graph: Graph) -> dict[str, int]:
 
 
 def bench_soak(config: str, minutes: float, log=lambda line: None) -> dict:
-    private_domain()
+    launch_environment()
     duration_s = minutes * 60.0
     parameters = dict(graph_parameters(config), clock_mode='realtime', duration_s=duration_s + 60.0)
     listener = DiagnosticsListener()

@@ -75,9 +75,12 @@ def executable_command(package: str, executable: str) -> list[str]:
                      f'(looked in {", ".join(map(str, candidates))})')
 
 
-def private_domain() -> str:
-    """The DDS domain of this launch: the caller's ROS_DOMAIN_ID, else one of its own, so
-    that two users (or two runs) on one machine never see each other's robot."""
+def launch_environment() -> str:
+    """Settle this launcher's DDS environment before it or its nodes start a participant:
+    the shipped set-up (dds.py) and a domain of its own unless the caller set
+    ROS_DOMAIN_ID, so that two users (or two runs) on one machine never see each other's
+    robot. Returns the domain id."""
+    use_shipped_setup()
     return os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 230))
 
 
@@ -113,8 +116,7 @@ class Graph:
         self.folder = Path(tempfile.mkdtemp(prefix=f'{TEMP_PREFIX}{os.getpid()}-'))
 
     def start(self) -> None:
-        use_shipped_setup()
-        self.log(f'[cdpr-graph] ROS_DOMAIN_ID={private_domain()} (set it to listen from another shell)')
+        self.log(f'[cdpr-graph] ROS_DOMAIN_ID={launch_environment()} (set it to listen from another shell)')
         for spec in self.nodes:
             params = self.folder / f'{spec.name}.yaml'
             params.write_text(yaml.safe_dump({'/**': {'ros__parameters': spec.parameters}}))
