@@ -115,12 +115,12 @@ def bounded_initialisation(name: str):
 
 def follow_launcher(stop) -> None:
     """When a launcher started this process (LAUNCHER_PID_VARIABLE), ask the kernel for
-    SIGTERM at its death, so a killed launcher leaves no orphans; call `stop` now if it
-    is already gone."""
+    SIGTERM at its parent's death (the launcher starts its nodes directly), so a killed
+    launcher leaves no orphans; call `stop` now if the launcher is already gone."""
     launcher = os.environ.get(LAUNCHER_PID_VARIABLE)
     if not launcher or not sys.platform.startswith('linux'):
         return
     libc = ctypes.CDLL(None, use_errno=True)
     libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
-    if os.getppid() != int(launcher):
+    if not Path(f'/proc/{launcher}').exists():
         stop(signal.SIGTERM, None)
