@@ -130,6 +130,20 @@ def _missing_section(cfg):
     del cfg['robot']['cables']
 
 
+def _coinciding_exit_points(cfg):
+    x, y, z = cfg['robot']['exit_points_m'][0]
+    cfg['robot']['exit_points_m'][3] = [x + 0.0005, y, z]
+
+
+def _collinear_exit_points(cfg):
+    cfg['robot']['exit_points_m'] = [[0.4 * i, 0.4 * i, 2.5] for i in range(4)]
+
+
+def _exit_points_in_a_plane_through_the_workspace(cfg):
+    # a vertical plane at x = 0.8 m: at those poses no cable pulls along x
+    cfg['robot']['exit_points_m'] = [[0.8, 0.0, 2.4], [0.8, 1.9, 2.4], [0.8, 0.0, 3.0], [0.8, 1.9, 3.0]]
+
+
 BAD_CONFIGS = [
     (_drop_inertia, 'robot.motor.inertia_kg_m2'),
     (_three_cables, 'robot.exit_points_m'),
@@ -144,6 +158,9 @@ BAD_CONFIGS = [
     (_gravity_up, 'robot.gravity_m_s2'),
     (_boolean_friction, 'robot.motor.viscous_friction_nm_s_rad'),
     (_missing_section, 'robot.cables'),
+    (_coinciding_exit_points, 'robot.exit_points_m[3]'),
+    (_collinear_exit_points, 'robot.exit_points_m'),
+    (_exit_points_in_a_plane_through_the_workspace, 'robot.exit_points_m'),
 ]
 
 

@@ -18,6 +18,7 @@ from cdpr_control.kinematics import forward_kinematics, inverse_kinematics, stru
 from cdpr_control.robot import load_robot
 from cdpr_control.tension_distribution import METHODS, make_tension_distribution
 
+from .cli import command
 from .paths import DEFAULT_ROBOT, config_file
 
 REPEATS = 31
@@ -69,6 +70,7 @@ def machine() -> str:
     return f'{platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}'
 
 
+@command('cdpr-bench')
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument('suite', choices=['model', 'graph', 'fdi', 'soak'], help='what to measure')

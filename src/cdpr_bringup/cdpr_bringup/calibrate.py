@@ -20,6 +20,7 @@ from cdpr_control.config import load_section
 from cdpr_control.motions import motion_names
 from cdpr_fdi.calibration import FailureFreeRun, calibrate
 
+from .cli import command
 from .engine import run_inprocess
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
 from .scenario_setup import ScenarioOptions, build_scenario
@@ -48,6 +49,7 @@ def failure_free_run(job) -> FailureFreeRun:
                           recording.twin_angular_velocity_rad_s)
 
 
+@command('cdpr-calibrate')
 def main(argv=None):
     args = parse_args(argv)
     config, motions = config_file(args.config), config_file(args.motions)

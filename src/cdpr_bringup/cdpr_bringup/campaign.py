@@ -32,6 +32,7 @@ from cdpr_control.config import load_section
 from cdpr_control.motions import motion_names
 from cdpr_control.robot import load_robot
 
+from .cli import command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
 
 # Tables 4 and 6 define their motions with respect to exit point A4: "along" and
@@ -478,6 +479,7 @@ def parse_args(argv=None):
     return parser.parse_args(argv)
 
 
+@command('cdpr-campaign')
 def main(argv=None):
     args = parse_args(argv)
     try:

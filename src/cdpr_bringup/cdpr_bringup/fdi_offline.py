@@ -22,6 +22,7 @@ from cdpr_fdi.offline import RecordedTick, replay
 from cdpr_msgs_py import contract
 
 from .bag_io import NANOSECONDS, read_topics, recording_from_bag
+from .cli import command
 from .paths import DEFAULT_ROBOT, config_file
 from .report import failure_of
 
@@ -58,6 +59,7 @@ def recorded_ticks(bag: Path, namespace: str) -> tuple[list[int], list[RecordedT
     return stamps, ticks
 
 
+@command('cdpr-fdi-offline')
 def main(argv=None):
     args = parse_args(argv)
     bag = Path(args.bag)

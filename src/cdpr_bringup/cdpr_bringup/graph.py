@@ -28,6 +28,7 @@ from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, shi
 from cdpr_msgs_py.runtime import READY_MARK, SHUTDOWN_LIMIT_S
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 
+from .cli import command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
 from .scenario_setup import ScenarioOptions, build_scenario
 
@@ -302,6 +303,7 @@ def realtime_scheduling(parameters: dict) -> dict[str, dict]:
             | {name: background for name in BACKGROUND})
 
 
+@command('cdpr-graph')
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')

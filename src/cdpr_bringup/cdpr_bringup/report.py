@@ -32,6 +32,7 @@ from cdpr_msgs_py import contract
 
 from . import plots
 from .bag_io import NANOSECONDS, read_messages, recording_from_bag, stamp_ns
+from .cli import command
 from .engine import Recording
 from .metrics import fdi_summary_from_diagnostics, tracking_error_m, twin_kpis
 from .paths import DEFAULT_ROBOT, config_file
@@ -330,6 +331,7 @@ def format_value(value) -> str:
     return str(value)
 
 
+@command('cdpr-report')
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('bag', help='rosbag2 folder (or a killed recorder\'s folder)')

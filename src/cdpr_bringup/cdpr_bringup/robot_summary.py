@@ -9,9 +9,10 @@ from cdpr_control.config import load_section
 from cdpr_control.dynamics import inverse_dynamics
 from cdpr_control.motions import load_motion, motion_names
 from cdpr_control.robot import load_robot
-from cdpr_control.tension_distribution import make_tension_distribution
+from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
 from cdpr_control.workspace import safe_point
 
+from .cli import command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
 
 
@@ -26,6 +27,7 @@ def motion_extremes(robot, tension_distribution, motion, period_s):
     return np.min(tensions), np.max(tensions), np.max(np.abs(torques))
 
 
+@command('cdpr-robot')
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
@@ -35,8 +37,9 @@ def main(argv=None):
     args = parser.parse_args(argv)
     config = config_file(args.config)
     robot = load_robot(config)
-    period = load_section(config, 'control').number('period_s', positive=True)
-    pseudo_inverse = make_tension_distribution('pseudo_inverse', 0.0, robot.tension_max_n)
+    control = load_section(config, 'control')
+    period = control.number('period_s', positive=True)
+    distribution = configured_tension_distribution(control, robot)
 
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, '
           f'end-effector {robot.mass_kg} kg')
@@ -47,11 +50,15 @@ def main(argv=None):
         point = safe_point(robot, robot.cable_mask([i]), args.safe_height)
         print(f'  cable {i + 1} broken: SP = ({point[0]:.4f}, {point[1]:.4f}, {point[2]:.4f}) m')
     motions = config_file(args.motions)
-    print(f'named motions ({motions}), pseudo-inverse tensions along each:')
+    print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}):')
     print(f'  {"motion":<14} {"move s":>7} {"min N":>7} {"max N":>7} {"max |c| N·m":>12}')
     for name in motion_names(motions):
         motion = load_motion(motions, name)
-        low, high, torque = motion_extremes(robot, pseudo_inverse, motion, period)
+        try:
+            low, high, torque = motion_extremes(robot, distribution, motion, period)
+        except InfeasibleTensionError as err:
+            print(f'  {name:<14} {motion.move.duration_s:7.3f} no tensions within the bounds: {err}')
+            continue
         print(f'  {name:<14} {motion.move.duration_s:7.3f} {low:7.2f} {high:7.2f} {torque:12.3f}')
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 
 from .bag_io import BagWriter, read_messages, recording_from_bag, write_recording
+from .cli import command
 from .engine import run_inprocess
 from .graph import INTERRUPTED_EXIT_CODE, GraphError, graph_nodes, run_to_completion
 from .metrics import (PAPER_KPI, fdi_metrics, fdi_summary_from_diagnostics, ticks_before,
@@ -135,6 +136,7 @@ def print_summary(metrics: dict, engine: str) -> None:
     print(f'  tracking error (true pose vs reference): {metrics["tracking_error_m"] * 1000:.2f} mm')
 
 
+@command('cdpr-scenario')
 def main(argv=None):
     try:
         return run_scenario(parse_args(argv))

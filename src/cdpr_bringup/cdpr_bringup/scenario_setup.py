@@ -1,6 +1,7 @@
 """Everything one scenario run needs, built from the config files and the CLI options."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_fdi.config import FdiConfig, RecoveryConfig, load_fdi_config, load_recovery_config
 from cdpr_twin.plant import PlantConfig
 
+from .cli import UsageError
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
 
 
@@ -102,11 +104,9 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
     distribution = configured_tension_distribution(control, robot)
     motion = load_motion(motions_path, options.motion, options.reverse)
     reference = tabulate_reference(robot, distribution, motion.trajectory, period)
-    failures = []
-    for cable in options.fail_cables:
-        if not 1 <= cable <= robot.cable_count:
-            raise ValueError(f'--fail-cable {cable}: the robot has cables 1..{robot.cable_count}')
-        failures.append((motion.failure_time(options.fail_at_s, options.fail_at_fraction), cable - 1))
+    check_options(options, robot, motion)
+    failures = [(motion.failure_time(options.fail_at_s, options.fail_at_fraction), cable - 1)
+                for cable in options.fail_cables]
     plant = PlantConfig.from_section(load_section(config_path, 'plant'), options.fidelity, options.seed)
     calibration = calibration_for(config_path, plant, options.calibration)
     fdi = load_fdi_config(config_path, robot, calibration).with_overrides(
@@ -128,6 +128,23 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         fdi=fdi,
         recovery=load_recovery_config(config_path, robot),
     )
+
+
+def check_options(options: ScenarioOptions, robot: Robot, motion: Motion) -> None:
+    """UsageError, naming the option, for a value the run cannot use: a failure must happen
+    during the motion, a threshold must be a positive number."""
+    for cable in options.fail_cables:
+        if not 1 <= cable <= robot.cable_count:
+            raise UsageError(f'--fail-cable {cable}: the robot has cables 1..{robot.cable_count}')
+    if options.fail_at_s is not None and not 0.0 <= options.fail_at_s <= motion.trajectory.duration_s:
+        raise UsageError(f'--fail-at {options.fail_at_s}: must be a time during the motion '
+                         f'{motion.name}, 0..{motion.trajectory.duration_s:.3f} s')
+    if options.fail_at_fraction is not None and not 0.0 <= options.fail_at_fraction <= 1.0:
+        raise UsageError(f'--fail-at-fraction {options.fail_at_fraction}: must be between 0 and 1')
+    if options.epsilon_nm is not None and not 0.0 < options.epsilon_nm < math.inf:
+        raise UsageError(f'--epsilon {options.epsilon_nm}: must be a positive number of N·m')
+    if options.seed is not None and options.seed < 0:
+        raise UsageError(f'--seed {options.seed}: must be 0 or more')
 
 
 def calibration_for(config_path: Path, plant: PlantConfig, calibration: str | None) -> Path | None:

@@ -12,6 +12,10 @@ import numpy as np
 
 from .config import ConfigError, Section, load_section
 
+# Exit points closer than this (m) are one point; spreads below FLAT_RATIO of the
+# largest are flat (a line, a plane).
+DISTINCT_EXIT_POINTS_M = 1e-3
+FLAT_RATIO = 1e-6
 MIN_CABLES = 4
 
 
@@ -78,6 +82,34 @@ class Robot:
         return mask
 
 
+def check_exit_point_geometry(section: Section, exit_points: np.ndarray, low: np.ndarray,
+                              high: np.ndarray) -> None:
+    """ConfigError for exit points that cannot hold the end-effector in 3 DOF anywhere in
+    the workspace: two at one place, all on one line, or all in one plane that crosses
+    the workspace box (there every cable pulls in that plane, none out of it)."""
+    key = section.key('exit_points_m')
+    for j in range(len(exit_points)):
+        for i in range(j):
+            if np.linalg.norm(exit_points[j] - exit_points[i]) < DISTINCT_EXIT_POINTS_M:
+                raise ConfigError(section.path, f'{key}[{j}]',
+                                  f'coincides with {key}[{i}] (closer than '
+                                  f'{DISTINCT_EXIT_POINTS_M * 1000:g} mm): two cables from one point')
+    centred = exit_points - exit_points.mean(axis=0)
+    _, spread, axes = np.linalg.svd(centred)
+    scale = max(spread[0], DISTINCT_EXIT_POINTS_M)
+    if spread[1] < FLAT_RATIO * scale:
+        raise ConfigError(section.path, key, 'all lie on one line: the cables cannot hold the '
+                          'end-effector in 3 DOF')
+    if spread[2] < FLAT_RATIO * scale:
+        normal = axes[2]
+        corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1])
+                            for z in (low[2], high[2])])
+        side = (corners - exit_points.mean(axis=0)) @ normal
+        if side.min() <= 0.0 <= side.max():
+            raise ConfigError(section.path, key, 'all lie in one plane that crosses the workspace: '
+                              'there the cables cannot pull out of that plane')
+
+
 def robot_from_section(section: Section) -> Robot:
     """Build and validate a Robot from the `robot` section of a config file."""
     exit_points = section.matrix('exit_points_m', 3)
@@ -99,6 +131,7 @@ def robot_from_section(section: Section) -> Robot:
         if point[2] <= high[2]:
             raise ConfigError(section.path, f'{section.key("exit_points_m")}[{i}]',
                               f'must lie above the workspace (z > {high[2]} m), got z = {point[2]} m')
+    check_exit_point_geometry(section, exit_points, low, high)
     home = section.vector('home_position_m', 3)
     if np.any(home < low) or np.any(home > high):
         raise section.error('home_position_m', f'must lie inside the workspace, got {home}')
