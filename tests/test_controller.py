@@ -107,3 +107,24 @@ def test_safe_hold_after_a_recovery_move_holds_the_recovery_reference(controller
     # the trajectory's (nominal) reference is no longer followed
     held = controller.command(np.full(m, 0.4), np.zeros(m), reference(m, angle=0.9))
     np.testing.assert_allclose(held, np.full(m, -0.5))
+
+
+def test_fault_after_tension_control_holds_the_drums_where_they_are(controller, paper_robot):
+    """A recovery that fails in phase 1 must not drive the drums back to the reference
+    tracked before the failure: FAULT holds the lengths of that instant, with the torque
+    last applied (within the tension bounds) as feed-forward."""
+    m = paper_robot.cable_count
+    radius = paper_robot.motor.drum_radius_m
+    controller.command(np.zeros(m), np.zeros(m), reference(m, angle=0.0, feedforward=-0.5))
+    controller.set_tension_setpoint(np.array([10.0, 12.0, 300.0, 0.0]))
+    controller.set_mode(RECOVERY_TENSION)
+    here = np.array([0.8, -0.6, 0.3, 0.2])      # far from the reference tracked before
+    applied = controller.command(here, np.zeros(m), reference(m, angle=0.0))
+    controller.set_mode(FAULT)
+    held = controller.command(here, np.zeros(m), reference(m, angle=0.0))
+    bounds = (-radius * paper_robot.tension_max_n, -radius * paper_robot.tension_min_n)
+    np.testing.assert_allclose(held, applied.clip(*bounds))
+    assert held[2] == pytest.approx(bounds[0]) and held[3] == pytest.approx(bounds[1])
+    # pushed off that point, the PD pulls back to it, not to the old reference
+    pushed = controller.command(here + 0.01, np.zeros(m), reference(m, angle=0.0))
+    np.testing.assert_allclose(pushed - held, -controller.gains.stiffness_nm_rad * 0.01)

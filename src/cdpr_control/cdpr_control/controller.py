@@ -65,8 +65,13 @@ class JointController:
     recovery's); RECOVERY_TENSION applies tension setpoints t as
     c = −ρ t + b θ̇ + f_c tanh(θ̇ / v) − D max(θ̇, 0) (friction compensated, damping D
     against paying out);
-    SAFE_HOLD and FAULT hold the last tracked reference at rest (the given one if none was). A motor whose cable is broken
-    gets zero torque in every mode: freed of its load it would ring under loaded gains.
+    SAFE_HOLD holds the last tracked reference at rest (the recovery's end). FAULT, and
+    SAFE_HOLD entered from tension control, hold the drums where they are at that instant,
+    with the torque last applied (within the cables' tension bounds) as feed-forward: no
+    jump in torque, and no return to a reference tracked before the failure, which would
+    pay out or wind in the remaining cables far from where they hang now. A motor whose
+    cable is broken gets zero torque in every mode: freed of its load it would ring under
+    loaded gains.
     """
 
     def __init__(self, robot: Robot, gains: PdGains, friction: FrictionModel | None = None):
@@ -79,6 +84,7 @@ class JointController:
         self.tension_setpoint_n: np.ndarray | None = None
         self.hold: JointReference | None = None
         self.tracked: JointReference | None = None
+        self.applied_nm = np.zeros(robot.cable_count)
 
     def set_mode(self, mode: str) -> None:
         if mode not in MODES:
@@ -117,12 +123,11 @@ class JointController:
             torque = (-motor.drum_radius_m * self.tension_setpoint_n + self.friction.torque_nm(speed)
                       + motor.viscous_friction_nm_s_rad * speed
                       - self.gains.tension_damping_nm_s_rad * np.maximum(speed, 0.0))
+            self.tracked = self.hold = None
         else:
             if self.mode in (SAFE_HOLD, FAULT) or reference is None:
                 if self.hold is None:
-                    self.hold = (self.tracked or reference or JointReference(
-                        np.asarray(angle_rad, float), np.zeros(self.robot.cable_count),
-                        np.zeros(self.robot.cable_count))).at_rest()
+                    self.hold = self.hold_point(angle_rad, reference)
                 reference = self.hold
             else:
                 self.hold = None
@@ -132,4 +137,16 @@ class JointController:
         # ndarray.clip: np.clip's dispatch costs twice as much on a few entries
         torque = torque.clip(-self.torque_limit_nm, self.torque_limit_nm)
         torque[self.broken] = 0.0
+        self.applied_nm = torque
         return torque
+
+    def hold_point(self, angle_rad, reference: JointReference | None) -> JointReference:
+        """What SAFE_HOLD or FAULT holds from now on (see the class docstring)."""
+        if self.mode == SAFE_HOLD and (self.tracked or reference) is not None:
+            return (self.tracked or reference).at_rest()
+        radius = self.robot.motor.drum_radius_m
+        feedforward = self.applied_nm.clip(-radius * self.robot.tension_max_n,
+                                           -radius * self.robot.tension_min_n)
+        feedforward[self.broken] = 0.0
+        return JointReference(np.array(angle_rad, dtype=float), np.zeros(self.robot.cable_count),
+                              feedforward)
