@@ -1,4 +1,5 @@
-"""controller: PD + feed-forward on /cdpr/joint_states; the only writer of /cdpr/effort_command.
+"""controller: PD + feed-forward on /cdpr/joint_states; the writer of /cdpr/effort_command
+(the only one the plant and the supervisor obey: cdpr_msgs_py.sole_writer).
 
 Lockstep: the state of tick k is answered with the reference of exactly tick k (or, in
 recovery, the supervisor's setpoint of tick k); with `wait_for_supervisor` also only

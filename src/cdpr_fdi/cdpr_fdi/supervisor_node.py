@@ -5,7 +5,8 @@ Per tick it pairs /cdpr/joint_states, /cdpr/effort_command, /cdpr/twin/joint_sta
 recovery setpoint for the next tick, /cdpr/fdi/broken_cable and /cdpr/mode when they
 change (latched), then /cdpr/fdi/residual of the tick — the controller, in lockstep,
 answers the next state only after that residual, so every verdict applies on the same
-tick as in the in-process engine.
+tick as in the in-process engine. It reads the commands of the graph's controller only
+(parameter `command_writer`), those the plant obeys: another writer's raise no alarm.
 """
 from __future__ import annotations
 
@@ -64,7 +65,8 @@ class SupervisorNode(CdprNode):
         self.mode = self.create_publisher(String, contract.MODE, qos.LATCHED)
         self.tensions = self.create_publisher(JointState, contract.RECOVERY_TENSIONS, qos.STREAM)
         self.recovery_reference = self.create_publisher(JointState, contract.RECOVERY_REFERENCE, qos.STREAM)
-        self.create_subscription(JointState, contract.EFFORT_COMMAND, self.on_command, qos.STREAM)
+        self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.on_command,
+                                             qos.STREAM, self.parameter('command_writer', 'controller'))
         self.create_subscription(JointState, contract.TWIN_JOINT_STATES, self.on_twin, qos.STREAM)
         self.create_subscription(JointState, contract.REFERENCE, self.on_reference, qos.STREAM)
         self.start_when_matched(lambda: self.create_subscription(
@@ -163,7 +165,8 @@ class SupervisorNode(CdprNode):
 
     def current_facts(self) -> dict[str, str]:
         """The supervisor's summary as /diagnostics key-values (JSON texts)."""
-        facts = {f'fdi {key}': json.dumps(value) for key, value in self.supervisor.summary().items()}
+        facts = super().current_facts()
+        facts.update({f'fdi {key}': json.dumps(value) for key, value in self.supervisor.summary().items()})
         facts['judging lag max ms'] = f'{self.max_lag_ns / 1e6:.1f}'
         if self.verdict_lag_ns is not None:
             facts['judging lag at the verdict ms'] = f'{self.verdict_lag_ns / 1e6:.1f}'

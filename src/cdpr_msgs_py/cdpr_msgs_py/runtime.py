@@ -1,6 +1,8 @@
-"""Running a node: the fastest executor here, clean shutdown, and /diagnostics."""
+"""Running a node: the fastest executor here, clean shutdown, /diagnostics, and
+subscriptions that obey one writer."""
 from __future__ import annotations
 
+import inspect
 import signal
 import time
 from collections import Counter
@@ -16,6 +18,7 @@ from . import contract, qos
 from .dds import bounded_initialisation, follow_launcher
 from .conversions import InvalidMessage, joints_from_message
 from .scheduling import apply_scheduling
+from .sole_writer import Endpoint, SoleWriter, qualified_name
 
 SPIN_TIMEOUT_S = 0.05
 # On a stop request a node keeps handling what is queued until it has been quiet this
@@ -143,6 +146,87 @@ class Diagnostics:
         self.window.clear()
 
 
+# What the ROS graph (rmw_dds_common) calls the node of a publisher it has discovered
+# before that node's own announcement.
+UNKNOWN_NODE_NAME = '_NODE_NAME_UNKNOWN_'
+# A callback of this signature gets the message info too (rclpy looks at the parameters).
+MESSAGE_AND_INFO = inspect.Signature([inspect.Parameter(name, inspect.Parameter.POSITIONAL_ONLY)
+                                      for name in ('message', 'info')])
+
+
+def message_info_callback(handler):
+    """`handler(message, info)` as a subscription callback that rclpy hands the message
+    info (the publisher's GID) to. rclpy picks that form from the callback's signature;
+    its EventsExecutor (rclpy 9.1.2) then calls the callback with one (message, info)
+    tuple, its other executors with two arguments: this takes both."""
+    def callback(*arguments):
+        handler(*(arguments[0] if len(arguments) == 1 else arguments))
+
+    callback.__signature__ = MESSAGE_AND_INFO
+    return callback
+
+
+class SoleWriterSubscription:
+    """A subscription whose handler gets only the messages of one node's publisher
+    (the SoleWriter rule); any other is rejected, counted as `rejected <topic>` in
+    /diagnostics, and its writer named there and in the log (WARN)."""
+
+    def __init__(self, node: CdprNode, msg_type, topic: str, handler, qos_profile, writer: str):
+        self.node = node
+        self.topic = topic
+        self.handler = handler
+        self.resolved_topic = node.resolve_topic_name(topic)
+        self.core = SoleWriter(writer if writer.startswith('/')
+                               else qualified_name(node.get_namespace(), writer))
+        self.problem = ''
+        node.create_subscription(msg_type, topic, message_info_callback(self.on_message), qos_profile)
+
+    def on_message(self, message, info) -> None:
+        gid = info['publisher_gid']['data']
+        if not self.core.admits(gid) and self.core.lookup_due(gid, time.monotonic()):
+            self.look_up()
+        if self.core.admits(gid):
+            self.handler(message)
+            return
+        who, news = self.core.reject(gid)
+        if news:
+            self.node.get_logger().warning(
+                f'a second writer on {self.resolved_topic}: {who}; only {self.core.writer} is '
+                f'obeyed, the messages of any other are rejected')
+        self.node.diagnostics.reject(self.topic, f'not from {self.core.writer} but from {who}')
+
+    def look_up(self) -> None:
+        """Tell the core what the ROS graph says publishes the topic."""
+        pinned = self.core.pinned
+        self.core.learn(Endpoint(None if info.node_name == UNKNOWN_NODE_NAME
+                                 else qualified_name(info.node_namespace, info.node_name),
+                                 bytes(info.endpoint_gid))
+                        for info in self.node.get_publishers_info_by_topic(self.resolved_topic))
+        if self.core.pinned is not None and self.core.pinned != pinned:
+            self.node.get_logger().info(f'{self.resolved_topic}: obeying {self.writer_fact()}')
+        if self.core.problem != self.problem:
+            self.problem = self.core.problem
+            if self.problem:
+                self.node.get_logger().warning(f'{self.resolved_topic}: {self.problem}')
+
+    def known(self) -> bool:
+        """Whether the writer is pinned; asks the graph while it is not (before the run)."""
+        if self.core.pinned is None:
+            self.look_up()
+        return self.core.pinned is not None
+
+    def writer_fact(self) -> str:
+        if self.core.pinned is None:
+            return f'{self.core.writer}, not seen yet' + (f': {self.problem}' if self.problem else '')
+        return f'{self.core.writer} (GID {self.core.pinned.hex()})'
+
+    def facts(self) -> dict[str, str]:
+        facts = {f'{self.topic} writer': self.writer_fact()}
+        if self.core.rejected:
+            facts[f'rejected {self.topic} from'] = self.core.rejected_writers()
+        return facts
+
+
 def parse_matches(entries) -> list[tuple[str, str, int]]:
     """'publisher:TOPIC=N' / 'subscription:TOPIC=N' entries as (kind, topic, N)."""
     requirements = []
@@ -161,6 +245,7 @@ class CdprNode(Node):
 
     def __init__(self, name: str):
         super().__init__(name)
+        self.sole_writers: list[SoleWriterSubscription] = []
         self.declare_parameter('config_file', 'paper_robot.yaml')
         self.declare_parameter('clock_mode', 'lockstep')
         self.clock_mode = self.get_parameter('clock_mode').value
@@ -185,7 +270,17 @@ class CdprNode(Node):
 
     def current_facts(self) -> dict[str, str]:
         """Figures computed when /diagnostics goes out (key → text), besides `facts`."""
-        return {}
+        return {key: value for subscription in self.sole_writers
+                for key, value in subscription.facts().items()}
+
+    def create_sole_writer_subscription(self, msg_type, topic: str, handler, qos_profile,
+                                        writer: str) -> SoleWriterSubscription:
+        """Subscribe `handler` to the messages of node `writer`'s publisher only (a name
+        relative to this node's namespace, or fully qualified); the node starts (see
+        `matched`) only once it knows that publisher."""
+        subscription = SoleWriterSubscription(self, msg_type, topic, handler, qos_profile, writer)
+        self.sole_writers.append(subscription)
+        return subscription
 
     def parameter(self, name: str, default):
         """Declare and read one parameter."""
@@ -219,7 +314,9 @@ class CdprNode(Node):
         start()
 
     def matched(self) -> bool:
-        """True when every required endpoint has matched at least its count of peers."""
+        """True when every required endpoint has matched at least its count of peers and
+        every sole-writer subscription knows its writer's publisher, so that the first
+        messages of the run are neither lost nor rejected."""
         endpoints = {('publisher', p.topic_name): p.get_subscription_count for p in self.publishers}
         endpoints.update({('subscription', s.topic_name): s.get_publisher_count
                           for s in self.subscriptions})
@@ -227,7 +324,7 @@ class CdprNode(Node):
             matched = endpoints.get((kind, self.resolve_topic_name(topic)))
             if matched is None or matched() < count:
                 return False
-        return True
+        return all(subscription.known() for subscription in self.sole_writers)
 
     def idle(self) -> None:
         """Called after every spin: periodic work that needs no timer."""

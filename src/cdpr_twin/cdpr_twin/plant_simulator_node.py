@@ -3,7 +3,8 @@
 lockstep: publishes the state of tick k (and /clock), steps only when the command
 stamped with tick k has arrived; bit-for-bit repeatable. realtime: steps on a wall
 clock timer with zero-order hold of the last command, as hardware does. Exits with
-code 0 after `duration_s` of simulated time (the run is complete).
+code 0 after `duration_s` of simulated time (the run is complete). Obeys the commands of
+the graph's controller only (parameter `command_writer`), as a hardware bridge must.
 """
 from __future__ import annotations
 
@@ -65,7 +66,8 @@ class PlantSimulatorNode(CdprNode):
         self.truth_pose = self.create_publisher(PointStamped, contract.GROUND_TRUTH_POSE, qos.STREAM)
         self.truth_tensions = self.create_publisher(JointState, contract.GROUND_TRUTH_TENSIONS, qos.STREAM)
         self.clock = self.create_publisher(Clock, contract.CLOCK, qos.STREAM)
-        self.create_subscription(JointState, contract.EFFORT_COMMAND, self.on_command, qos.STREAM)
+        self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.on_command,
+                                             qos.STREAM, self.parameter('command_writer', 'controller'))
         self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
         self.timer = None
         self.watchdog = CommandWatchdog(plant_section.integer('command_timeout_cycles', minimum=1))
@@ -98,20 +100,16 @@ class PlantSimulatorNode(CdprNode):
         self.sent_at = time.monotonic()
         self.diagnostics.count('resent states')
 
-    def ready(self) -> bool:
-        """Every node listens (`matches`, from the launcher), or standalone: a controller."""
-        if self.match_requirements:
-            return self.matched()
-        return self.count_publishers(contract.EFFORT_COMMAND) >= 1
-
     def current_facts(self) -> dict[str, str]:
         # Timing figures only when diagnostics go out: percentiles cost more than a tick.
-        return self.timing.facts()
+        return {**super().current_facts(), **self.timing.facts()}
 
     def idle(self) -> None:
         super().idle()
         if not self.started:
-            if self.ready_since is None and self.ready():
+            # Every node listens (`matches`, from the launcher) and the controller whose
+            # commands it obeys is known (standalone: that alone).
+            if self.ready_since is None and self.matched():
                 self.ready_since = time.monotonic()
             # A short grace period: the nodes' last subscriptions settle.
             if self.ready_since is not None and time.monotonic() - self.ready_since >= self.start_delay_s:

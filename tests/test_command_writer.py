@@ -1,0 +1,250 @@
+"""One writer to the motors (issue 11, item 3): the plant and the supervisor obey the
+effort commands of the graph's controller only.
+
+The rule (cdpr_msgs_py.sole_writer.SoleWriter) is tested directly; then in this process,
+through both executors, on the GIDs the middleware reports; then on a realtime graph
+that another process writes zero torques to — as an extra node and as a second node
+named controller — which must raise no alarm and be rejected, counted and named.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import rclpy
+from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.executors import SingleThreadedExecutor
+from sensor_msgs.msg import JointState
+
+from cdpr_bringup.bag_io import read_messages
+from cdpr_bringup.graph import Graph, graph_nodes, node_environment
+from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.runtime import CdprNode, make_executor, message_info_callback
+from cdpr_msgs_py.sole_writer import Endpoint, SoleWriter
+
+from test_faults import START_TIMEOUT_S, realtime_parameters
+
+CONTROLLER = '/cdpr/controller'
+REAL, OTHER, SPOOF = b'\x01' * 16, b'\x02' * 16, b'\x03' * 16
+
+
+# ---- the rule ---------------------------------------------------------------------------
+
+def pinned_writer() -> SoleWriter:
+    writer = SoleWriter(CONTROLLER)
+    writer.learn([Endpoint(CONTROLLER, REAL), Endpoint('/cdpr/intruder', OTHER)])
+    return writer
+
+
+def test_the_controller_is_admitted_once_the_graph_shows_it():
+    writer = SoleWriter(CONTROLLER)
+    assert not writer.admits(REAL), 'nothing is obeyed before the graph names the writer'
+    writer.learn([Endpoint('/cdpr/intruder', OTHER)])
+    assert writer.pinned is None and not writer.admits(OTHER)
+    writer.learn([Endpoint(CONTROLLER, REAL), Endpoint('/cdpr/intruder', OTHER)])
+    assert writer.admits(REAL) and not writer.admits(OTHER)
+
+
+def test_another_writer_is_rejected_counted_and_named():
+    writer = pinned_writer()
+    assert writer.reject(OTHER) == (f'node /cdpr/intruder (GID {OTHER.hex()})', True)
+    assert writer.reject(OTHER) == (f'node /cdpr/intruder (GID {OTHER.hex()})', False)
+    assert writer.rejected_writers() == f'node /cdpr/intruder (GID {OTHER.hex()}): 2'
+
+
+def test_a_writer_the_graph_cannot_name_yet_is_named_by_gid_and_again_once_it_can():
+    writer = pinned_writer()
+    who, news = writer.reject(SPOOF)
+    assert news and SPOOF.hex() in who and 'does not name' in who
+    writer.learn([Endpoint(CONTROLLER, REAL), Endpoint('/cdpr/late', SPOOF)])
+    assert writer.reject(SPOOF) == (f'node /cdpr/late (GID {SPOOF.hex()})', True)
+
+
+def test_a_publisher_whose_node_the_graph_has_not_announced_is_looked_up_again():
+    """The graph knows an endpoint before its node's name; the pinned writer then stays."""
+    writer = pinned_writer()
+    writer.learn([Endpoint(None, REAL), Endpoint(None, SPOOF)])
+    assert writer.admits(REAL), 'a writer whose name is not known for a moment is still there'
+    assert 'does not name' in writer.reject(SPOOF)[0]
+    assert writer.lookup_due(SPOOF, 0.0)
+    writer.learn([Endpoint(CONTROLLER, REAL), Endpoint('/cdpr/late', SPOOF)])
+    assert writer.reject(SPOOF)[0].startswith('node /cdpr/late')
+
+
+def test_a_second_node_named_controller_after_the_first_is_rejected():
+    writer = pinned_writer()
+    writer.learn([Endpoint(CONTROLLER, REAL), Endpoint(CONTROLLER, SPOOF)])
+    assert writer.admits(REAL) and not writer.admits(SPOOF)
+    assert writer.reject(SPOOF)[0] == f'another node named {CONTROLLER} (GID {SPOOF.hex()})'
+
+
+def test_two_controllers_before_either_is_pinned_are_both_refused():
+    writer = SoleWriter(CONTROLLER)
+    writer.learn([Endpoint(CONTROLLER, REAL), Endpoint(CONTROLLER, SPOOF)])
+    assert not writer.admits(REAL) and not writer.admits(SPOOF)
+    assert '2 publishers belong to nodes named /cdpr/controller' in writer.problem
+    writer.learn([Endpoint(CONTROLLER, REAL)])
+    assert writer.admits(REAL) and writer.problem == ''
+
+
+def test_a_restarted_controller_is_obeyed_once_the_old_one_has_left():
+    writer = pinned_writer()
+    writer.learn([Endpoint(CONTROLLER, REAL), Endpoint(CONTROLLER, SPOOF)])
+    assert not writer.admits(SPOOF)
+    writer.learn([Endpoint(CONTROLLER, SPOOF)])
+    assert writer.admits(SPOOF) and not writer.admits(REAL)
+
+
+def test_the_graph_is_asked_about_an_unknown_writer_at_most_once_per_interval():
+    writer = SoleWriter(CONTROLLER, lookup_interval_s=1.0)
+    assert writer.lookup_due(REAL, 0.0) and not writer.lookup_due(REAL, 0.5)
+    assert writer.lookup_due(REAL, 1.0)
+    writer.learn([Endpoint(CONTROLLER, REAL), Endpoint('/cdpr/intruder', OTHER)])
+    assert not writer.lookup_due(OTHER, 5.0), 'a named writer needs no second look'
+
+
+def test_the_writer_must_be_fully_qualified():
+    with pytest.raises(ValueError, match='fully qualified'):
+        SoleWriter('controller')
+
+
+def test_the_callback_takes_the_message_info_from_either_executor():
+    """rclpy 9.1.2's EventsExecutor calls a message-info callback with one (message, info)
+    tuple, the other executors with two arguments."""
+    got = []
+    callback = message_info_callback(lambda message, info: got.append((message, info)))
+    callback(('m', 'i'))
+    callback('m', 'i')
+    assert got == [('m', 'i'), ('m', 'i')]
+
+
+# ---- on the middleware's GIDs, in this process --------------------------------------------
+
+NAMESPACE = '/cdpr_writer_unit'
+MATCH_TIMEOUT_S = 10.0
+
+
+@pytest.fixture(scope='module')
+def ros():
+    rclpy.init(args=['--ros-args', '-r', f'__ns:={NAMESPACE}'])
+    yield
+    rclpy.shutdown()
+
+
+class Motors(CdprNode):
+    """What the plant does with effort commands, and nothing else."""
+
+    def __init__(self):
+        super().__init__('motors')
+        self.obeyed = []
+        self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.obeyed.append,
+                                             qos.STREAM, 'controller')
+
+
+def spin_until(executor, condition, what: str) -> None:
+    deadline = time.monotonic() + MATCH_TIMEOUT_S
+    while not condition():
+        assert time.monotonic() < deadline, what
+        executor.spin_once(timeout_sec=0.05)
+
+
+@pytest.mark.parametrize('make', [make_executor, SingleThreadedExecutor], ids=['events', 'single'])
+def test_only_the_controllers_publisher_reaches_the_motors(ros, make):
+    motors = Motors()
+    controller = rclpy.create_node('controller')
+    intruder = rclpy.create_node('intruder')
+    nodes = [motors, controller, intruder]
+    executor = make()
+    try:
+        publishers = {'controller': controller.create_publisher(JointState, contract.EFFORT_COMMAND,
+                                                                qos.STREAM),
+                      'intruder': intruder.create_publisher(JointState, contract.EFFORT_COMMAND,
+                                                            qos.STREAM)}
+        for node in nodes:
+            executor.add_node(node)
+        spin_until(executor, motors.matched, 'the motors never learnt the controller')
+        # a second node named controller, after the first was pinned (`ros2 run` by mistake)
+        spoof = rclpy.create_node('controller')
+        nodes.append(spoof)
+        executor.add_node(spoof)
+        publishers['spoof'] = spoof.create_publisher(JointState, contract.EFFORT_COMMAND, qos.STREAM)
+        spin_until(executor, lambda: all(p.get_subscription_count() for p in publishers.values()),
+                   'the publishers never matched the motors')
+        for sender, publisher in publishers.items():
+            publisher.publish(JointState(name=[sender]))
+        spin_until(executor, lambda: len(motors.obeyed) + sum(motors.diagnostics.rejected.values()) == 3,
+                   'not every command arrived')
+        assert [list(message.name) for message in motors.obeyed] == [['controller']]
+        assert motors.diagnostics.rejected == {contract.EFFORT_COMMAND: 2}
+        rejected = motors.current_facts()[f'rejected {contract.EFFORT_COMMAND} from']
+        assert f'node {NAMESPACE}/intruder (GID ' in rejected
+        assert f'another node named {NAMESPACE}/controller (GID ' in rejected
+    finally:
+        executor.shutdown()
+        for node in nodes:
+            node.destroy_node()
+
+
+# ---- a second writer on a running graph ---------------------------------------------------
+
+WRITE_S = 6.0
+RUN_S = 14.0
+OUTSIDE_WRITERS = ('outside_writer', 'controller')
+
+
+def write(namespace: str) -> dict:
+    """Run the outside writers (plain rclpy, nothing of ours) and return what they sent."""
+    script = Path(__file__).parent / 'tools' / 'outside_writer.py'
+    process = subprocess.Popen([sys.executable, str(script), namespace, str(WRITE_S),
+                                str(START_TIMEOUT_S), *OUTSIDE_WRITERS],
+                               stdout=subprocess.PIPE, text=True, env=node_environment())
+    try:
+        output, _ = process.communicate(timeout=WRITE_S + START_TIMEOUT_S + 20.0)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    return json.loads(output.strip().splitlines()[-1])
+
+
+@pytest.mark.graph
+def test_a_second_writer_on_effort_command_is_rejected_named_and_raises_no_alarm(tmp_path):
+    namespace = '/cdpr_second_writer'
+    bag = tmp_path / 'bag'
+    lines = []
+    graph = Graph(graph_nodes(dict(realtime_parameters(), duration_s=RUN_S), str(bag)), namespace,
+                  completion='plant_simulator', log=lines.append)
+    try:
+        graph.start()
+        graph.wait_until_up()
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while not any(line.startswith('[plant_simulator]') and 'starting' in line for line in lines):
+            assert time.monotonic() < deadline, 'the plant did not start its run'
+            time.sleep(0.05)
+        sent = write(namespace)
+        graph.wait(timeout_s=RUN_S + 30.0)   # the plant completes its run
+    finally:
+        graph.stop()
+    # several seconds of half the tick rate each, half of it stamped as a state
+    assert all(counts['copied_stamps'] > 250 for counts in sent.values()), sent
+    topics = [f'{namespace}/fdi/broken_cable', '/diagnostics']
+    found = read_messages(bag, topics)
+    verdicts = found[topics[0]]
+    assert verdicts and all(message.data == 0 for _, message in verdicts), 'a false failure alarm'
+    for node in ('plant_simulator', 'supervisor'):
+        statuses = [status for _, message in found['/diagnostics'] for status in message.status
+                    if status.name == f'{namespace}/{node}']
+        last = {value.key: value.value for value in statuses[-1].values}
+        # the bag reader gives the level as a number, the message class as a byte
+        assert statuses[-1].level >= ord(DiagnosticStatus.WARN)
+        assert int(last[f'rejected {contract.EFFORT_COMMAND}']) > 0
+        writers = last[f'rejected {contract.EFFORT_COMMAND} from']
+        assert f'node {namespace}/outside_writer (GID ' in writers
+        assert f'another node named {namespace}/controller (GID ' in writers
+        warnings = [line for line in lines if line.startswith(f'[{node}] [WARN]')
+                    and f'a second writer on {namespace}/{contract.EFFORT_COMMAND}' in line]
+        assert any(f'{namespace}/outside_writer' in line for line in warnings), warnings
