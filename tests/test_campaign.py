@@ -146,7 +146,7 @@ def test_progress_bar():
 def test_a_failed_run_is_a_row_and_the_campaign_goes_on(tmp_path):
     bad = Run('along-4', 'forward', 9, 'rigid', 'threshold', 0, 0.5)  # the robot has 4 cables
     rows = run_campaign([bad], tmp_path, jobs=1, show_progress=False)
-    assert len(rows) == 1 and 'ValueError' in rows[0]['error']
+    assert len(rows) == 1 and '--fail-cable 9: the robot has cables 1..4' in rows[0]['error']
     assert (tmp_path / 'runs' / bad.id / 'scenario.log').exists()
 
 

@@ -12,11 +12,12 @@ from cdpr_control.friction import FrictionModel
 from cdpr_control.kinematics import cable_vectors, inverse_kinematics
 from cdpr_control.statics import static_tensions
 from cdpr_control.tension_distribution import make_tension_distribution
-from cdpr_control.workspace import safe_point
+from cdpr_control.workspace import polygon_centroid, safe_point, sew_cross_section
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.detectors import CusumDetector, ThresholdDetector
 from cdpr_fdi.identification import identify_broken_cables
-from cdpr_fdi.recovery import Recovery, RecoveryInfeasible, initial_tensions, safe_point_for
+from cdpr_fdi.recovery import (Recovery, RecoveryInfeasible, entry_point, initial_tensions,
+                               least_static_tension_n, safe_point_for, taut_tension_n)
 from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
 from cdpr_fdi.supervisor import Supervisor
 from cdpr_twin.rigid_model import RigidCableRobot
@@ -162,17 +163,21 @@ def test_recovery_goes_from_tension_quintic_to_a_move_to_sp_then_holds(paper_rob
     attached = robot.cable_mask([3])
     distribution = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
     start_tensions = np.array([12.0, 9.0, 14.0, 0.0])
-    recovery = Recovery(robot, recovery_config, distribution, PERIOD_S, attached, 100, start_tensions)
-    sp = recovery.safe_point_m
-    angle = inverse_kinematics(robot, sp + [0.05, 0.0, 0.02])
+    sp = safe_point_for(robot, recovery_config, attached)
+    here = sp + [0.05, 0.0, 0.02]    # inside the residual SEW: phase 1 holds it here
+    recovery = Recovery(robot, recovery_config, distribution, PERIOD_S, attached, 100, start_tensions,
+                        entry_point(robot, attached, here,
+                                    taut_tension_n(robot, recovery_config, attached)), inside=False)
+    np.testing.assert_allclose(recovery.entry_point_m, here)
+    angle = inverse_kinematics(robot, here)
     moving = np.full(4, 1.0)
     mode, tensions, _ = recovery.setpoint(99, angle, moving)
     assert mode == RECOVERY_TENSION
     np.testing.assert_allclose(tensions, start_tensions)
     phase_ticks = int(round(recovery_config.tension_phase_s / PERIOD_S))
     mode, tensions, _ = recovery.setpoint(99 + phase_ticks, angle, moving)
-    assert mode == RECOVERY_TENSION
-    np.testing.assert_allclose(tensions, static_tensions(robot, sp, attached))
+    assert mode == RECOVERY_TENSION     # moving at 1 rad/s: too fast for phase 2
+    np.testing.assert_allclose(tensions, static_tensions(robot, here, attached))
     # the motors have stopped: phase 2 starts at the forward-kinematics pose
     mode, _, reference = recovery.setpoint(100 + phase_ticks, angle, np.zeros(4))
     assert mode == RECOVERY_MOVE
@@ -186,12 +191,45 @@ def test_recovery_goes_from_tension_quintic_to_a_move_to_sp_then_holds(paper_rob
     np.testing.assert_allclose(reference.angular_velocity_rad_s, 0.0, atol=1e-12)
 
 
+def test_phase_one_aims_at_the_nearest_point_where_the_cables_hold_it_taut(paper_robot,
+                                                                            recovery_config):
+    robot = paper_robot
+    attached = robot.cable_mask([3])
+    height = 1.25
+    taut = taut_tension_n(robot, recovery_config, attached)
+    share = robot.mass_kg * 9.81 / 3
+    assert taut == pytest.approx(max(robot.tension_min_n, recovery_config.taut_fraction * share))
+    centre = polygon_centroid(sew_cross_section(robot, attached, height))
+    outside = np.array([1.6, 0.2, height])        # near the lost exit point A4
+    assert least_static_tension_n(robot, attached, outside) < 0.0
+    entry = entry_point(robot, attached, outside, taut)
+    assert least_static_tension_n(robot, attached, entry) == pytest.approx(taut, abs=1e-3)
+    assert entry[2] == height
+    # on the way from the end-effector to the barycentre
+    direction = (centre - outside[:2]) / np.linalg.norm(centre - outside[:2])
+    np.testing.assert_allclose((entry[:2] - outside[:2]) / np.linalg.norm(entry[:2] - outside[:2]),
+                               direction, atol=1e-9)
+    inside = np.array([0.5, 1.4, height])
+    np.testing.assert_allclose(entry_point(robot, attached, inside, taut), inside)
+
+
+def test_recovery_budget_covers_the_slowest_planned_move(recovery_config):
+    config = recovery_config
+    slowest = config.replan_slowdown ** config.replan_attempts
+    move = 1.875 * 0.8 / config.move_peak_speed_m_s * slowest
+    brake = max(1.875 * config.settle_speed_m_s / config.brake_deceleration_m_s2,
+                config.minimum_move_s) * slowest
+    assert config.budget_s(0.8) == pytest.approx(
+        config.tension_phase_s + config.settle_timeout_s + brake + move + config.hold_after_s,
+        rel=1e-3)
+
+
 def test_two_cables_left_cannot_recover(paper_robot, recovery_config):
     robot = paper_robot
     distribution = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
     with pytest.raises(RecoveryInfeasible, match='2 cables left'):
         Recovery(robot, recovery_config, distribution, PERIOD_S, robot.cable_mask([2, 3]), 0,
-                 np.zeros(4))
+                 np.zeros(4), robot.home_position_m, inside=True)
 
 
 def test_a_recovery_that_cannot_be_planned_ends_in_fault_not_in_a_crash(paper_robot, recovery_config):
@@ -200,7 +238,8 @@ def test_a_recovery_that_cannot_be_planned_ends_in_fault_not_in_a_crash(paper_ro
     distribution = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
     supervisor = Supervisor(robot, fdi, recovery_config, distribution, PERIOD_S)
     supervisor.recovery = Recovery(robot, recovery_config, distribution, PERIOD_S,
-                                   robot.cable_mask([3]), 0, np.array([10.0, 10.0, 10.0, 0.0]))
+                                   robot.cable_mask([3]), 0, np.array([10.0, 10.0, 10.0, 0.0]),
+                                   robot.home_position_m, inside=False)
     supervisor.broken, supervisor.mode = [3], RECOVERY_TENSION
     m = robot.cable_count
     reference = JointReference(np.zeros(m), np.zeros(m), np.zeros(m))

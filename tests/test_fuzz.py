@@ -555,7 +555,8 @@ def test_supervisor_names_a_freed_motor_whatever_the_pose(
         assert len(published[contract.FDI_RESIDUAL]) == failure_tick + extra_ticks
         assert [message.data for message in published[contract.FDI_BROKEN_CABLE]] == [cable + 1]
         modes = [message.data for message in published[contract.MODE]]
-        assert modes and modes[0] in (contract.Mode.RECOVERY_TENSION, contract.Mode.FAULT)
+        assert modes and modes[0] in (contract.Mode.RECOVERY_TENSION, contract.Mode.RECOVERY_MOVE,
+                                      contract.Mode.FAULT)
         assert_sane_verdicts(published)
 
 

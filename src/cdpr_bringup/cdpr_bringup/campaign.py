@@ -174,6 +174,10 @@ def run_scenario(run: Run, run_dir: Path) -> dict:
         except Exception as err:  # noqa: BLE001 - recorded in the row, the campaign goes on
             traceback.print_exc()
             error = f'{type(err).__name__}: {err}'
+    if error and error.startswith('cdpr-scenario exited'):
+        # its last line says why (a user error is one line)
+        said = (run_dir / 'scenario.log').read_text().strip().splitlines()
+        error += f': {said[-1]}' if said else ''
     return {'error': error, 'wall_time_s': time.monotonic() - start}
 
 

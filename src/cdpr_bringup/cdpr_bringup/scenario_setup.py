@@ -5,6 +5,8 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from cdpr_control.config import load_section
 from cdpr_control.controller import PdGains
 from cdpr_control.motions import Motion, load_motion
@@ -13,6 +15,7 @@ from cdpr_control.robot import Robot, load_robot
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_fdi.config import FdiConfig, RecoveryConfig, load_fdi_config, load_recovery_config
+from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_twin.plant import PlantConfig
 
 from .cli import UsageError
@@ -64,9 +67,22 @@ class Scenario:
         """The motion, and after a failure the recovery budget (the reference holds its end)."""
         cycles = len(self.reference)
         if self.failures:
-            end = self.failure_time_s + self.recovery.budget_s
+            end = self.failure_time_s + self.recovery_budget_s
             cycles = max(cycles, int(round(end / self.period_s)) + 1)
         return cycles
+
+    @property
+    def recovery_budget_s(self) -> float:
+        """How long the recovery from the scheduled failures may take (s), from the
+        reference's distance to SP when they happen (no SP: no move)."""
+        attached = self.robot.cable_mask([cable for _, cable in self.failures])
+        row = min(int(round(self.failure_time_s / self.period_s)), len(self.reference) - 1)
+        try:
+            distance = float(np.linalg.norm(safe_point_for(self.robot, self.recovery, attached)
+                                            - self.reference.position_m[row]))
+        except RecoveryInfeasible:
+            distance = 0.0
+        return self.recovery.budget_s(distance)
 
     @property
     def duration_s(self) -> float:

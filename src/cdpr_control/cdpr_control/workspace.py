@@ -52,6 +52,8 @@ def _cross(o, a, b) -> float:
 
 def polygon_centroid(polygon: np.ndarray) -> np.ndarray:
     """Area barycentre of a simple polygon (k × 2) by the shoelace formula."""
+    if len(polygon) < 3:
+        raise ValueError('the SEW cross-section has no area')
     x, y = polygon[:, 0], polygon[:, 1]
     x_next, y_next = np.roll(x, -1), np.roll(y, -1)
     cross = x * y_next - x_next * y

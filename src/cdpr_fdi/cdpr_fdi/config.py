@@ -16,6 +16,7 @@ import numpy as np
 from cdpr_control.config import ConfigError, Section, load_section, load_yaml
 from cdpr_control.friction import FrictionModel
 from cdpr_control.robot import Robot
+from cdpr_control.trajectories import QUINTIC_PEAK_SPEED_RATIO
 
 from .detectors import DETECTORS
 
@@ -107,13 +108,29 @@ class RecoveryConfig:
     table_height_m: float
     safe_points_m: dict[int, np.ndarray]
     tension_phase_s: float
-    tension_floor_n: float
-    settled_speed_rad_s: float
+    taut_fraction: float
+    settle_speed_m_s: float
     settle_timeout_s: float
     move_peak_speed_m_s: float
+    brake_deceleration_m_s2: float
     minimum_move_s: float
+    plan_tension_tolerance_n: float
+    replan_attempts: int
+    replan_slowdown: float
     reached_tolerance_m: float
-    budget_s: float
+    hold_after_s: float
+
+    def budget_s(self, distance_m: float) -> float:
+        """How long a recovery may take (s) from the failure of a robot whose end-effector
+        is `distance_m` from SP: the tension phase, the settle time, the slowest move the
+        planner may choose over that distance (quintic at the peak speed, slowed down at
+        every re-plan), and the hold that shows SP is kept."""
+        slowest = self.replan_slowdown ** self.replan_attempts
+        move = max(QUINTIC_PEAK_SPEED_RATIO * distance_m / self.move_peak_speed_m_s,
+                   self.minimum_move_s) * slowest
+        brake = max(QUINTIC_PEAK_SPEED_RATIO * self.settle_speed_m_s / self.brake_deceleration_m_s2,
+                    self.minimum_move_s) * slowest
+        return self.tension_phase_s + self.settle_timeout_s + brake + move + self.hold_after_s
 
     @classmethod
     def from_section(cls, recovery: Section, robot: Robot) -> 'RecoveryConfig':
@@ -128,13 +145,17 @@ class RecoveryConfig:
             table_height_m=recovery.number('table_height_m', non_negative=True),
             safe_points_m=safe_points,
             tension_phase_s=recovery.number('tension_phase_s', positive=True),
-            tension_floor_n=recovery.number('tension_floor_n', positive=True),
-            settled_speed_rad_s=recovery.number('settled_speed_rad_s', positive=True),
+            taut_fraction=recovery.number('taut_fraction', positive=True),
+            settle_speed_m_s=recovery.number('settle_speed_m_s', positive=True),
             settle_timeout_s=recovery.number('settle_timeout_s', positive=True),
             move_peak_speed_m_s=recovery.number('move_peak_speed_m_s', positive=True),
+            brake_deceleration_m_s2=recovery.number('brake_deceleration_m_s2', positive=True),
             minimum_move_s=recovery.number('minimum_move_s', positive=True),
+            plan_tension_tolerance_n=recovery.number('plan_tension_tolerance_n', non_negative=True),
+            replan_attempts=recovery.integer('replan_attempts', minimum=0),
+            replan_slowdown=recovery.number('replan_slowdown', positive=True),
             reached_tolerance_m=recovery.number('reached_tolerance_m', positive=True),
-            budget_s=recovery.number('budget_s', positive=True),
+            hold_after_s=recovery.number('hold_after_s', non_negative=True),
         )
 
 

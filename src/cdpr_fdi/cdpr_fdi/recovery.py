@@ -1,12 +1,27 @@
-"""End-effector recovery after a cable failure (paper §3.2, DESIGN §5).
+"""End-effector recovery after a cable failure (paper §3.2, DESIGN §5), for any robot.
 
-Phase 1 (RECOVERY_TENSION): a quintic in tension space from t_R, the tensions that keep
-the force the robot applied at detection (eq. 23–25), to t_SP, the static tensions at
-the safe point (eq. 22). It needs no pose feedback, so it also works outside the
-residual static-equilibrium workspace. Phase 2 (RECOVERY_MOVE), once every remaining
-motor turns slower than the settle speed: forward kinematics of the remaining cables,
-then a quintic move to SP (straight when the end-effector is at rest) under PD +
-feed-forward with S_R. Then SAFE_HOLD.
+"Taut" below: every remaining cable's static tension (eq. 22) at least `taut_tension_n`,
+a fraction of an equal share of the weight.
+
+Where the remaining cables hold the end-effector taut at detection, position control
+takes over at once (RECOVERY_MOVE): a quintic that starts with its velocity brings it to
+rest, then a straight quintic takes it to SP, under PD + feed-forward with S_R.
+
+Elsewhere, phase 1 (RECOVERY_TENSION) first: a quintic in tension space from t_R, the
+tensions that keep the force the robot applied at detection (eq. 23–25, no cable below
+taut), to the static tensions of the *entry point*, the nearest point on the way to the
+residual SEW's barycentre where the cables hold it taut. The paper aims at t_SP, the
+static tensions at SP: constant tensions hold no position (along a cable they are
+neutral), so the end-effector swings about the point they balance, and with SP a metre
+away it swung out of the frame of a tall narrow robot. Aimed near it, it swings into the
+residual SEW. Phase 2 (RECOVERY_MOVE) starts once the tension quintic has ended and the
+end-effector — by the forward kinematics of the remaining cables — is held taut and
+slower than `settle_speed_m_s`, or `settle_timeout_s` later.
+
+A move whose tensions would fall more than `plan_tension_tolerance_n` below
+tension_min_n (still taut) is planned again, braking sooner and moving slower; when no
+plan fits, phase 1 holds the end-effector where it is until it can, and after the
+timeout the recovery is given up (FAULT). Then SAFE_HOLD at SP.
 """
 from __future__ import annotations
 
@@ -17,12 +32,17 @@ from cdpr_control.kinematics import cable_vectors, forward_kinematics
 from cdpr_control.reference import tabulate_reference
 from cdpr_control.robot import Robot
 from cdpr_control.statics import static_tensions
-from cdpr_control.tension_distribution import TensionDistribution
+from cdpr_control.tension_distribution import (InfeasibleTensionError, TensionDistribution,
+                                               make_tension_distribution)
 from cdpr_control.trajectories import (QUINTIC_PEAK_SPEED_RATIO, HermiteQuintic, Hold, Sequence,
                                        quintic_profile)
-from cdpr_control.workspace import safe_point
+from cdpr_control.workspace import polygon_centroid, safe_point, sew_cross_section
 
 from .config import RecoveryConfig
+
+
+# Bisection steps for the entry point: 2⁻²⁰ of the way to the barycentre.
+ENTRY_BISECTIONS = 20
 
 
 class RecoveryInfeasible(RuntimeError):
@@ -77,73 +97,169 @@ def initial_tensions(robot: Robot, position_m: np.ndarray, attached: np.ndarray,
     return tensions
 
 
+def taut_tension_n(robot: Robot, config: RecoveryConfig, attached: np.ndarray) -> float:
+    """How taut (N) recovery keeps the remaining cables: `taut_fraction` of an equal share
+    of the weight among them, at least tension_min_n. Scaled by the load, not fixed: a
+    floor tuned for one robot lifts a lighter end-effector (three cables at 5 N already
+    carry 1.5 kg under near-vertical cables)."""
+    share = robot.mass_kg * float(np.linalg.norm(robot.gravity_m_s2)) / np.count_nonzero(attached)
+    return max(robot.tension_min_n, config.taut_fraction * share)
+
+
+def least_static_tension_n(robot: Robot, attached: np.ndarray, position_m) -> float:
+    """The least static tension (N) of the `attached` cables at `position_m` (eq. 22);
+    negative outside their static-equilibrium workspace."""
+    return float(np.min(static_tensions(robot, position_m, attached)[attached]))
+
+
+def entry_point(robot: Robot, attached: np.ndarray, position_m: np.ndarray,
+                taut_n: float) -> np.ndarray:
+    """Phase 1's point (m): `position_m` if the remaining cables hold it statically with
+    every tension at least `taut_n`, else the first point that they do on the way from it
+    to the barycentre of the residual SEW at its height (by bisection), else that
+    barycentre."""
+    position_m = np.asarray(position_m, dtype=float)
+    if least_static_tension_n(robot, attached, position_m) >= taut_n:
+        return position_m.copy()
+    try:
+        centre = polygon_centroid(sew_cross_section(robot, attached, position_m[2]))
+    except ValueError as err:
+        raise RecoveryInfeasible(f'no residual workspace at z = {position_m[2]:.3f} m: {err}') from None
+    goal = np.array([centre[0], centre[1], position_m[2]])
+    if least_static_tension_n(robot, attached, goal) < taut_n:
+        return goal
+    outside, inside = 0.0, 1.0
+    for _ in range(ENTRY_BISECTIONS):
+        middle = 0.5 * (outside + inside)
+        if least_static_tension_n(robot, attached, position_m + middle * (goal - position_m)) >= taut_n:
+            inside = middle
+        else:
+            outside = middle
+    return position_m + inside * (goal - position_m)
+
+
 class Recovery:
     """Steps through the recovery phases, one control tick at a time.
 
     `setpoint(tick, angle, speed)` returns the mode and the setpoint for the next tick:
     tensions (N) in phase 1, a joint reference in phase 2, nothing in SAFE_HOLD.
+    Phase 1 goes from `start_tensions_n` (t_R) to the static tensions at
+    `entry_point_m` (see `entry_point`); it is skipped when the end-effector was `inside`
+    (the remaining cables held it taut) at detection.
     """
 
     def __init__(self, robot: Robot, config: RecoveryConfig, distribution: TensionDistribution,
                  period_s: float, attached: np.ndarray, start_tick: int,
-                 start_tensions_n: np.ndarray):
+                 start_tensions_n: np.ndarray, entry_point_m: np.ndarray, inside: bool):
         check_recoverable(robot, attached)
         self.robot = robot
         self.config = config
-        self.distribution = distribution
+        # Phase 2 plans with the configured method, its floor lowered by the tolerance.
+        self.distribution = make_tension_distribution(
+            distribution.name, max(distribution.tension_min_n - config.plan_tension_tolerance_n, 0.0),
+            distribution.tension_max_n)
         self.period_s = period_s
         self.attached = attached.copy()
         self.safe_point_m = safe_point_for(robot, config, attached)
-        self.start_tensions_n = start_tensions_n
-        self.safe_tensions_n = static_tensions(robot, self.safe_point_m, attached)
-        if np.min(self.safe_tensions_n[attached]) <= 0.0:
+        if np.min(static_tensions(robot, self.safe_point_m, attached)[attached]) <= 0.0:
             raise RecoveryInfeasible(f'SP {self.safe_point_m} is outside the residual workspace')
+        self.start_tensions_n = start_tensions_n
+        self.entry_point_m = np.asarray(entry_point_m, dtype=float)
+        self.target_tensions_n = static_tensions(robot, self.entry_point_m, attached)
+        self.taut_n = taut_tension_n(robot, config, attached)
+        # Inside the residual SEW already, position control can hold the end-effector
+        # from the first tick: phase 1 is skipped, the move starts with its velocity.
+        self.tension_phase_s = 0.0 if inside else config.tension_phase_s
         self.start_tick = start_tick
         self.mode = RECOVERY_TENSION
         self.phase_ticks = {RECOVERY_TENSION: start_tick}
         self.move = None
         self.timed_out = False
+        self.last_plan_error: InfeasibleTensionError | None = None
 
     def tension_setpoint(self, tick: int) -> np.ndarray:
-        """t(s) = t_R + (t_SP − t_R) s, s quintic over the tension phase (N)."""
+        """t(s) = t_R + (t_E − t_R) s, s quintic over the tension phase (N)."""
         s, _, _ = quintic_profile((tick - self.start_tick) * self.period_s, self.config.tension_phase_s)
-        return self.start_tensions_n + (self.safe_tensions_n - self.start_tensions_n) * s
+        return self.start_tensions_n + (self.target_tensions_n - self.start_tensions_n) * s
 
-    def settled(self, tick: int, angular_velocity_rad_s: np.ndarray) -> bool:
+    def end_effector_state(self, angle_rad, angular_velocity_rad_s):
+        """Position (m, forward kinematics of the remaining cables) and velocity (m/s):
+        l̇ = −S_Rᵀ ṗ = ρ θ̇  ⇒  ṗ = −(S_Rᵀ)⁺ ρ θ̇ (eq. 17)."""
+        position = forward_kinematics(self.robot, np.asarray(angle_rad, dtype=float), self.attached)
+        u, _ = cable_vectors(self.robot.exit_points_m[self.attached], position)
+        velocity, *_ = np.linalg.lstsq(
+            u, -self.robot.motor.drum_radius_m * np.asarray(angular_velocity_rad_s)[self.attached],
+            rcond=None)
+        return position, velocity
+
+    def planning_due(self, tick: int) -> bool:
+        """The tension quintic has ended (at once when phase 1 is skipped)."""
+        return (tick - self.start_tick) * self.period_s >= self.tension_phase_s
+
+    def settled(self, tick: int, position_m, velocity_m_s) -> bool:
+        """Phase 2 may start: inside the residual SEW and slow enough, or timed out."""
         elapsed = (tick - self.start_tick) * self.period_s
-        if elapsed < self.config.tension_phase_s:
-            return False
-        if elapsed >= self.config.tension_phase_s + self.config.settle_timeout_s:
+        if elapsed >= self.tension_phase_s + self.config.settle_timeout_s:
             self.timed_out = True
             return True
-        return bool(np.max(np.abs(angular_velocity_rad_s[self.attached])) < self.config.settled_speed_rad_s)
+        return (least_static_tension_n(self.robot, self.attached, position_m) >= self.taut_n
+                and float(np.linalg.norm(velocity_m_s)) < self.config.settle_speed_m_s)
 
-    def plan_move(self, tick: int, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray) -> None:
-        """From the forward-kinematics pose and velocity to SP at rest, tabulated per tick.
+    def plan_move(self, tick: int, start_m: np.ndarray, velocity_m_s: np.ndarray) -> bool:
+        """From the end-effector's position and velocity to SP at rest, tabulated per tick;
+        False when no plan keeps the tensions within the bounds.
 
-        The move starts with the velocity the end-effector has (from the motors, eq. 17),
-        so position control takes over without a jolt that could slacken a cable.
+        A moving end-effector is first brought to rest on its way (a quintic that starts
+        with its velocity, so position control takes over without a jolt that could
+        slacken a cable), then moved to SP in a straight line. Where the tensions of a
+        plan would leave the bounds, it is planned again, braking `replan_slowdown` times
+        sooner (nearer where it is) and moving that much slower, at most
+        `replan_attempts` times.
         """
-        attached = self.attached
-        start = forward_kinematics(self.robot, angle_rad, attached)
-        u, _ = cable_vectors(self.robot.exit_points_m[attached], start)
-        # l̇ = −S_Rᵀ ṗ = ρ θ̇  ⇒  ṗ = −(S_Rᵀ)⁺ ρ θ̇
-        velocity, *_ = np.linalg.lstsq(
-            u, -self.robot.motor.drum_radius_m * np.asarray(angular_velocity_rad_s)[attached], rcond=None)
-        distance = float(np.linalg.norm(self.safe_point_m - start))
-        duration = max(QUINTIC_PEAK_SPEED_RATIO * distance / self.config.move_peak_speed_m_s,
-                       self.config.minimum_move_s)
-        move = HermiteQuintic(start, velocity, self.safe_point_m, np.zeros(3), duration)
-        self.move = (tick, tabulate_reference(
-            self.robot, self.distribution, Sequence([move, Hold(self.safe_point_m, self.period_s)]),
-            self.period_s, attached=attached))
-        self.mode = RECOVERY_MOVE
-        self.phase_ticks[RECOVERY_MOVE] = tick
+        speed = float(np.linalg.norm(velocity_m_s))
+        brake_s = max(QUINTIC_PEAK_SPEED_RATIO * speed / self.config.brake_deceleration_m_s2,
+                      self.config.minimum_move_s)
+        for attempt in range(self.config.replan_attempts + 1):
+            slowdown = self.config.replan_slowdown ** attempt
+            try:
+                table = tabulate_reference(
+                    self.robot, self.distribution, self.move_to_safe_point(
+                        start_m, velocity_m_s, brake_s / slowdown, slowdown),
+                    self.period_s, attached=self.attached)
+            except InfeasibleTensionError as err:
+                self.last_plan_error = err
+                continue
+            self.move = (tick, table)
+            self.mode = RECOVERY_MOVE
+            self.phase_ticks[RECOVERY_MOVE] = tick
+            return True
+        return False
+
+    def move_to_safe_point(self, start_m, velocity_m_s, brake_s: float, slowdown: float) -> Sequence:
+        """Brake over `brake_s` (to where the end-effector then is, half its speed times
+        that time ahead), then a straight quintic to SP at the peak speed / `slowdown`."""
+        rest = start_m + 0.5 * brake_s * np.asarray(velocity_m_s)
+        segments = [HermiteQuintic(start_m, velocity_m_s, rest, np.zeros(3), brake_s)]
+        distance = float(np.linalg.norm(self.safe_point_m - rest))
+        if distance > self.config.reached_tolerance_m:
+            duration = max(QUINTIC_PEAK_SPEED_RATIO * distance / self.config.move_peak_speed_m_s,
+                           self.config.minimum_move_s) * slowdown
+            segments.append(HermiteQuintic(rest, np.zeros(3), self.safe_point_m, np.zeros(3), duration))
+        else:
+            segments[0] = HermiteQuintic(start_m, velocity_m_s, self.safe_point_m, np.zeros(3), brake_s)
+        return Sequence(segments + [Hold(self.safe_point_m, self.period_s)])
 
     def setpoint(self, tick: int, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray):
         """(mode, tensions or None, JointReference or None) for tick + 1."""
-        if self.mode == RECOVERY_TENSION and self.settled(tick, angular_velocity_rad_s):
-            self.plan_move(tick, angle_rad, angular_velocity_rad_s)
+        if self.mode == RECOVERY_TENSION and self.planning_due(tick):
+            position, velocity = self.end_effector_state(angle_rad, angular_velocity_rad_s)
+            if self.tension_phase_s == 0.0:
+                # no plan from where it is: hold it there by tension until it settles
+                if not self.plan_move(tick, position, velocity):
+                    self.tension_phase_s = self.config.tension_phase_s
+            elif self.settled(tick, position, velocity) and not self.plan_move(tick, position, velocity):
+                if self.timed_out:
+                    raise self.last_plan_error
         if self.mode == RECOVERY_TENSION:
             return self.mode, self.tension_setpoint(tick + 1), None
         if self.mode == RECOVERY_MOVE:

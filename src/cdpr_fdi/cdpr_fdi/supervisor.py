@@ -20,7 +20,8 @@ from cdpr_control.tension_distribution import TensionDistribution
 from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector
 from .identification import identify_broken_cables
-from .recovery import Recovery, RecoveryInfeasible, check_recoverable, initial_tensions
+from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point,
+                       initial_tensions, taut_tension_n)
 from .residual import sensorless_tension_bounds
 
 
@@ -143,13 +144,15 @@ class Supervisor:
         try:
             check_recoverable(self.robot, attached)
             position = forward_kinematics(self.robot, np.asarray(angle_rad, float), attached)
+            taut = taut_tension_n(self.robot, self.recovery_config, attached)
+            entry = entry_point(self.robot, attached, position, taut)
             start = initial_tensions(self.robot, position, attached,
                                      forward_kinematics(self.robot, reference.angle_rad),
                                      self.reference_tensions(reference),
-                                     np.asarray(command_nm, float) - reference.feedforward_nm,
-                                     self.recovery_config.tension_floor_n)
+                                     np.asarray(command_nm, float) - reference.feedforward_nm, taut)
             self.recovery = Recovery(self.robot, self.recovery_config, self.distribution,
-                                     self.period_s, attached, tick, start)
+                                     self.period_s, attached, tick, start, entry,
+                                     inside=bool(np.all(entry == position)))
         except (RecoveryInfeasible, ValueError) as err:
             self.mode = FAULT
             self.fault_reason = str(err)
