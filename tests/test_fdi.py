@@ -108,10 +108,10 @@ def test_cusum_alarms_at_once_on_a_jump_in_z_or_in_the_raw_residual():
 
 
 def test_config_names_the_missing_key_and_the_file(tmp_path, paper_robot):
-    text = PAPER_ROBOT.read_text().replace('  identification_delta_nm: 0.1\n', '')
+    text = PAPER_ROBOT.read_text().replace('  identification_delta_n: 2.78\n', '')
     broken = tmp_path / 'robot.yaml'
     broken.write_text(text)
-    with pytest.raises(ConfigError, match=r"fdi\.identification_delta_nm.*is missing") as error:
+    with pytest.raises(ConfigError, match=r"fdi\.identification_delta_n.*is missing") as error:
         load_fdi_config(broken, paper_robot)
     assert str(broken) in str(error.value)
 

@@ -37,7 +37,8 @@ class FdiConfig:
     late_command_window_cycles: int
 
     @classmethod
-    def from_section(cls, fdi: Section, cable_count: int, friction: FrictionModel) -> 'FdiConfig':
+    def from_section(cls, fdi: Section, robot: Robot, friction: FrictionModel) -> 'FdiConfig':
+        cable_count = robot.cable_count
         cusum = fdi.section('cusum')
         sigma = cusum.raw('sigma_nm')
         sigma = ([cusum.number('sigma_nm', positive=True)] * cable_count
@@ -45,7 +46,8 @@ class FdiConfig:
         return cls(
             detector=fdi.string('detector', choices=DETECTORS),
             epsilon_nm=fdi.number('epsilon_nm', positive=True),
-            delta_nm=fdi.number('identification_delta_nm', positive=True),
+            # a tolerance on the cable's tension, felt at the motor through its drum
+            delta_nm=robot.motor.drum_radius_m * fdi.number('identification_delta_n', positive=True),
             friction=(FrictionModel(fdi.number('coulomb_friction_nm', non_negative=True),
                                     friction.smoothing_rad_s)
                       if fdi.has('coulomb_friction_nm') else friction),
@@ -89,7 +91,7 @@ def load_fdi_config(config_path: str | Path, robot: Robot,
         data = _merged(data, dict(calibration.data))
         path = calibration_path
     friction = FrictionModel.of_robot(robot, load_section(config_path, 'control'))
-    return FdiConfig.from_section(Section(data, path, 'fdi'), robot.cable_count, friction)
+    return FdiConfig.from_section(Section(data, path, 'fdi'), robot, friction)
 
 
 def _merged(base: dict, update: dict) -> dict:

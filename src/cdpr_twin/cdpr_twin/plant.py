@@ -18,6 +18,8 @@ from .elastic_model import ElasticCableRobot
 from .rigid_model import RigidCableRobot
 
 FIDELITIES = ('rigid', 'elastic')
+# Instants closer than this (s) are one: summed 2 ms periods drift by ~1e-13 s.
+TICK_GRID_S = 1e-9
 
 
 @dataclass(frozen=True)
@@ -124,16 +126,21 @@ class PlantSimulator:
                 np.array([w + speed_sigma * n for w, n in zip(speed.tolist(), speed_noise)]))
 
     def step(self, torque_nm: np.ndarray, period_s: float) -> None:
-        """Apply `torque_nm` for one period; failures due within it happen at its start."""
+        """Apply `torque_nm` for one period; a failure due within it happens at its
+        scheduled instant: the period is integrated up to it, then on without the cable,
+        so a delay measured from that instant is the true one."""
         # ndarray.clip: np.clip's dispatch costs twice as much on a few entries
         limit = self.robot.motor.torque_limit_nm
         torque = np.asarray(torque_nm, dtype=float).clip(-limit, limit)
-        # Times are compared on the tick grid: summing 2 ms steps drifts by ~1e-13 s, which
-        # would skip a failure scheduled exactly on a tick.
+        done_s = 0.0
         for time_s, cable in self.failures:
-            if self.time_s - 1e-9 <= time_s < self.time_s + period_s - 1e-9:
+            if self.time_s - TICK_GRID_S <= time_s < self.time_s + period_s - TICK_GRID_S:
+                before_s = time_s - self.time_s - done_s
+                if before_s > TICK_GRID_S:
+                    self.model.step(torque, before_s)
+                    done_s += before_s
                 self.inject_failure(cable)
-        self.model.step(torque, period_s)
+        self.model.step(torque, period_s - done_s)
         self.time_s += period_s
 
     @property
