@@ -33,15 +33,16 @@ from std_msgs.msg import Int32, String
 
 import cdpr_control.config
 import cdpr_fdi.config
-from cdpr_control.config import ConfigError, Section, load_section, load_yaml
+from cdpr_control.config import ConfigError, Section, load_config, load_section, load_yaml
 from cdpr_control.controller_node import ControllerNode
 from cdpr_control.kinematics import inverse_kinematics
 from cdpr_control.robot import load_robot
 from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.supervisor_node import SupervisorNode
-from cdpr_msgs_py import contract
+from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import NANOSECONDS, joint_state, ns_to_stamp, point_stamped, stamp_to_ns
+from cdpr_msgs_py.health import HealthLimits
 from cdpr_twin.digital_twin_node import DigitalTwinNode
 from cdpr_twin.plant import PlantConfig
 from cdpr_twin.plant_simulator_node import PlantSimulatorNode
@@ -661,6 +662,9 @@ LOADERS = {
     'fdi': lambda path, robot: load_fdi_config(path, robot),
     'recovery': lambda path, robot: load_recovery_config(path, robot),
     'plant': lambda path, robot: PlantConfig.from_section(load_section(path, 'plant')),
+    # as CdprNode.configure reads them
+    'health': lambda path, robot: HealthLimits.from_section(load_config(path).section('health', {})),
+    'streams': lambda path, robot: qos.stream_writer(load_config(path).section('streams', {}), 0.002),
 }
 
 

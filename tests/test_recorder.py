@@ -26,8 +26,11 @@ from std_msgs.msg import Int32, String
 from cdpr_bringup.bag_io import BagWriter, is_complete, mcap_prefix, read_messages
 from cdpr_bringup.bag_recorder_node import RECORDED, type_name
 from cdpr_bringup.graph import executable_command, node_environment
+from cdpr_control.config import load_section
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp
+
+from conftest import PAPER_ROBOT
 
 RATE_HZ = 500.0
 PUBLISH_S = 2.0
@@ -166,8 +169,10 @@ class Publisher:
         rclpy.init(context=self.context)
         self.node = rclpy.create_node('recorder_test_publisher', namespace=namespace,
                                       context=self.context)
+        # what the graph's writers offer: keep-last, the config's streams.history_s deep
+        writer = qos.stream_writer(load_section(PAPER_ROBOT, 'streams'), 1.0 / RATE_HZ)
         self.streams = {topic: self.node.create_publisher(
-            type(make(0)), topic, qos.STREAM) for topic, make in STREAMS.items()}
+            type(make(0)), topic, writer) for topic, make in STREAMS.items()}
         self.latched = {topic: self.node.create_publisher(kind, topic, qos.LATCHED)
                         for topic, kind in ((contract.FDI_BROKEN_CABLE, Int32), (contract.MODE, String))}
         self.published = {full_name(namespace, topic): 0 for topic in [*STREAMS, *self.latched]}

@@ -62,3 +62,17 @@ def test_commands_for_unknown_or_repeated_stamps_are_not_counted(clock):
     timing.command_received(0)
     timing.command_received(12345)
     assert timing.facts()['states answered'] == '1'
+
+
+def test_each_window_counts_its_own_intervals_and_misses(clock):
+    timing = TickTiming(PERIOD_S, deadlines=True)
+    run_ticks(timing, clock, [PERIOD_S] * 100 + [3 * PERIOD_S], lambda k: 3e-4)
+    intervals, duration_s, misses = timing.take_window()
+    # the first tick opens the run: 100 intervals, the last one late
+    assert (intervals, misses) == (100, 1)
+    assert duration_s == pytest.approx(99 * PERIOD_S + 3 * PERIOD_S)
+    # a stall across the window's start counts in the window it ends in
+    clock.now_s += 0.5
+    timing.state_published(101)
+    assert timing.take_window() == (1, pytest.approx(0.5), 1)
+    assert timing.take_window() == (0, 0.0, 0)

@@ -5,6 +5,7 @@ import time
 
 import numpy as np
 import pytest
+from diagnostic_msgs.msg import DiagnosticStatus
 
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_control.controller import JointReference
@@ -112,6 +113,14 @@ def joint_state_message(robot, stamp_ns, values):
     return joint_state(joint_names(m), stamp_ns, np.full(m, values), np.zeros(m), np.full(m, -0.4))
 
 
+def diagnostics_status(node):
+    """The /diagnostics status the node publishes now."""
+    sent = []
+    node.diagnostics.publisher.publish = sent.append
+    node.diagnostics.publish()
+    return sent[-1].status[0]
+
+
 @pytest.fixture
 def controller_node(realtime_ros):
     from cdpr_control.controller_node import ControllerNode
@@ -125,29 +134,43 @@ def test_controller_holds_when_joint_states_stop(controller_node, paper_robot):
     node.on_reference(joint_state_message(paper_robot, 0, 0.0))
     node.on_state(joint_state_message(paper_robot, 0, 0.0))
     assert node.controller.mode == 'NOMINAL'
+    assert diagnostics_status(node).level == DiagnosticStatus.OK
     time.sleep(node.stale_ns / 1e9 * 1.5)
     node.idle()
-    assert node.controller.mode == 'SAFE_HOLD' and 'no joint states' in node.diagnostics.warning
+    assert node.controller.mode == 'SAFE_HOLD'
+    status = diagnostics_status(node)
+    assert status.level == DiagnosticStatus.ERROR and 'no joint states' in status.message
 
 
 def test_controller_holds_when_the_reference_goes_stale(controller_node, paper_robot):
     node = controller_node
     node.on_reference(joint_state_message(paper_robot, 0, 0.0))
     node.on_state(joint_state_message(paper_robot, node.stale_ns + node.period_ns, 0.0))
-    assert node.controller.mode == 'SAFE_HOLD' and 'reference stale' in node.diagnostics.warning
+    assert node.controller.mode == 'SAFE_HOLD'
+    status = diagnostics_status(node)
+    assert status.level == DiagnosticStatus.ERROR and 'reference stale' in status.message
 
 
-def test_supervisor_says_fdi_unavailable_and_raises_no_alarm_without_the_twin(realtime_ros, paper_robot):
+def test_supervisor_whose_twin_stops_reports_fdi_unavailable_as_error_and_raises_no_alarm(
+        realtime_ros, paper_robot):
     from cdpr_fdi.supervisor_node import SupervisorNode
     node = SupervisorNode()
     try:
         period = node.period_ns
+        twin_ticks = 10
         for k in range(3 * node.stale_ns // period):
+            if k == twin_ticks:
+                node.idle()
+                assert diagnostics_status(node).level == DiagnosticStatus.OK, 'the FDI is on'
             node.on_state(joint_state_message(paper_robot, k * period, 0.0))
             node.on_command(joint_state_message(paper_robot, k * period, 0.0))
             node.on_reference(joint_state_message(paper_robot, k * period, 0.0))
+            if k < twin_ticks:
+                node.on_twin(joint_state_message(paper_robot, k * period, 0.0))
         node.idle()
-        assert node.diagnostics.warning.startswith('FDI unavailable: no twin')
+        status = diagnostics_status(node)
+        assert status.level == DiagnosticStatus.ERROR
+        assert status.message.startswith('FDI unavailable: no twin')
         assert node.supervisor.alarm_tick is None and node.published_broken == []
     finally:
         node.destroy_node()
@@ -162,6 +185,26 @@ def test_controller_withholds_a_command_that_would_not_be_finite(controller_node
     node.on_reference(joint_state(joint_names(m), 0, [1e308] * m, [-1e308] * m, [0.0] * m))
     node.on_state(joint_state(joint_names(m), 0, [0.0] * m, [1e308] * m))
     assert sent == [] and node.diagnostics.rejected['joint_states'] == 1
+
+
+def test_a_publish_that_fails_is_counted_and_reported_not_raised(controller_node, paper_robot,
+                                                                 monkeypatch):
+    """As every publish did once a stopped reader had filled a keep-all writer's history;
+    raised in a callback, it ended the node and the graph."""
+    from rclpy.impl.implementation_singleton import rclpy_implementation
+    from rclpy.publisher import Publisher
+
+    def cannot_publish(_publisher, _message):
+        raise rclpy_implementation.RCLError('Failed to publish: cannot publish data')
+
+    node = controller_node
+    monkeypatch.setattr(Publisher, 'publish', cannot_publish)
+    node.on_reference(joint_state_message(paper_robot, 0, 0.0))
+    node.on_state(joint_state_message(paper_robot, 0, 0.0))
+    topic = node.publisher.topic_name
+    assert node.diagnostics.publish_failures == {topic: 1}
+    status = diagnostics_status(node)
+    assert status.level == DiagnosticStatus.WARN and status.message == f'publishing on {topic} failed'
 
 
 @pytest.fixture
@@ -190,6 +233,8 @@ def test_generator_rejects_a_goal_it_cannot_plan_and_survives_a_jump_in_time(rea
         ticks += 1
         node.on_state(joint_state_message(node.robot, ticks * node.period_ns, 0.0))
     assert node.diagnostics.rejected['goal'] == 1 and len(node.segments) == 1
+    status = diagnostics_status(node)
+    assert status.level == DiagnosticStatus.WARN and status.message == 'rejected messages on goal'
     # 2**31 s later: only the references from there on, not 1e12 of them
     node.on_state(joint_state_message(node.robot, 2 ** 31 * 1_000_000_000, 0.0))
     assert len(sent) == 2 * (node.lead + 1) + ticks

@@ -21,6 +21,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
+from cdpr_control.config import load_config, resolve_config
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime import CdprNode, run
 
@@ -55,7 +56,8 @@ def type_name(message_class) -> str:
 
 
 def contract_qos(topic: str):
-    """The QoS every publisher of `topic` offers in the graph (DESIGN §3)."""
+    """The QoS the graph's readers of `topic` ask for (DESIGN §3): what the recorder
+    subscribes with, and what `ros2 bag play` offers again."""
     if topic in contract.LATCHED_TOPICS:
         return qos.LATCHED
     return qos.DIAGNOSTICS if topic == contract.DIAGNOSTICS else qos.STREAM
@@ -77,6 +79,8 @@ class BagRecorderNode(CdprNode):
 
     def __init__(self):
         super().__init__('bag_recorder')
+        settings = load_config(resolve_config(self.get_parameter('config_file').value))
+        self.configure(settings, settings.section('control').number('period_s', positive=True))
         path = self.parameter('bag_path', 'bag')
         storage = self.parameter('storage', 'mcap')
         self.flush_period_s = self.parameter('flush_period_s', FLUSH_PERIOD_S)

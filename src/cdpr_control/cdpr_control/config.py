@@ -72,8 +72,8 @@ class Section:
             return default
         return self.data[name]
 
-    def section(self, name: str) -> 'Section':
-        return Section(self.raw(name), self.path, self.key(name))
+    def section(self, name: str, default: Any = ...) -> 'Section':
+        return Section(self.raw(name, default), self.path, self.key(name))
 
     def number(self, name: str, default: Any = ..., *, positive: bool = False,
                non_negative: bool = False) -> float:
@@ -130,9 +130,14 @@ class Section:
         return np.array(value, dtype=float)
 
 
+def load_config(path: str | Path) -> Section:
+    """The whole YAML file at `path`."""
+    return Section(load_yaml(path), path)
+
+
 def load_section(path: str | Path, name: str) -> Section:
     """The top-level section `name` of the YAML file at `path`."""
-    return Section(load_yaml(path), path).section(name)
+    return load_config(path).section(name)
 
 
 def resolve_config(name_or_path: str | Path) -> Path:

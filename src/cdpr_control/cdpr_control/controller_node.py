@@ -19,7 +19,7 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.runtime import CdprNode, run
 
-from .config import load_section, resolve_config
+from .config import load_config, resolve_config
 from .controller import (NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, JointController,
                          JointReference, PdGains)
 from .friction import FrictionModel
@@ -51,8 +51,11 @@ class ControllerNode(CdprNode):
         super().__init__('controller')
         config = resolve_config(self.get_parameter('config_file').value)
         self.robot = load_robot(config)
-        control = load_section(config, 'control')
-        self.period_ns = int(round(control.number('period_s', positive=True) * 1e9))
+        settings = load_config(config)
+        control = settings.section('control')
+        period_s = control.number('period_s', positive=True)
+        self.period_ns = int(round(period_s * 1e9))
+        self.configure(settings, period_s)
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
         self.last_state_at: float | None = None
         friction = self.parameter('coulomb_friction_nm', -1.0)
@@ -68,7 +71,7 @@ class ControllerNode(CdprNode):
         self.first_state_ns: int | None = None
         self.pending = None
         self.answered: dict[int, np.ndarray] = {}
-        self.publisher = self.create_publisher(JointState, contract.EFFORT_COMMAND, qos.STREAM)
+        self.publisher = self.create_stream_publisher(JointState, contract.EFFORT_COMMAND)
         self.create_subscription(JointState, contract.REFERENCE, self.on_reference, qos.STREAM)
         self.create_subscription(Int32, contract.FDI_BROKEN_CABLE, self.on_broken_cable, qos.LATCHED)
         self.create_subscription(String, contract.MODE, self.on_mode, qos.LATCHED)
@@ -150,8 +153,8 @@ class ControllerNode(CdprNode):
     def go_safe_hold(self, why: str) -> None:
         """Realtime: a stale input; hold where the last reference was, at rest."""
         self.controller.set_mode(SAFE_HOLD)
-        self.diagnostics.warning = f'SAFE_HOLD: {why}'
-        self.get_logger().warning(self.diagnostics.warning)
+        self.diagnostics.error = f'SAFE_HOLD: {why}'
+        self.get_logger().warning(self.diagnostics.error)
         self.diagnostics.publish()
 
     def idle(self) -> None:

@@ -26,7 +26,7 @@ from cdpr_msgs_py.conversions import (InvalidMessage, joint_state, point_from_me
                                       point_stamped, stamp_to_ns)
 from cdpr_msgs_py.runtime import CdprNode, run
 
-from .config import load_section, resolve_config
+from .config import load_config, load_section, resolve_config
 from .motions import load_motion
 from .reference import IncrementalTabulation, ReferenceTable, tabulate_reference
 from .robot import load_robot
@@ -41,8 +41,10 @@ class TrajectoryGeneratorNode(CdprNode):
         config = resolve_config(self.get_parameter('config_file').value)
         motions = resolve_config(self.parameter('motions_file', 'motions.yaml'))
         self.robot = load_robot(config)
-        control = load_section(config, 'control')
+        settings = load_config(config)
+        control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
+        self.configure(settings, self.period_s)
         self.period_ns = int(round(self.period_s * 1e9))
         self.lead = control.integer('reference_lead_cycles', minimum=1)
         self.distribution = configured_tension_distribution(control, self.robot)
@@ -56,8 +58,8 @@ class TrajectoryGeneratorNode(CdprNode):
         self.goals: deque[np.ndarray] = deque()   # accepted, waiting to be planned, in order
         self.planning: tuple[np.ndarray, IncrementalTabulation] | None = None
         self.rows_per_tick = control.integer('realtime_planning_rows_per_tick', minimum=1)
-        self.reference = self.create_publisher(JointState, contract.REFERENCE, qos.STREAM)
-        self.pose = self.create_publisher(PointStamped, contract.REFERENCE_POSE, qos.STREAM)
+        self.reference = self.create_stream_publisher(JointState, contract.REFERENCE)
+        self.pose = self.create_stream_publisher(PointStamped, contract.REFERENCE_POSE)
         self.create_subscription(PointStamped, contract.GOAL, self.on_goal, qos.STREAM)
         self.start_when_matched(lambda: self.create_subscription(
             JointState, contract.JOINT_STATES, self.on_state, qos.STREAM))

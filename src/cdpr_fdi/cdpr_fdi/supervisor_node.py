@@ -16,12 +16,13 @@ from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
-from cdpr_control.config import load_section, resolve_config
+from cdpr_control.config import load_config, resolve_config
 from cdpr_control.controller import NOMINAL, JointReference
 from cdpr_control.robot import load_robot
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state
+from cdpr_msgs_py.health import unjudged_problem, verdict_problems
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .config import load_fdi_config, load_recovery_config
@@ -38,8 +39,10 @@ class SupervisorNode(CdprNode):
         super().__init__('supervisor')
         config = resolve_config(self.get_parameter('config_file').value)
         self.robot = load_robot(config)
-        control = load_section(config, 'control')
+        settings = load_config(config)
+        control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
+        self.configure(settings, self.period_s)
         self.period_ns = int(round(self.period_s * 1e9))
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
         calibration = self.parameter('calibration_file', '')
@@ -60,11 +63,12 @@ class SupervisorNode(CdprNode):
         self.max_lag_ns = 0
         self.verdict_lag_ns: int | None = None
         self.published_mode = NOMINAL
-        self.residual = self.create_publisher(JointState, contract.FDI_RESIDUAL, qos.STREAM)
+        self.unidentified_alarms = 0
+        self.residual = self.create_stream_publisher(JointState, contract.FDI_RESIDUAL)
         self.broken_cable = self.create_publisher(Int32, contract.FDI_BROKEN_CABLE, qos.LATCHED)
         self.mode = self.create_publisher(String, contract.MODE, qos.LATCHED)
-        self.tensions = self.create_publisher(JointState, contract.RECOVERY_TENSIONS, qos.STREAM)
-        self.recovery_reference = self.create_publisher(JointState, contract.RECOVERY_REFERENCE, qos.STREAM)
+        self.tensions = self.create_stream_publisher(JointState, contract.RECOVERY_TENSIONS)
+        self.recovery_reference = self.create_stream_publisher(JointState, contract.RECOVERY_REFERENCE)
         self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.on_command,
                                              qos.STREAM, self.parameter('command_writer', 'controller'))
         self.create_subscription(JointState, contract.TWIN_JOINT_STATES, self.on_twin, qos.STREAM)
@@ -94,6 +98,8 @@ class SupervisorNode(CdprNode):
         if len(buffer) > BUFFER_LENGTH:
             # an input that stopped (a dead twin) must not make the others pile up
             del buffer[min(buffer)]
+            if name == 'state':
+                self.diagnostics.count('skipped ticks')
         self.judge_ready_ticks()
 
     def judge_ready_ticks(self) -> None:
@@ -101,9 +107,12 @@ class SupervisorNode(CdprNode):
         ready = sorted(set.intersection(*(set(self.inputs[name]) for name in INPUTS)))
         for stamp in ready:
             self.judge(stamp, *(self.inputs[name].pop(stamp) for name in INPUTS))
-            for buffer in self.inputs.values():
+            for name, buffer in self.inputs.items():
                 for old in [s for s in buffer if s <= stamp]:
                     del buffer[old]
+                    if name == 'state':
+                        # a tick whose inputs never all came: it goes unjudged
+                        self.diagnostics.count('skipped ticks')
 
     def judge(self, stamp: int, state, command, twin, reference) -> None:
         if self.origin_ns is None:
@@ -112,6 +121,7 @@ class SupervisorNode(CdprNode):
         lag = max(self.inputs['state'], default=stamp) - stamp
         self.max_lag_ns = max(self.max_lag_ns, lag)
         tick = (stamp - self.origin_ns) // self.period_ns
+        unjudged = self.supervisor.unjudged_ticks
         verdict = self.supervisor.update(
             tick, state.position, state.velocity, state.effort, command.effort, twin.effort,
             twin.velocity, JointReference(reference.position, reference.velocity, reference.effort))
@@ -146,8 +156,14 @@ class SupervisorNode(CdprNode):
             self.published_mode = verdict.mode
         self.residual.publish(joint_state(self.names, stamp, effort=verdict.residual_nm))
         self.diagnostics.count('ticks')
+        if self.supervisor.unjudged_ticks > unjudged:
+            self.diagnostics.count('unjudged ticks')
         for event in verdict.events:
             self.get_logger().warning(event)
+        if self.supervisor.unidentified_alarms > self.unidentified_alarms:
+            self.unidentified_alarms = self.supervisor.unidentified_alarms
+            self.diagnostics.warn('unidentified alarm', f'an alarm ended without a free motor '
+                                                        f'({self.unidentified_alarms} in all)')
         if verdict.events:
             self.diagnostics.publish()
 
@@ -160,8 +176,18 @@ class SupervisorNode(CdprNode):
             judged = min(states) if self.last_tick_ns is None else max(self.last_tick_ns, min(states))
             behind = max(states) - judged
             missing = [name for name in ('twin', 'command') if not self.inputs[name]]
-            self.diagnostics.warning = (f'FDI unavailable: no {" or ".join(missing) or "matching input"} '
-                                        f'for {behind / 1e6:.0f} ms' if behind > self.stale_ns else '')
+            self.diagnostics.error = (f'FDI unavailable: no {" or ".join(missing) or "matching input"} '
+                                      f'for {behind / 1e6:.0f} ms' if behind > self.stale_ns else '')
+
+    def current_problems(self) -> tuple[list[str], list[str]]:
+        # skipped ticks never reached the core: they count as ticks, unjudged
+        window = self.diagnostics.window
+        skipped = window['skipped ticks']
+        blind = unjudged_problem(self.diagnostics.health.limits, window['ticks'] + skipped,
+                                 window['unjudged ticks'] + skipped)
+        error, warning = verdict_problems(self.supervisor.mode, self.published_broken,
+                                          self.supervisor.fault_reason)
+        return [error], [warning, blind]
 
     def current_facts(self) -> dict[str, str]:
         """The supervisor's summary as /diagnostics key-values (JSON texts)."""

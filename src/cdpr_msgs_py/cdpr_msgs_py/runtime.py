@@ -2,21 +2,27 @@
 subscriptions that obey one writer."""
 from __future__ import annotations
 
+import ctypes
 import inspect
 import signal
+import threading
 import time
 from collections import Counter
+from contextlib import contextmanager
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
+from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 
 from . import contract, qos
 from .dds import bounded_initialisation, follow_launcher
 from .conversions import InvalidMessage, joints_from_message
+from .health import ERROR, OK, WARN, AcknowledgementWatch, Health, HealthLimits
 from .scheduling import apply_scheduling
 from .sole_writer import Endpoint, SoleWriter, qualified_name
 
@@ -25,13 +31,20 @@ SPIN_TIMEOUT_S = 0.05
 # long (s), at most DRAIN_LIMIT_S, so the last ticks still reach the twin and the bag.
 DRAIN_QUIET_S = 0.3
 DRAIN_LIMIT_S = 3.0
+# Watching a per-cycle writer's acknowledgements: each wait lasts at most this long (s),
+# which also bounds how long stopping the watch takes; after an acknowledgement the
+# watch rests this long (s), so the node's thread is woken once a second per writer.
+ACKNOWLEDGEMENT_WAIT_S = 0.5
+ACKNOWLEDGEMENT_REST_S = 1.0
+RCL_RET_OK, RCL_RET_TIMEOUT = 0, 2
 # On the way out, how long a node waits for its reliable readers to have what it sent (s).
 ACKNOWLEDGE_LIMIT_S = 2.0
 EXECUTOR_SHUTDOWN_S = 0.5
 # The longest a node takes from a stop request to its exit (s): a launcher's grace.
-SHUTDOWN_LIMIT_S = DRAIN_LIMIT_S + ACKNOWLEDGE_LIMIT_S + EXECUTOR_SHUTDOWN_S
+SHUTDOWN_LIMIT_S = DRAIN_LIMIT_S + ACKNOWLEDGEMENT_WAIT_S + ACKNOWLEDGE_LIMIT_S + EXECUTOR_SHUTDOWN_S
 # Printed on stdout once the node is constructed: launchers wait for it.
 READY_MARK = 'cdpr-node-ready'
+LEVELS = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR}
 
 
 def make_executor():
@@ -58,10 +71,11 @@ def run(node_class, args=None) -> int:
     executor = make_executor()
     executor.add_node(node)
     try:
-        while rclpy.ok() and not stopping and not node.finished:
-            executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
-            node.idle()
-        drain(executor, node)
+        with watching_acknowledgements(node):
+            while rclpy.ok() and not stopping and not node.finished:
+                executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+                node.idle()
+            drain(executor, node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception:
@@ -74,6 +88,50 @@ def run(node_class, args=None) -> int:
         if rclpy.ok():
             rclpy.shutdown()
     return 0
+
+
+def rcl_wait_for_all_acked():
+    """rcl_publisher_wait_for_all_acked(publisher, timeout_ns), called through ctypes,
+    which releases the GIL while it waits: rclpy's Publisher.wait_for_all_acked holds
+    it, and a 1 s wait in a thread stopped the node's 2 ms loop for 1 s."""
+    function = ctypes.CDLL('librcl.so').rcl_publisher_wait_for_all_acked   # rclpy loaded it
+    function.argtypes = [ctypes.c_void_p, ctypes.c_int64]
+    function.restype = ctypes.c_int
+    return function
+
+
+@contextmanager
+def watching_acknowledgements(node):
+    """Inside the block a thread per per-cycle writer of `node` waits for the instants
+    its readers have acknowledged everything, and tells node.acknowledgements
+    (health.AcknowledgementWatch), which /diagnostics reports lagging readers from."""
+    wait = rcl_wait_for_all_acked()
+    stop = threading.Event()
+
+    def watch(publisher, topic):
+        pointer = publisher.handle.pointer
+        while not stop.is_set():
+            result = wait(pointer, int(ACKNOWLEDGEMENT_WAIT_S * 1e9))
+            if result == RCL_RET_OK:
+                node.acknowledgements.acknowledged(topic, time.monotonic())
+                stop.wait(ACKNOWLEDGEMENT_REST_S)
+            elif result != RCL_RET_TIMEOUT:
+                # the context is shutting down: nothing to watch, and no busy loop
+                stop.wait(ACKNOWLEDGEMENT_WAIT_S)
+
+    threads = []
+    for publisher in node.stream_publishers:
+        topic = publisher.topic_name
+        node.acknowledgements.acknowledged(topic, time.monotonic())
+        threads.append(threading.Thread(target=watch, args=(publisher, topic), daemon=True))
+        threads[-1].start()
+    try:
+        yield
+    finally:
+        # before the node destroys its publishers, which the threads wait on
+        stop.set()
+        for thread in threads:
+            thread.join()
 
 
 def drain(executor, node) -> None:
@@ -91,17 +149,21 @@ def drain(executor, node) -> None:
 
 
 class Diagnostics:
-    """Counts of what a node did and rejected, published on /diagnostics once a second."""
+    """Counts of what a node did and rejected, and its health (health.py), published on
+    /diagnostics once a second."""
 
     def __init__(self, node: Node, period_s: float = 1.0):
         self.node = node
         self.totals: Counter = Counter()
         self.window: Counter = Counter()
         self.rejected: Counter = Counter()
+        self.publish_failures: Counter = Counter()
         # What the node wants reported besides counts (key → text), e.g. its verdicts.
         self.facts: dict[str, str] = {}
-        # A condition the node cannot work normally in (stale inputs); '' when none.
-        self.warning = ''
+        # A condition the node cannot do its job in (stale inputs, braked drums), reported
+        # as ERROR while it lasts; '' when none.
+        self.error = ''
+        self.health = Health(HealthLimits())
         self.activity = 0
         self.period_s = period_s
         self.last_publish = time.monotonic()
@@ -113,10 +175,23 @@ class Diagnostics:
         self.window[key] += 1
         self.activity += 1
 
+    def warn(self, key: str, text: str) -> None:
+        """An event worth a warning (held for the config's `health.warning_hold_s`)."""
+        self.health.warn(key, text, time.monotonic())
+
     def reject(self, topic: str, reason: str) -> None:
         self.rejected[topic] += 1
         self.activity += 1
+        self.warn(f'rejected {topic}', f'rejected messages on {topic}')
         self.node.get_logger().warning(f'rejected a message on {topic}: {reason}',
+                                       throttle_duration_sec=1.0)
+
+    def publish_failed(self, topic: str, error: Exception) -> None:
+        """A publish raised: the sample is lost (lockstep sends its state again), the node
+        goes on."""
+        self.publish_failures[topic] += 1
+        self.warn(f'publish failed {topic}', f'publishing on {topic} failed')
+        self.node.get_logger().warning(f'publishing on {topic} failed: {error}',
                                        throttle_duration_sec=1.0)
 
     def maybe_publish(self) -> None:
@@ -126,17 +201,25 @@ class Diagnostics:
             self.last_publish = now
 
     def publish(self, elapsed_s: float = 0.0) -> None:
-        status = DiagnosticStatus()
-        status.name = self.node.get_fully_qualified_name()
-        status.hardware_id = 'cdpr'
-        problems = sum(self.rejected.values())
-        status.level = DiagnosticStatus.WARN if problems or self.warning else DiagnosticStatus.OK
-        status.message = '; '.join(filter(None, [self.warning, f'{problems} rejected messages'
-                                                 if problems else ''])) or 'ok'
+        now = time.monotonic()
+        readers = self.node.stream_readers()
+        for topic, seconds in self.node.acknowledgements.lagging(now, readers).items():
+            matched, graph = readers[topic]
+            key = f'lagging {topic}'
+            text = (f'a reader of {topic} lags: not everything acknowledged for {seconds:.1f} s '
+                    f'({matched} readers, {"?" if graph is None else graph} of the graph)')
+            if key not in self.health.events:
+                self.node.get_logger().warning(text)
+            self.warn(key, text)
+        errors, warnings = self.node.current_problems()
+        level, text = self.health.assess(now, [self.error, *errors], warnings)
+        status = DiagnosticStatus(level=LEVELS[level], message=text, hardware_id='cdpr',
+                                  name=self.node.get_fully_qualified_name())
         pairs = [(f'{key} total', str(value)) for key, value in self.totals.items()]
         if elapsed_s > 0:
             pairs += [(f'{key} rate hz', f'{value / elapsed_s:.1f}') for key, value in self.window.items()]
         pairs += [(f'rejected {key}', str(value)) for key, value in self.rejected.items()]
+        pairs += [(f'publish failed {key}', str(value)) for key, value in self.publish_failures.items()]
         pairs += list({**self.facts, **self.node.current_facts()}.items())
         status.values = [KeyValue(key=k, value=v) for k, v in pairs]
         message = DiagnosticArray()
@@ -227,6 +310,19 @@ class SoleWriterSubscription:
         return facts
 
 
+class GuardedPublisher(Publisher):
+    """Every publisher of a CdprNode: a publish that fails is counted and reported, never
+    fatal (an exception in a callback would end the node, and with it the graph)."""
+
+    failed = None   # CdprNode.create_publisher sets it: failed(topic, error)
+
+    def publish(self, msg) -> None:
+        try:
+            super().publish(msg)
+        except rclpy_implementation.RCLError as err:
+            self.failed(self.topic_name, err)
+
+
 def parse_matches(entries) -> list[tuple[str, str, int]]:
     """'publisher:TOPIC=N' / 'subscription:TOPIC=N' entries as (kind, topic, N)."""
     requirements = []
@@ -252,6 +348,10 @@ class CdprNode(Node):
         if self.clock_mode not in ('lockstep', 'realtime'):
             raise ValueError(f"parameter clock_mode must be lockstep or realtime, got {self.clock_mode!r}")
         self.diagnostics = Diagnostics(self)
+        # configure() sets these from the config file, which this package cannot read
+        self.stream_qos = None
+        self.acknowledgements = AcknowledgementWatch(HealthLimits().reader_lag_limit_s)
+        self.stream_publishers: list[GuardedPublisher] = []
         self.finished = False
         self.match_requirements = parse_matches(self.declare_parameter('matches', ['']).value)
         self.pending_start = None
@@ -267,6 +367,47 @@ class CdprNode(Node):
             self.get_logger().info(f'scheduling: {outcome}')
         else:
             self.get_logger().warning(f'scheduling: {outcome}')
+
+    def configure(self, config, period_s: float) -> None:
+        """From the config file (a cdpr_control.config.Section of it: this package reads
+        no file) and the control period: how deep the per-cycle writers' history is
+        (`streams`), and the limits of the /diagnostics levels (`health`); a missing
+        section or key takes its default. Before the first create_stream_publisher."""
+        self.stream_qos = qos.stream_writer(config.section('streams', {}), period_s)
+        limits = HealthLimits.from_section(config.section('health', {}))
+        self.diagnostics.health.limits = limits
+        self.acknowledgements.limit_s = limits.reader_lag_limit_s
+
+    def create_publisher(self, msg_type, topic, qos_profile, **options):
+        """As rclpy's, with publishing never fatal (GuardedPublisher)."""
+        options.setdefault('publisher_class', GuardedPublisher)
+        publisher = super().create_publisher(msg_type, topic, qos_profile, **options)
+        # looked up when it fails: the diagnostics' own publisher exists before they do
+        publisher.failed = lambda name, err: self.diagnostics.publish_failed(name, err)
+        return publisher
+
+    def create_stream_publisher(self, msg_type, topic: str) -> GuardedPublisher:
+        """The writer of a per-cycle stream (qos.stream_writer), its readers' lag watched
+        while the node runs (watching_acknowledgements)."""
+        if self.stream_qos is None:
+            raise RuntimeError('configure() the node before creating a stream publisher')
+        publisher = self.create_publisher(msg_type, topic, self.stream_qos)
+        self.stream_publishers.append(publisher)
+        return publisher
+
+    def stream_readers(self) -> dict[str, tuple[int, int | None]]:
+        """Per per-cycle topic written here: (readers matched, readers of the graph), the
+        latter from the `matches` parameter (None for a node started alone)."""
+        graph = {self.resolve_topic_name(topic): count
+                 for kind, topic, count in self.match_requirements if kind == 'publisher'}
+        return {publisher.topic_name: (publisher.get_subscription_count(),
+                                       graph.get(publisher.topic_name, 0) if self.match_requirements else None)
+                for publisher in self.stream_publishers}
+
+    def current_problems(self) -> tuple[list[str], list[str]]:
+        """(errors, warnings) the node's core finds when /diagnostics goes out, from what
+        it counted in the window (before the window is cleared); '' entries are none."""
+        return [], []
 
     def current_facts(self) -> dict[str, str]:
         """Figures computed when /diagnostics goes out (key → text), besides `facts`."""

@@ -5,7 +5,7 @@ import numpy as np
 from geometry_msgs.msg import PointStamped
 from sensor_msgs.msg import JointState
 
-from cdpr_control.config import load_section, resolve_config
+from cdpr_control.config import load_config, resolve_config
 from cdpr_control.controller import JointReference, PdGains
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.robot import load_robot
@@ -22,18 +22,20 @@ class DigitalTwinNode(CdprNode):
         super().__init__('digital_twin')
         config = resolve_config(self.get_parameter('config_file').value)
         self.robot = load_robot(config)
-        control = load_section(config, 'control')
+        settings = load_config(config)
+        control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
+        self.configure(settings, self.period_s)
         self.period_ns = int(round(self.period_s * 1e9))
         self.stale_cycles = control.integer('stale_cycles', minimum=1)
         self.gains = PdGains.from_section(self.robot, control)
-        self.substeps = load_section(config, 'twin').integer('substeps', minimum=1)
+        self.substeps = settings.section('twin').integer('substeps', minimum=1)
         self.names = contract.joint_names(self.robot.cable_count)
         self.twin: DigitalTwin | None = None
         self.last_stamp_ns: int | None = None
         self.last_reference: JointReference | None = None
-        self.joints = self.create_publisher(JointState, contract.TWIN_JOINT_STATES, qos.STREAM)
-        self.pose = self.create_publisher(PointStamped, contract.TWIN_POSE, qos.STREAM)
+        self.joints = self.create_stream_publisher(JointState, contract.TWIN_JOINT_STATES)
+        self.pose = self.create_stream_publisher(PointStamped, contract.TWIN_POSE)
         # The twin's tick is the reference: it listens once its outputs have listeners.
         self.start_when_matched(lambda: self.create_subscription(
             JointState, contract.REFERENCE, self.on_reference, qos.STREAM))

@@ -16,12 +16,13 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32
 
-from cdpr_control.config import load_section, resolve_config
+from cdpr_control.config import load_config, resolve_config
 from cdpr_control.motions import load_motion
 from cdpr_control.robot import load_robot
 from cdpr_control.statics import static_tensions
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
+from cdpr_msgs_py.health import loop_problem
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .plant import PlantConfig, PlantSimulator
@@ -36,12 +37,14 @@ class PlantSimulatorNode(CdprNode):
         config = resolve_config(self.get_parameter('config_file').value)
         motions = resolve_config(self.parameter('motions_file', 'motions.yaml'))
         self.robot = load_robot(config)
-        self.period_s = load_section(config, 'control').number('period_s', positive=True)
+        settings = load_config(config)
+        self.period_s = settings.section('control').number('period_s', positive=True)
         self.period_ns = int(round(self.period_s * 1e9))
+        self.configure(settings, self.period_s)
         motion = load_motion(motions, self.parameter('motion', 'circle'), self.parameter('reverse', False))
         fidelity = self.parameter('fidelity', '') or None
         seed = self.parameter('seed', -1)
-        plant_section = load_section(config, 'plant')
+        plant_section = settings.section('plant')
         plant_config = PlantConfig.from_section(plant_section, fidelity, None if seed < 0 else seed)
         fail_at_s = self.parameter('fail_at_s', -1.0)
         fail_at_fraction = self.parameter('fail_at_fraction', -1.0)
@@ -62,10 +65,10 @@ class PlantSimulatorNode(CdprNode):
         # Until the first command arrives, hold the load with its static torques.
         self.command = -self.robot.motor.drum_radius_m * static_tensions(
             self.robot, self.plant.position_m, self.robot.cable_mask())
-        self.state = self.create_publisher(JointState, contract.JOINT_STATES, qos.STREAM)
-        self.truth_pose = self.create_publisher(PointStamped, contract.GROUND_TRUTH_POSE, qos.STREAM)
-        self.truth_tensions = self.create_publisher(JointState, contract.GROUND_TRUTH_TENSIONS, qos.STREAM)
-        self.clock = self.create_publisher(Clock, contract.CLOCK, qos.STREAM)
+        self.state = self.create_stream_publisher(JointState, contract.JOINT_STATES)
+        self.truth_pose = self.create_stream_publisher(PointStamped, contract.GROUND_TRUTH_POSE)
+        self.truth_tensions = self.create_stream_publisher(JointState, contract.GROUND_TRUTH_TENSIONS)
+        self.clock = self.create_stream_publisher(Clock, contract.CLOCK)
         self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.on_command,
                                              qos.STREAM, self.parameter('command_writer', 'controller'))
         self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
@@ -103,6 +106,12 @@ class PlantSimulatorNode(CdprNode):
     def current_facts(self) -> dict[str, str]:
         # Timing figures only when diagnostics go out: percentiles cost more than a tick.
         return {**super().current_facts(), **self.timing.facts()}
+
+    def current_problems(self) -> tuple[list[str], list[str]]:
+        window = self.timing.take_window()
+        if self.clock_mode != 'realtime':
+            return [], []   # lockstep runs as fast as the graph can: it has no period to keep
+        return [loop_problem(self.diagnostics.health.limits, self.period_s, *window)], []
 
     def idle(self) -> None:
         super().idle()
@@ -166,6 +175,7 @@ class PlantSimulatorNode(CdprNode):
                        if braking else 'commands are back: brake released')
             self.get_logger().warning(message)
             self.diagnostics.facts['command watchdog'] = message
+            self.diagnostics.error = message if braking else ''
             self.diagnostics.publish()
         if braking:
             self.diagnostics.count('braked ticks')

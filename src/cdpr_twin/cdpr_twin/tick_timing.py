@@ -4,7 +4,9 @@
 - deadline misses (realtime): ticks that came more than one period late, i.e. more than
   two periods after the tick before them — a cycle a real drive would have missed;
 - state → command latency: from publishing the state of a tick to receiving the command
-  stamped with it, kept in a fixed histogram so that a tick costs the same at any hour.
+  stamped with it, kept in a fixed histogram so that a tick costs the same at any hour;
+- per window (between two /diagnostics): how many tick intervals, how long in all, and how
+  many of them missed their deadline, which health.loop_problem judges.
 """
 from __future__ import annotations
 
@@ -31,6 +33,9 @@ class TickTiming:
         self.first_s: float | None = None
         self.last_s: float | None = None
         self.deadline_misses = 0
+        self.window_intervals = 0
+        self.window_duration_s = 0.0
+        self.window_misses = 0
         self.sent_s: dict[int, float] = {}
         self.latency_counts = np.zeros(LATENCY_BINS, dtype=np.int64)
 
@@ -39,13 +44,26 @@ class TickTiming:
         now = time.monotonic()
         if self.last_s is None:
             self.first_s = now
-        elif self.deadlines and now - self.last_s > 2.0 * self.period_s:
-            self.deadline_misses += 1
+        else:
+            self.window_intervals += 1
+            self.window_duration_s += now - self.last_s
+            if self.deadlines and now - self.last_s > 2.0 * self.period_s:
+                self.deadline_misses += 1
+                self.window_misses += 1
         self.last_s = now
         self.ticks += 1
         self.sent_s[stamp_ns] = now
         if len(self.sent_s) > PENDING_STATES:
             del self.sent_s[next(iter(self.sent_s))]
+
+    def take_window(self) -> tuple[int, float, int]:
+        """(tick intervals, their total duration in s, deadline misses) since the last call.
+
+        Intervals, not ticks per wall-clock window: a window that holds the start, the end
+        or a stall of the loop then still gives its true rate."""
+        window = (self.window_intervals, self.window_duration_s, self.window_misses)
+        self.window_intervals, self.window_duration_s, self.window_misses = 0, 0.0, 0
+        return window
 
     def command_received(self, stamp_ns: int) -> None:
         """The command answering the state `stamp_ns` has just arrived."""

@@ -1,0 +1,138 @@
+"""An outside reader that stops reading — a user's `ros2 topic echo` suspended with
+Ctrl-Z — neither stops nor crashes a writer of ours, and /diagnostics reports it.
+
+Before the per-cycle writers were keep-last (qos.stream_writer), such a reliable reader
+filled a keep-all writer's history (5000 samples, 10 s at 500 Hz); every publish then
+blocked 100 ms and failed, and the plant died ('Failed to publish: cannot publish
+data'). Here the reader is a separate process of plain rclpy (tools/outside_reader.py),
+run as a user's tool would be, suspended (SIGSTOP) for well over those 10 s.
+"""
+from __future__ import annotations
+
+import os
+import select
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from cdpr_bringup.bag_io import read_messages
+from cdpr_bringup.graph import Graph, graph_nodes, node_environment
+from cdpr_msgs_py.conversions import stamp_to_ns
+from cdpr_msgs_py.health import WARN
+
+from conftest import in_private_shm, private_shm_allowed
+from test_faults import START_TIMEOUT_S, realtime_parameters
+from test_graph import user_environment
+
+pytestmark = pytest.mark.graph
+# The per-cycle topics the outside reader reads, by the node that writes them.
+READ = {'plant_simulator': ['joint_states', 'ground_truth/pose'],
+        'controller': ['effort_command'], 'trajectory_generator': ['reference'],
+        'digital_twin': ['twin/joint_states'], 'supervisor': ['fdi/residual']}
+# Written too, but read by the graph (the recorder) only: never reported as lagging.
+UNREAD = ['reference/pose', 'twin/pose', 'ground_truth/tensions']
+# Ticks a keep-all writer held for a reader that stopped (10 s at 500 Hz, then it failed).
+KEEP_ALL_SAMPLES = 5000
+# The reader stays stopped longer than that, and than the lag limit (health.reader_lag_limit_s).
+STALL_S = 15.0
+PERIOD_NS = 2_000_000
+
+
+def start_outside_reader(namespace: str, topics: list[str]) -> subprocess.Popen:
+    """The reader, in its own process group (so SIGSTOP reaches it through any wrapper)."""
+    script = Path(__file__).parent / 'tools' / 'outside_reader.py'
+    command = [sys.executable, str(script), namespace, '600', *topics]
+    if private_shm_allowed():
+        command, environment = in_private_shm(command, stale=()), user_environment()
+    else:
+        environment = node_environment()
+    return subprocess.Popen(command, stdout=subprocess.PIPE, text=True, env=environment,
+                            start_new_session=True)
+
+
+def wait_until_receiving(reader: subprocess.Popen, timeout_s: float) -> None:
+    """Until the reader has had a message on every topic: each writer has matched it."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        remaining = deadline - time.monotonic()
+        assert remaining > 0 and reader.poll() is None, 'the outside reader did not receive every topic'
+        if select.select([reader.stdout], [], [], remaining)[0] and reader.stdout.readline().strip() == 'receiving':
+            return
+
+
+def end(reader: subprocess.Popen) -> None:
+    os.killpg(reader.pid, signal.SIGCONT)
+    os.killpg(reader.pid, signal.SIGKILL)
+    reader.wait(timeout=10)
+
+
+def run_with_a_stopped_reader(tmp_path, clock_mode: str, duration_s: float):
+    """The graph with a bag, and an outside reader on READ, started with the graph (its
+    discovery takes seconds) and stopped as soon as it receives; (namespace, bag, wall
+    clock ns of the stop, s from the stop to the run's end)."""
+    namespace = f'/cdpr_outside_{clock_mode}'
+    bag = tmp_path / 'bag'
+    parameters = dict(realtime_parameters(), clock_mode=clock_mode, duration_s=duration_s)
+    graph = Graph(graph_nodes(parameters, str(bag)), namespace, completion='plant_simulator',
+                  log=lambda line: None)
+    reader = None
+    try:
+        graph.start()
+        reader = start_outside_reader(namespace, [topic for topics in READ.values() for topic in topics]
+                                      + (['/clock'] if clock_mode == 'lockstep' else []))
+        graph.wait_until_up()
+        wait_until_receiving(reader, START_TIMEOUT_S)
+        os.killpg(reader.pid, signal.SIGSTOP)
+        stopped_ns, stopped_s = time.time_ns(), time.monotonic()   # the recorder stamps wall time
+        # the run completes: no node died of the stopped reader (GraphError names one that did)
+        graph.wait(timeout_s=4 * duration_s + 60.0)
+        stalled_s = time.monotonic() - stopped_s
+        print(f'\n{clock_mode}: the outside reader stayed stopped {stalled_s:.1f} s')
+    finally:
+        if reader is not None:
+            end(reader)
+        graph.stop()
+    return namespace, bag, stopped_ns, stalled_s
+
+
+def check_graph_unharmed_and_reader_reported(namespace: str, bag) -> list:
+    """No false alarm, every tick in the bag, every writer the reader read reported it
+    as lagging (WARN) and no other; nothing failed to publish. The joint states."""
+    topics = [f'{namespace}/fdi/broken_cable', f'{namespace}/joint_states', '/diagnostics']
+    found = read_messages(bag, topics)
+    assert found[topics[0]] and all(message.data == 0 for _, message in found[topics[0]]), \
+        'a false failure alarm'
+    states = found[topics[1]]
+    stamps = [stamp_to_ns(message.header.stamp) for _, message in states]
+    assert stamps == [stamps[0] + k * PERIOD_NS for k in range(len(stamps))], \
+        'the recorder (a reader of the graph) got every tick, in order'
+    statuses = [status for _, message in found['/diagnostics'] for status in message.status]
+    assert not [value.key for status in statuses for value in status.values
+                if value.key.startswith('publish failed')]
+    for node, read in READ.items():
+        reports = [status.message for status in statuses if status.name == f'{namespace}/{node}'
+                   and status.level >= WARN]
+        for topic in read:
+            assert any(f'a reader of {namespace}/{topic} lags' in report for report in reports), \
+                f'{node} did not report the stopped reader of {topic}'
+    for topic in UNREAD:
+        assert not any(f'a reader of {namespace}/{topic} lags' in status.message for status in statuses)
+    return states
+
+
+def test_a_stopped_outside_reader_neither_stops_nor_crashes_the_realtime_graph(tmp_path):
+    namespace, bag, _, stalled_s = run_with_a_stopped_reader(tmp_path, 'realtime', 30.0)
+    assert stalled_s > STALL_S, f'the reader was stopped for {stalled_s:.1f} s only'
+    check_graph_unharmed_and_reader_reported(namespace, bag)
+
+
+def test_a_stopped_outside_reader_neither_stops_nor_crashes_the_lockstep_graph(tmp_path):
+    namespace, bag, stopped_ns, stalled_s = run_with_a_stopped_reader(tmp_path, 'lockstep', 24.0)
+    assert stalled_s > STALL_S, f'the reader was stopped for {stalled_s:.1f} s only'
+    states = check_graph_unharmed_and_reader_reported(namespace, bag)
+    after = sum(1 for at, _ in states if at > stopped_ns)
+    assert after > KEEP_ALL_SAMPLES, f'only {after} ticks after the reader stopped'
