@@ -123,15 +123,15 @@ class RecoveryConfig:
     hold_after_s: float
 
     def budget_s(self, distance_m: float) -> float:
-        """How long a recovery may take (s) from the failure of a robot whose end-effector
-        is `distance_m` from SP: the tension phase, the settle time, the slowest move the
-        planner may choose over that distance (quintic at the peak speed, slowed down at
-        every re-plan), and the hold that shows SP is kept."""
-        slowest = self.replan_slowdown ** self.replan_attempts
+        """How long a recovery takes (s) from the failure of a robot whose end-effector is
+        `distance_m` from SP, as first planned: the tension phase and its settle time (the
+        case outside the residual workspace), braking from the settle speed, the move at
+        the peak speed, and the hold that shows SP is kept. A re-planned, slower move
+        takes longer than this."""
         move = max(QUINTIC_PEAK_SPEED_RATIO * distance_m / self.move_peak_speed_m_s,
-                   self.minimum_move_s) * slowest
+                   self.minimum_move_s)
         brake = max(QUINTIC_PEAK_SPEED_RATIO * self.settle_speed_m_s / self.brake_deceleration_m_s2,
-                    self.minimum_move_s) * slowest
+                    self.minimum_move_s)
         return self.tension_phase_s + self.settle_timeout_s + brake + move + self.hold_after_s
 
     @classmethod
