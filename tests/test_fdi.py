@@ -215,10 +215,12 @@ def test_phase_one_aims_at_the_nearest_point_where_the_cables_hold_it_taut(paper
 
 def test_recovery_budget_covers_the_planned_phases(recovery_config):
     config = recovery_config
-    move = 1.875 * 0.8 / config.move_peak_speed_m_s
-    brake = max(1.875 * config.settle_speed_m_s / config.brake_deceleration_m_s2,
-                config.minimum_move_s)
-    assert config.budget_s(0.8) == pytest.approx(
+    velocity = np.array([0.3, 0.4, 0.0])                # 0.5 m/s
+    brake = max(1.875 * 0.5 / config.brake_deceleration_m_s2, config.minimum_move_s)
+    rest = np.array([1.0, 1.0, 1.2]) + 0.5 * brake * velocity
+    move = max(1.875 * np.linalg.norm(rest - [0.2, 0.4, 1.2]) / config.move_peak_speed_m_s,
+               config.minimum_move_s)
+    assert config.budget_s([1.0, 1.0, 1.2], velocity, [0.2, 0.4, 1.2]) == pytest.approx(
         config.tension_phase_s + config.settle_timeout_s + brake + move + config.hold_after_s,
         rel=1e-3)
 

@@ -5,8 +5,6 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from cdpr_control.config import load_section
 from cdpr_control.controller import PdGains
 from cdpr_control.motions import Motion, load_motion
@@ -73,16 +71,16 @@ class Scenario:
 
     @property
     def recovery_budget_s(self) -> float:
-        """How long the recovery from the scheduled failures may take (s), from the
-        reference's distance to SP when they happen (no SP: no move)."""
+        """How long the recovery from the scheduled failures takes (s), from the
+        reference's position and velocity when they happen (no SP: no move)."""
         attached = self.robot.cable_mask([cable for _, cable in self.failures])
         row = min(int(round(self.failure_time_s / self.period_s)), len(self.reference) - 1)
+        position = self.reference.position_m[row]
         try:
-            distance = float(np.linalg.norm(safe_point_for(self.robot, self.recovery, attached)
-                                            - self.reference.position_m[row]))
+            safe_point = safe_point_for(self.robot, self.recovery, attached)
         except RecoveryInfeasible:
-            distance = 0.0
-        return self.recovery.budget_s(distance)
+            safe_point = position
+        return self.recovery.budget_s(position, self.reference.velocity_m_s[row], safe_point)
 
     @property
     def duration_s(self) -> float:

@@ -122,16 +122,24 @@ class RecoveryConfig:
     reached_tolerance_m: float
     hold_after_s: float
 
-    def budget_s(self, distance_m: float) -> float:
-        """How long a recovery takes (s) from the failure of a robot whose end-effector is
-        `distance_m` from SP, as first planned: the tension phase and its settle time (the
-        case outside the residual workspace), braking from the settle speed, the move at
-        the peak speed, and the hold that shows SP is kept. A re-planned, slower move
-        takes longer than this."""
-        move = max(QUINTIC_PEAK_SPEED_RATIO * distance_m / self.move_peak_speed_m_s,
+    def brake_s(self, speed_m_s: float) -> float:
+        """How long phase 2 takes to bring an end-effector moving at `speed_m_s` to rest."""
+        return max(QUINTIC_PEAK_SPEED_RATIO * speed_m_s / self.brake_deceleration_m_s2,
                    self.minimum_move_s)
-        brake = max(QUINTIC_PEAK_SPEED_RATIO * self.settle_speed_m_s / self.brake_deceleration_m_s2,
-                    self.minimum_move_s)
+
+    def move_s(self, distance_m: float) -> float:
+        """How long phase 2 takes to move `distance_m` to SP from rest, as first planned."""
+        return max(QUINTIC_PEAK_SPEED_RATIO * distance_m / self.move_peak_speed_m_s,
+                   self.minimum_move_s)
+
+    def budget_s(self, position_m, velocity_m_s, safe_point_m) -> float:
+        """How long a recovery takes (s) from the failure of a robot whose end-effector is
+        at `position_m` moving at `velocity_m_s`: the tension phase and its settle time
+        (the case outside the residual workspace), braking, the move to SP as first
+        planned, and the hold that shows SP is kept. A re-planned move takes longer."""
+        brake = self.brake_s(float(np.linalg.norm(velocity_m_s)))
+        rest = np.asarray(position_m) + 0.5 * brake * np.asarray(velocity_m_s)
+        move = self.move_s(float(np.linalg.norm(np.asarray(safe_point_m) - rest)))
         return self.tension_phase_s + self.settle_timeout_s + brake + move + self.hold_after_s
 
     @classmethod

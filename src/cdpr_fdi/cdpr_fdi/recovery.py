@@ -34,8 +34,7 @@ from cdpr_control.robot import Robot
 from cdpr_control.statics import static_tensions
 from cdpr_control.tension_distribution import (InfeasibleTensionError, TensionDistribution,
                                                make_tension_distribution)
-from cdpr_control.trajectories import (QUINTIC_PEAK_SPEED_RATIO, HermiteQuintic, Hold, Sequence,
-                                       quintic_profile)
+from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence, quintic_profile
 from cdpr_control.workspace import polygon_centroid, safe_point, sew_cross_section
 
 from .config import RecoveryConfig
@@ -216,9 +215,7 @@ class Recovery:
         sooner (nearer where it is) and moving that much slower, at most
         `replan_attempts` times.
         """
-        speed = float(np.linalg.norm(velocity_m_s))
-        brake_s = max(QUINTIC_PEAK_SPEED_RATIO * speed / self.config.brake_deceleration_m_s2,
-                      self.config.minimum_move_s)
+        brake_s = self.config.brake_s(float(np.linalg.norm(velocity_m_s)))
         for attempt in range(self.config.replan_attempts + 1):
             slowdown = self.config.replan_slowdown ** attempt
             try:
@@ -242,8 +239,7 @@ class Recovery:
         segments = [HermiteQuintic(start_m, velocity_m_s, rest, np.zeros(3), brake_s)]
         distance = float(np.linalg.norm(self.safe_point_m - rest))
         if distance > self.config.reached_tolerance_m:
-            duration = max(QUINTIC_PEAK_SPEED_RATIO * distance / self.config.move_peak_speed_m_s,
-                           self.config.minimum_move_s) * slowdown
+            duration = self.config.move_s(distance) * slowdown
             segments.append(HermiteQuintic(rest, np.zeros(3), self.safe_point_m, np.zeros(3), duration))
         else:
             segments[0] = HermiteQuintic(start_m, velocity_m_s, self.safe_point_m, np.zeros(3), brake_s)
