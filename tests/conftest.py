@@ -5,6 +5,7 @@ import faulthandler
 import functools
 import os
 import subprocess
+import time
 from pathlib import Path
 
 import numpy as np
@@ -64,6 +65,15 @@ def in_private_shm(command: list[str], stale: tuple[str, ...] = STALE) -> list[s
     script = (f'mount -t tmpfs tmpfs /dev/shm && {plant} "$@"; code=$?; '
               f'echo "shm: $(ls /dev/shm | tr "\\n" " ")"; exit $code')
     return ['unshare', '-m', 'sh', '-c', script, 'sh', *command]
+
+
+def wait_until_the_plant_runs(lines: list[str], timeout_s: float) -> None:
+    """Until a started graph's plant logs that it starts its run (the launcher's log
+    lines gathered in `lines`): the start handshake is over, the ticks flow."""
+    deadline = time.monotonic() + timeout_s
+    while not any(line.startswith('[plant_simulator]') and 'starting' in line for line in lines):
+        assert time.monotonic() < deadline, 'the plant did not start its run'
+        time.sleep(0.05)
 
 
 @pytest.fixture(scope='session')

@@ -26,6 +26,7 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime import CdprNode, make_executor, message_info_callback
 from cdpr_msgs_py.sole_writer import Endpoint, SoleWriter
 
+from conftest import wait_until_the_plant_runs
 from test_faults import START_TIMEOUT_S, realtime_parameters
 
 CONTROLLER = '/cdpr/controller'
@@ -207,7 +208,7 @@ def write(namespace: str) -> dict:
     finally:
         if process.poll() is None:
             process.kill()
-            process.wait()
+            process.wait(timeout=10)
     return json.loads(output.strip().splitlines()[-1])
 
 
@@ -221,10 +222,7 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_raises_no_alarm
     try:
         graph.start()
         graph.wait_until_up()
-        deadline = time.monotonic() + START_TIMEOUT_S
-        while not any(line.startswith('[plant_simulator]') and 'starting' in line for line in lines):
-            assert time.monotonic() < deadline, 'the plant did not start its run'
-            time.sleep(0.05)
+        wait_until_the_plant_runs(lines, START_TIMEOUT_S)
         sent = write(namespace)
         graph.wait(timeout_s=RUN_S + 30.0)   # the plant completes its run
     finally:

@@ -17,7 +17,7 @@ from cdpr_bringup.bag_io import read_messages
 from cdpr_bringup.graph import Graph, GraphError, graph_nodes
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 
-from conftest import MOTIONS, PAPER_ROBOT
+from conftest import MOTIONS, PAPER_ROBOT, wait_until_the_plant_runs
 
 pytestmark = pytest.mark.graph
 RUN_BEFORE_KILL_S = 3.0
@@ -46,10 +46,7 @@ def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_pa
     try:
         graph.start()
         graph.wait_until_up()
-        deadline = time.monotonic() + START_TIMEOUT_S
-        while not any(line.startswith('[plant_simulator]') and 'starting' in line for line in lines):
-            assert time.monotonic() < deadline, 'the plant did not start its run'
-            time.sleep(0.05)
+        wait_until_the_plant_runs(lines, START_TIMEOUT_S)
         time.sleep(RUN_BEFORE_KILL_S)
         assert not graph.check(), 'the graph runs before the kill'
         killed_ns = time.time_ns()   # the recorder stamps messages with the wall clock
