@@ -4,9 +4,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from cdpr_bringup import calibrate as cdpr_calibrate
+from cdpr_control.config import ConfigError
 from cdpr_control.friction import FrictionModel
+from cdpr_control.robot import load_robot
 from cdpr_fdi.calibration import (FailureFreeRun, calibrate, cusum_trace, fit_coulomb_friction,
                                   gumbel_threshold)
+from cdpr_fdi.config import load_fdi_config
+
+from conftest import CONFIG_DIR, PAPER_ROBOT
 
 PERIOD_S = 0.002
 
@@ -52,3 +58,17 @@ def test_calibration_of_white_noise_gives_thresholds_above_every_failure_free_ru
     # white noise at 5 σ and beyond is rare: the limit on z lies above it
     assert result.cusum_limit > 5.0 and result.cusum_threshold >= result.largest_cusum
     assert result.hours == pytest.approx(40 * 2000 * PERIOD_S / 3600.0)
+
+
+def test_a_new_robot_calibrates_from_nothing_and_its_calibration_is_bound_to_it(tmp_path,
+                                                                              paper_robot):
+    """cdpr-calibrate needs no thresholds to start from (its runs have no supervisor),
+    writes the robot's fingerprint, and the file then loads for that robot only."""
+    tall = CONFIG_DIR / 'tall_frame_robot.yaml'
+    out = tmp_path / 'calibration.yaml'
+    assert cdpr_calibrate.main(['--config', str(tall), '--motions', str(CONFIG_DIR / 'tall_frame_motions.yaml'),
+                           '--seeds', '0', '--jobs', '2', '--out', str(out)]) == 0
+    config = load_fdi_config(tall, load_robot(tall), out)
+    assert 0.0 < config.epsilon_nm < 1.0
+    with pytest.raises(ConfigError, match='robot_fingerprint'):
+        load_fdi_config(PAPER_ROBOT, paper_robot, out)

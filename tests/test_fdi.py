@@ -118,12 +118,35 @@ def test_config_names_the_missing_key_and_the_file(tmp_path, paper_robot):
 
 def test_calibration_file_overrides_the_robot_file(tmp_path, paper_robot):
     calibration = tmp_path / 'calibration.yaml'
-    calibration.write_text('fdi:\n  epsilon_nm: 0.25\n  cusum:\n    sigma_nm: [0.1, 0.2, 0.3, 0.4]\n')
+    calibration.write_text('fdi:\n  epsilon_nm: 0.25\n  cusum:\n    sigma_nm: [0.1, 0.2, 0.3, 0.4]\n'
+                           f'calibration:\n  robot_fingerprint: {paper_robot.fingerprint()}\n')
     config = load_fdi_config(PAPER_ROBOT, paper_robot, calibration)
     assert config.epsilon_nm == 0.25
     assert config.cusum_sigma_nm == (0.1, 0.2, 0.3, 0.4)
     assert config.cusum_drift == load_fdi_config(PAPER_ROBOT, paper_robot).cusum_drift
     assert config.with_overrides(epsilon_nm=0.1, detector='cusum').detector == 'cusum'
+
+
+def test_a_calibration_made_on_another_robot_is_refused_saying_how_to_make_one(tmp_path,
+                                                                             paper_robot,
+                                                                             eight_cable_robot):
+    calibration = tmp_path / 'calibration.yaml'
+    calibration.write_text('fdi:\n  epsilon_nm: 0.25\n'
+                           f'calibration:\n  robot: eight_cable_robot\n'
+                           f'  robot_fingerprint: {eight_cable_robot.fingerprint()}\n')
+    with pytest.raises(ConfigError, match='calibration.robot_fingerprint.*cdpr-calibrate --config') as error:
+        load_fdi_config(PAPER_ROBOT, paper_robot, calibration)
+    assert str(calibration) in str(error.value)
+    # one made before calibrations were bound names the key too
+    calibration.write_text('fdi:\n  epsilon_nm: 0.25\n')
+    with pytest.raises(ConfigError, match="'calibration' is missing"):
+        load_fdi_config(PAPER_ROBOT, paper_robot, calibration)
+
+
+def test_the_fingerprint_follows_the_model_not_the_name(paper_robot):
+    renamed = dataclasses.replace(paper_robot, name='another_name')
+    heavier = dataclasses.replace(paper_robot, mass_kg=paper_robot.mass_kg * 1.001)
+    assert renamed.fingerprint() == paper_robot.fingerprint() != heavier.fingerprint()
 
 
 def test_safe_point_is_the_sew_barycentre_unless_configured(paper_robot, recovery_config):

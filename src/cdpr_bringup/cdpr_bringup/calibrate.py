@@ -18,12 +18,13 @@ import yaml
 
 from cdpr_control.config import load_section
 from cdpr_control.motions import motion_names
+from cdpr_control.robot import load_robot
 from cdpr_fdi.calibration import FailureFreeRun, calibrate
 
 from .cli import command
 from .engine import run_inprocess
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
-from .scenario_setup import ScenarioOptions, build_scenario
+from .scenario_setup import NO_CALIBRATION, ScenarioOptions, build_scenario
 
 
 def parse_args(argv=None):
@@ -42,8 +43,10 @@ def parse_args(argv=None):
 
 def failure_free_run(job) -> FailureFreeRun:
     config, motions, motion, reverse, fidelity, seed = job
+    # no supervisor runs, so no thresholds are needed: a new robot calibrates from nothing
     scenario = build_scenario(ScenarioOptions(config=config, motions=motions, motion=motion,
-                                              reverse=reverse, fidelity=fidelity, seed=seed))
+                                              reverse=reverse, fidelity=fidelity, seed=seed,
+                                              calibration=NO_CALIBRATION))
     recording = run_inprocess(scenario, supervised=False)
     return FailureFreeRun(recording.command_nm - recording.twin_torque_nm,
                           recording.twin_angular_velocity_rad_s)
@@ -59,6 +62,7 @@ def main(argv=None):
     print(f'cdpr-calibrate: {len(jobs)} failure-free runs on the {args.fidelity} plant', flush=True)
     with ProcessPoolExecutor(max(args.jobs, 1)) as pool:
         runs = list(pool.map(failure_free_run, jobs))
+    robot = load_robot(config)
     control = load_section(config, 'control')
     drift = (args.drift if args.drift is not None
              else load_section(config, 'fdi').section('cusum').number('drift', non_negative=True))
@@ -76,6 +80,7 @@ def main(argv=None):
                       'epsilon_nm': round(result.cusum_epsilon_nm, 5)},
         },
         'calibration': {
+            'robot': robot.name, 'robot_fingerprint': robot.fingerprint(),
             'date': datetime.date.today().isoformat(),
             'fidelity': args.fidelity, 'seeds': seeds, 'runs': len(runs),
             'hours': round(result.hours, 4),

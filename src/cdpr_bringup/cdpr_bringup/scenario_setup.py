@@ -20,6 +20,10 @@ from .cli import UsageError
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
 
 
+# ScenarioOptions.calibration for a run that needs no thresholds (cdpr-calibrate's).
+NO_CALIBRATION = 'none'
+
+
 @dataclass
 class ScenarioOptions:
     """One run as `cdpr-scenario` describes it; cables are 1-based as on the CLI."""
@@ -163,7 +167,10 @@ def check_options(options: ScenarioOptions, robot: Robot, motion: Motion) -> Non
 
 def calibration_for(config_path: Path, plant: PlantConfig, calibration: str | None) -> Path | None:
     """The given calibration file; else, on the elastic plant, the robot file's
-    `fdi.elastic_calibration_file`; the rigid plant keeps the paper's noise-free values."""
+    `fdi.elastic_calibration_file`; the rigid plant keeps the paper's noise-free values.
+    NO_CALIBRATION: the robot file's own thresholds (a run without a supervisor)."""
+    if calibration == NO_CALIBRATION:
+        return None
     if calibration:
         return config_file(calibration)
     if plant.fidelity == 'elastic':

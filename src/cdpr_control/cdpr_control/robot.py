@@ -5,6 +5,7 @@ separate from the analyses and controllers that use it.
 """
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,6 +18,8 @@ from .config import ConfigError, Section, load_section
 DISTINCT_EXIT_POINTS_M = 1e-3
 FLAT_RATIO = 1e-6
 MIN_CABLES = 4
+# Hex digits of Robot.fingerprint(): 2^64 robots before two share one by chance.
+FINGERPRINT_DIGITS = 16
 
 
 @dataclass(frozen=True)
@@ -71,6 +74,18 @@ class Robot:
 
     def joint_names(self) -> list[str]:
         return [f'motor_{i + 1}' for i in range(self.cable_count)]
+
+    def fingerprint(self) -> str:
+        """A short hash of everything the model of this robot is made of (geometry, mass,
+        motors, tension bounds), not of its name or how its file is written: what a
+        calibration made on it is bound to."""
+        numbers = np.concatenate([
+            self.exit_points_m.ravel(), [self.mass_kg], self.gravity_m_s2,
+            [getattr(self.motor, name) for name in Motor.__dataclass_fields__],
+            [self.tension_min_n, self.tension_max_n], self.workspace_min_m,
+            self.workspace_max_m, self.home_position_m])
+        text = ','.join(f'{value:.9g}' for value in numbers)
+        return hashlib.sha256(text.encode()).hexdigest()[:FINGERPRINT_DIGITS]
 
     def cable_mask(self, broken=()) -> np.ndarray:
         """Boolean mask of the cables still attached, given 0-based broken indices."""

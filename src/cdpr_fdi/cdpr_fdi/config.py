@@ -87,11 +87,25 @@ def load_fdi_config(config_path: str | Path, robot: Robot,
     data = dict(data)
     path = config_path
     if calibration_path:
-        calibration = Section(load_yaml(calibration_path), calibration_path).section('fdi')
-        data = _merged(data, dict(calibration.data))
+        document = Section(load_yaml(calibration_path), calibration_path)
+        check_calibration_robot(document, robot, config_path)
+        data = _merged(data, dict(document.section('fdi').data))
         path = calibration_path
     friction = FrictionModel.of_robot(robot, load_section(config_path, 'control'))
     return FdiConfig.from_section(Section(data, path, 'fdi'), robot, friction)
+
+
+def check_calibration_robot(calibration: Section, robot: Robot, config_path: str | Path) -> None:
+    """ConfigError unless the calibration file was made on this robot (its
+    `calibration.robot_fingerprint` is Robot.fingerprint()): thresholds measured on
+    another robot's noise and friction miss its failures or raise false alarms."""
+    made_on = calibration.section('calibration')
+    fingerprint = made_on.string('robot_fingerprint')
+    if fingerprint != robot.fingerprint():
+        raise made_on.error(
+            'robot_fingerprint', f'is {fingerprint} (robot {made_on.string("robot", "?")}), but '
+            f'{config_path} describes robot {robot.name}, {robot.fingerprint()}: make its own with '
+            f'cdpr-calibrate --config {config_path} --motions MOTIONS.yaml --out FILE')
 
 
 def _merged(base: dict, update: dict) -> dict:
