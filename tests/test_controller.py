@@ -1,12 +1,17 @@
 """The PD + feed-forward controller and its modes, driven by scripted inputs."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
+from cdpr_control.config import ConfigError, load_section
 from cdpr_control.controller import (FAULT, NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD,
                                      JointController, JointReference, PdGains)
 from cdpr_control.friction import FrictionModel
+
+from conftest import PAPER_ROBOT
 
 
 @pytest.fixture
@@ -128,3 +133,30 @@ def test_fault_after_tension_control_holds_the_drums_where_they_are(controller, 
     # pushed off that point, the PD pulls back to it, not to the old reference
     pushed = controller.command(here + 0.01, np.zeros(m), reference(m, angle=0.0))
     np.testing.assert_allclose(pushed - held, -controller.gains.stiffness_nm_rad * 0.01)
+
+
+def test_gains_that_a_motor_alone_cannot_keep_stable_are_refused_naming_the_limit(eight_cable_robot):
+    """12 Hz on the 8-cable robot (5 kg on 50 mm drums, 8e-4 kg·m² motors) gives
+    K_d·T/J ≈ 3.5: the motor alone, which the elastic plant's cable spring leaves to
+    itself at high frequency, diverges between samples. The limit named is stable."""
+    control = load_section(PAPER_ROBOT, 'control')    # the paper's 12 Hz, 0.7, 2 ms
+    with pytest.raises(ConfigError, match=r"'control.pd_natural_frequency_hz' 12 Hz is not stable") as error:
+        PdGains.from_section(eight_cable_robot, control)
+    limit = float(re.search(r'at most ([0-9.]+) Hz', str(error.value))[1])
+    assert 4.0 < limit < 12.0
+    assert PdGains.from_bandwidth(eight_cable_robot, limit, 0.7).sampled_stable(eight_cable_robot, 0.002)
+    assert not PdGains.from_bandwidth(eight_cable_robot, limit * 1.05, 0.7).sampled_stable(
+        eight_cable_robot, 0.002)
+
+
+def test_the_sampled_loop_diverges_where_the_check_says(eight_cable_robot, paper_robot):
+    """The check against a simulation of the motor alone under the sampled PD."""
+    for robot, frequency in ((paper_robot, 12.0), (eight_cable_robot, 12.0), (eight_cable_robot, 5.0)):
+        gains = PdGains.from_bandwidth(robot, frequency, 0.7)
+        inertia, period = robot.motor.inertia_kg_m2, 0.002
+        angle, speed = 0.01, 0.0
+        for _ in range(2000):
+            torque = -gains.stiffness_nm_rad * angle - gains.damping_nm_s_rad * speed
+            angle += period * speed + 0.5 * period ** 2 * torque / inertia
+            speed += period * torque / inertia
+        assert (abs(angle) < 0.01) == gains.sampled_stable(robot, period), (robot.name, frequency)

@@ -15,6 +15,10 @@ RECOVERY_MOVE = 'RECOVERY_MOVE'
 SAFE_HOLD = 'SAFE_HOLD'
 FAULT = 'FAULT'
 MODES = (NOMINAL, RECOVERY_TENSION, RECOVERY_MOVE, SAFE_HOLD, FAULT)
+# A sampled PD loop counts as stable with every pole inside this radius: 1 − a margin
+# that keeps its slowest-decaying mode from ringing for hundreds of periods.
+STABILITY_RADIUS = 0.98
+GAIN_BISECTIONS = 30
 
 
 @dataclass(frozen=True)
@@ -40,9 +44,41 @@ class PdGains:
 
     @classmethod
     def from_section(cls, robot: Robot, control: Section) -> 'PdGains':
-        return cls.from_bandwidth(robot, control.number('pd_natural_frequency_hz', positive=True),
-                                  control.number('pd_damping_ratio', positive=True),
-                                  control.number('recovery_tension_damping_nm_s_rad', non_negative=True))
+        """The configured gains; a ConfigError naming `pd_natural_frequency_hz` and the
+        highest it may be if the PD, sampled every `period_s`, would not be stable on a
+        motor carrying its share of the load *and* on a motor alone: on the elastic plant
+        (and a real drive) the cable is a spring, and the motor's own inertia sets the
+        fastest mode."""
+        frequency = control.number('pd_natural_frequency_hz', positive=True)
+        damping = control.number('pd_damping_ratio', positive=True)
+        period = control.number('period_s', positive=True)
+        gains = cls.from_bandwidth(robot, frequency, damping,
+                                   control.number('recovery_tension_damping_nm_s_rad', non_negative=True))
+        if not gains.sampled_stable(robot, period):
+            low, high = 0.0, frequency
+            for _ in range(GAIN_BISECTIONS):
+                middle = 0.5 * (low + high)
+                low, high = ((middle, high) if cls.from_bandwidth(robot, middle, damping)
+                             .sampled_stable(robot, period) else (low, middle))
+            raise control.error('pd_natural_frequency_hz', (
+                f'{frequency:g} Hz is not stable at a period of {period:g} s on this robot\'s '
+                f'motors (inertia {robot.motor.inertia_kg_m2:g} kg·m² alone): at most '
+                f'{low:.2f} Hz with pd_damping_ratio {damping:g}'))
+        return gains
+
+    def sampled_stable(self, robot: Robot, period_s: float) -> bool:
+        """The PD held over each period (zero-order hold) keeps a motor of inertia J,
+        and one of J + m_e ρ², from diverging: the spectral radius of the sampled loop
+        x⁺ = A x, x = (θ, θ̇), is below 1 with a margin."""
+        motor = robot.motor
+        for inertia in (motor.inertia_kg_m2, motor.inertia_kg_m2 + robot.mass_kg * motor.drum_radius_m ** 2):
+            a = self.stiffness_nm_rad * period_s ** 2 / inertia
+            b = self.damping_nm_s_rad * period_s / inertia
+            loop = np.array([[1.0 - a / 2.0, period_s * (1.0 - b / 2.0)],
+                             [-a / period_s, 1.0 - b]])
+            if np.max(np.abs(np.linalg.eigvals(loop))) >= STABILITY_RADIUS:
+                return False
+        return True
 
 
 @dataclass
