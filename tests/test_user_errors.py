@@ -20,6 +20,7 @@ BAD_OPTIONS = [
     (['--fail-cable', '4', '--fail-at-fraction', '1.5'], '--fail-at-fraction 1.5'),
     (['--fail-cable', '9'], '--fail-cable 9'),
     (['--seed', '-3'], '--seed -3'),
+    (['--fail-cable', '4', '--recovery-budget', '0'], '--recovery-budget 0.0'),
 ]
 
 

@@ -49,6 +49,9 @@ def parse_args(argv=None):
     parser.add_argument('--calibration', metavar='YAML',
                         help='detector thresholds written by cdpr-calibrate')
     parser.add_argument('--seed', type=int)
+    parser.add_argument('--recovery-budget', type=float, metavar='SECONDS',
+                        help='how long to run after a failure (default: derived from the '
+                             'recovery phases and the distance to SP; a re-planned move takes longer)')
     parser.add_argument('--namespace', default=DEFAULT_NAMESPACE)
     parser.add_argument('--out', required=True, help='output folder')
     parser.add_argument('--quiet', action='store_true', help='do not stream node logs')
@@ -150,7 +153,8 @@ def run_scenario(args) -> int:
                               reverse=args.reverse, fail_cables=args.fail_cable,
                               fail_at_s=args.fail_at, fail_at_fraction=args.fail_at_fraction,
                               fidelity=args.fidelity, seed=args.seed, detector=args.detector,
-                              epsilon_nm=args.epsilon, calibration=args.calibration)
+                              epsilon_nm=args.epsilon, calibration=args.calibration,
+                              recovery_budget_s=args.recovery_budget)
     scenario = build_scenario(options)
     out = Path(args.out)
     if (out / 'bag').exists():

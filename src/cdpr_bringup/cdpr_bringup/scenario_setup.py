@@ -40,6 +40,7 @@ class ScenarioOptions:
     detector: str | None = None
     epsilon_nm: float | None = None
     calibration: str | None = None
+    recovery_budget_s: float | None = None
 
 
 @dataclass
@@ -75,8 +76,10 @@ class Scenario:
 
     @property
     def recovery_budget_s(self) -> float:
-        """How long the recovery from the scheduled failures takes (s), from the
-        reference's position and velocity when they happen (no SP: no move)."""
+        """How long the recovery from the scheduled failures takes (s): as given, else
+        from the reference's position and velocity when they happen (no SP: no move)."""
+        if self.options.recovery_budget_s is not None:
+            return self.options.recovery_budget_s
         attached = self.robot.cable_mask([cable for _, cable in self.failures])
         row = min(int(round(self.failure_time_s / self.period_s)), len(self.reference) - 1)
         position = self.reference.position_m[row]
@@ -161,6 +164,8 @@ def check_options(options: ScenarioOptions, robot: Robot, motion: Motion) -> Non
         raise UsageError(f'--fail-at-fraction {options.fail_at_fraction}: must be between 0 and 1')
     if options.epsilon_nm is not None and not 0.0 < options.epsilon_nm < math.inf:
         raise UsageError(f'--epsilon {options.epsilon_nm}: must be a positive number of N·m')
+    if options.recovery_budget_s is not None and not 0.0 < options.recovery_budget_s < math.inf:
+        raise UsageError(f'--recovery-budget {options.recovery_budget_s}: must be a positive number of s')
     if options.seed is not None and options.seed < 0:
         raise UsageError(f'--seed {options.seed}: must be 0 or more')
 
