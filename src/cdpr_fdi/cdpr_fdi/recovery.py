@@ -35,7 +35,7 @@ from cdpr_control.statics import static_tensions
 from cdpr_control.tension_distribution import (InfeasibleTensionError, TensionDistribution,
                                                make_tension_distribution)
 from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence, quintic_profile
-from cdpr_control.workspace import polygon_centroid, safe_point, sew_cross_section
+from cdpr_control.workspace import safe_point
 
 from .config import RecoveryConfig
 
@@ -121,10 +121,9 @@ def entry_point(robot: Robot, attached: np.ndarray, position_m: np.ndarray,
     if least_static_tension_n(robot, attached, position_m) >= taut_n:
         return position_m.copy()
     try:
-        centre = polygon_centroid(sew_cross_section(robot, attached, position_m[2]))
+        goal = safe_point(robot, attached, position_m[2])
     except ValueError as err:
         raise RecoveryInfeasible(f'no residual workspace at z = {position_m[2]:.3f} m: {err}') from None
-    goal = np.array([centre[0], centre[1], position_m[2]])
     if least_static_tension_n(robot, attached, goal) < taut_n:
         return goal
     outside, inside = 0.0, 1.0
