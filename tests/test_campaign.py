@@ -6,9 +6,10 @@ import csv
 
 import pytest
 
-from cdpr_bringup.campaign import (CSV_COLUMNS, PAPER_DETECTION_MS, Run, build_matrix,
-                                   expand_motion_set, main, progress_bar, run_campaign,
-                                   summarize, summary_markdown, write_summary_csv)
+from cdpr_bringup.campaign import (CSV_COLUMNS, PAPER_DETECTION_MS, RANDOM_FRACTION_RANGE, Run,
+                                   build_matrix, expand_motion_set, main, outcome, outcome_lines,
+                                   progress_bar, run_campaign, summarize, summary_markdown,
+                                   write_summary_csv)
 from cdpr_control.motions import motion_names
 
 from conftest import CONFIG_DIR, MOTIONS
@@ -30,13 +31,36 @@ def test_matrix_counts_and_ids():
     assert len(runs) == 3 * 2 * 2 * 2 * 2 * 2
     assert len({run.id for run in runs}) == len(runs)
     assert sum(run.cable is None for run in runs) == 2 * 2 * 2 * 2 * 2
-    assert runs[0].id == 'along-1_forward_cable3_rigid_threshold_seed0'
+    assert runs[0].id == 'along-1_forward_cable3_at0.500_rigid_threshold_seed0'
     assert runs[-1].id == 'circle_reverse_no-failure_elastic_cusum_seed1'
     # The paper's failure points: the midpoint of a line, 135° of the circle.
     assert {run.fail_at_fraction for run in runs if run.motion == 'along-1'} == {0.5}
     assert {run.fail_at_fraction for run in runs if run.motion == 'circle'} == {0.375}
     assert len(build_matrix(motions, [4], failure_free=False, fidelities=['rigid'])) == 2 * 2 * 2
     assert {run.fail_at_fraction for run in build_matrix(motions, [4], fail_at_fraction=0.3)} == {0.3}
+
+
+def test_random_instants_are_drawn_per_run_inside_the_move_and_again_the_same():
+    runs = build_matrix(['along-1', 'circle'], cables=[1, 2, 3, 4], seeds=[0, 1],
+                        random_instants=True, failure_free=False)
+    fractions = [run.fail_at_fraction for run in runs]
+    low, high = RANDOM_FRACTION_RANGE
+    assert all(low <= fraction <= high for fraction in fractions)
+    assert len(set(fractions)) == len(runs), 'every run its own instant'
+    assert spread(fractions) > 0.5 * (high - low)
+    again = build_matrix(['along-1', 'circle'], cables=[1, 2, 3, 4], seeds=[0, 1],
+                         random_instants=True, failure_free=False)
+    assert [run.id for run in again] == [run.id for run in runs], 'a resumed campaign finds its runs'
+
+
+def spread(values):
+    return max(values) - min(values)
+
+
+def test_all_expands_to_every_motion_of_the_file():
+    available = ['along-4', 'lift', 'circle']
+    assert expand_motion_set(['all'], available) == available
+    assert expand_motion_set(['circle', 'all'], available) == ['circle', 'along-4', 'lift']
 
 
 def test_scenario_arguments():
@@ -55,14 +79,15 @@ def test_scenario_arguments():
 
 def row(motion='along-1', direction='forward', cable=4, detector='threshold', fidelity='rigid',
         delay_ms=None, identified=(), correct=None, false_alarm=False, reached=None,
-        final_error_m=None, min_tension_n=5.0, cycles=5000, error=None):
+        final_error_m=None, min_tension_n=5.0, cycles=5000, error=None, mode='SAFE_HOLD'):
     values = {column: None for column in CSV_COLUMNS}
     values.update(run_id=f'{motion}_{direction}_{cable}', motion=motion, direction=direction,
                   cable=cable, fidelity=fidelity, detector=detector, seed=0,
                   detection_delay_ms=delay_ms, identified_cables=list(identified),
                   correct_identification=correct, false_alarm=false_alarm,
                   reached_safe_point=reached, final_error_m=final_error_m,
-                  min_tension_n=min_tension_n, cycles=cycles, control_period_s=0.002, error=error)
+                  min_tension_n=min_tension_n, cycles=cycles, control_period_s=0.002, error=error,
+                  mode=mode)
     return values
 
 
@@ -81,7 +106,23 @@ def synthetic_rows():
         row('orthogonal-1', cable=None, cycles=900_000),
         row('along-4', error='cdpr-scenario exited with 1'),
         row('along-1', detector='cusum', delay_ms=20.0, identified=[4], correct=True, reached=True),
+        row('circle', cable=2, detector='cusum', delay_ms=8.0, identified=[2], correct=True,
+            reached=False, min_tension_n=0.4, mode='FAULT'),
     ]
+
+
+def test_outcome_counts_every_failure_run_of_any_cable():
+    rows = synthetic_rows()
+    figures = outcome(rows)
+    # 8 completed failure runs (one did not complete), 7 detected, 6 named exactly
+    assert (figures['failure_runs'], figures['detected'], figures['named']) == (8, 7, 6)
+    assert figures['reached_safe_point'] == 5 and figures['faults'] == 1
+    assert figures['min_tension_n'] == 0.4
+    assert figures['delay_median_ms'] == 40.0 and figures['delay_max_ms'] == 250.0
+    assert (figures['failure_free_runs'], figures['false_alarms'], figures['not_completed']) == (3, 1, 1)
+    lines = outcome_lines(rows)
+    assert '| 2 | 1 | 1 | 1 | 0 | 1 | 0.40 | 8.0 / 8.0 | 0 | 0 | 0 |' in lines
+    assert '| **all** | 8 | 7 | 6 | 5 | 1 | 0.40 | 40.0 / 250.0 | 3 | 1 | 1 |' in lines
 
 
 def test_summarize_figures():

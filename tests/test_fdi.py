@@ -236,16 +236,17 @@ def test_phase_one_aims_at_the_nearest_point_where_the_cables_hold_it_taut(paper
     np.testing.assert_allclose(entry_point(robot, attached, inside, taut), inside)
 
 
-def test_recovery_budget_covers_the_planned_phases(recovery_config):
+def test_recovery_budget_covers_the_phases_and_every_re_plan(recovery_config):
     config = recovery_config
     velocity = np.array([0.3, 0.4, 0.0])                # 0.5 m/s
     brake = max(1.875 * 0.5 / config.brake_deceleration_m_s2, config.minimum_move_s)
     rest = np.array([1.0, 1.0, 1.2]) + 0.5 * brake * velocity
     move = max(1.875 * np.linalg.norm(rest - [0.2, 0.4, 1.2]) / config.move_peak_speed_m_s,
                config.minimum_move_s)
+    slowest_move = move * config.replan_slowdown ** config.replan_attempts
     assert config.budget_s([1.0, 1.0, 1.2], velocity, [0.2, 0.4, 1.2]) == pytest.approx(
-        config.tension_phase_s + config.settle_timeout_s + brake + move + config.hold_after_s,
-        rel=1e-3)
+        config.tension_phase_s + config.settle_timeout_s + brake + slowest_move
+        + config.hold_after_s, rel=1e-3)
 
 
 def test_two_cables_left_cannot_recover(paper_robot, recovery_config):

@@ -1,14 +1,17 @@
 """cdpr-campaign: the paper's FDI experiments as a matrix of scenario runs, in parallel.
 
 The matrix is cables × motions × directions × fidelities × detectors × seeds, each run a
-`cdpr-scenario` in its own folder DIR/runs/<run id>. Failure-free runs of every
+`cdpr-scenario` in its own folder DIR/runs/<run id>. A cable fails at the paper's point of
+the move, at --fail-at-fraction, or (--random-instants) at a fraction drawn from the run's
+seed, the same at every resumption. Failure-free runs of every
 motion × direction × fidelity × detector × seed are added by default (--no-failure-free
 drops them): without them the false-alarm rate has nothing to be measured on.
 A run whose metrics.json exists is not run again, so an interrupted campaign resumes;
 delete DIR/runs/<run id> (or all of DIR/runs) to re-run.
 
-Writes DIR/summary.csv (one row per run) and DIR/summary.md (the figures per detector ×
-fidelity, and our detection times per motion beside the paper's Tables 5 and 7).
+Writes DIR/summary.csv (one row per run) and DIR/summary.md: the outcome of every failure
+and failure-free run per detector × fidelity and per cable (any robot), the figures per
+detector × fidelity, and our detection times per motion beside the paper's Tables 5 and 7.
 """
 from __future__ import annotations
 
@@ -23,10 +26,13 @@ import statistics
 import sys
 import time
 import traceback
+import zlib
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+
+import numpy as np
 
 from cdpr_control.config import load_section
 from cdpr_control.motions import motion_names
@@ -62,6 +68,9 @@ PAPER_DETECTION_MS = {
 # the midpoint for Tables 4 and 6, 135° of the 360° circle as in §5.3.
 PAPER_FAILURE_FRACTION = {'circle': 135.0 / 360.0}
 MIDPOINT = 0.5
+# --random-instants: the part of a move a failure is drawn in; the ends are left out, where
+# the end-effector is at rest and a break is the (easier) static case.
+RANDOM_FRACTION_RANGE = (0.1, 0.9)
 
 # --motion-set shorthands: every motion of the motions file whose name starts so.
 MOTION_SET_PREFIXES = {'along': 'along-', 'orthogonal': 'orthogonal-'}
@@ -73,8 +82,8 @@ SECONDS_PER_HOUR = 3600.0
 
 CSV_COLUMNS = (
     'run_id', 'motion', 'direction', 'cable', 'fidelity', 'detector', 'seed',
-    'failure_time_s', 'detection_delay_ms', 'identified_cables', 'correct_identification',
-    'false_alarm', 'reached_safe_point', 'final_error_m', 'min_tension_n', 'min_height_m',
+    'fail_at_fraction', 'failure_time_s', 'detection_delay_ms', 'identified_cables', 'correct_identification',
+    'false_alarm', 'mode', 'fault', 'reached_safe_point', 'final_error_m', 'min_tension_n', 'min_height_m',
     'duration_s', 'cycles', 'control_period_s', 'wall_time_s', 'error',
 )
 
@@ -97,7 +106,8 @@ class Run:
 
     @property
     def id(self) -> str:
-        failure = f'cable{self.cable}' if self.cable is not None else 'no-failure'
+        failure = (f'cable{self.cable}_at{self.fail_at_fraction:.3f}' if self.cable is not None
+                   else 'no-failure')
         return f'{self.motion}_{self.direction}_{failure}_{self.fidelity}_{self.detector}_seed{self.seed}'
 
     def scenario_argv(self, out_dir: Path) -> list[str]:
@@ -120,6 +130,9 @@ def expand_motion_set(motion_set: list[str], available: list[str]) -> list[str]:
     """Motion names from shorthands (`along`, `orthogonal`) and explicit names, in order."""
     names = []
     for item in motion_set:
+        if item == ALL:
+            names += [name for name in available if name not in names]
+            continue
         prefix = MOTION_SET_PREFIXES.get(item)
         chosen = [name for name in available if name.startswith(prefix)] if prefix else [item]
         if not chosen or not set(chosen) <= set(available):
@@ -129,10 +142,20 @@ def expand_motion_set(motion_set: list[str], available: list[str]) -> list[str]:
     return names
 
 
+def random_fraction(seed: int, motion: str, direction: str, cable: int, fidelity: str,
+                    detector: str) -> float:
+    """The failure point of a --random-instants run: uniform in RANDOM_FRACTION_RANGE, drawn
+    from the run's seed and place in the matrix (not Python's salted hash), so that a
+    resumed campaign draws the same instants."""
+    key = zlib.crc32(f'{motion}/{direction}/{cable}/{fidelity}/{detector}'.encode())
+    low, high = RANDOM_FRACTION_RANGE
+    return float(np.random.default_rng([seed, key]).uniform(low, high))
+
+
 def build_matrix(motions: list[str], cables: list[int], directions=DIRECTIONS,
                  fidelities=FIDELITIES, detectors=DETECTORS, seeds=(0,),
                  fail_at_fraction: float | None = None, failure_free: bool = True,
-                 **settings) -> list[Run]:
+                 random_instants: bool = False, **settings) -> list[Run]:
     """Every failure run, then (if `failure_free`) every failure-free run.
 
     `settings` (config, motions_file, engine, epsilon_nm) are the same for every run.
@@ -146,6 +169,9 @@ def build_matrix(motions: list[str], cables: list[int], directions=DIRECTIONS,
                 for fidelity in fidelities:
                     for detector in detectors:
                         for seed in seeds:
+                            if random_instants and cable is not None:
+                                fraction = random_fraction(seed, motion, direction, cable,
+                                                           fidelity, detector)
                             runs.append(Run(motion, direction, cable, fidelity, detector, seed,
                                             fraction, **settings))
     return runs
@@ -237,6 +263,7 @@ def row_of(run: Run, run_dir: Path, outcome: dict | None) -> dict:
     row = {column: None for column in CSV_COLUMNS}
     row.update(run_id=run.id, motion=run.motion, direction=run.direction, cable=run.cable,
                fidelity=run.fidelity, detector=run.detector, seed=run.seed,
+               fail_at_fraction=run.fail_at_fraction if run.cable is not None else None,
                control_period_s=control_period_s(run.config))
     metrics_path = run_dir / 'metrics.json'
     error = outcome['error'] if outcome else None
@@ -257,6 +284,8 @@ def row_of(run: Run, run_dir: Path, outcome: dict | None) -> dict:
                                 if failure else None),
         # With no failure, any detection is a false alarm, whatever the supervisor says.
         false_alarm=bool(metrics.get('false_alarm')) or (not failure and (detected or bool(identified))),
+        mode=metrics.get('mode'),
+        fault=metrics.get('fault'),
         reached_safe_point=recovery.get('reached_safe_point'),
         final_error_m=recovery.get('final_error_m'),
         min_tension_n=recovery.get('min_tension_n'),
@@ -330,6 +359,59 @@ def summarize(rows: list[dict]) -> dict:
     return summary
 
 
+FAULT = 'FAULT'
+
+
+def outcome(rows: list[dict]) -> dict:
+    """What happened in `rows` (any robot, any motion): failure runs detected, named
+    (exactly the broken cable), brought to the safe point, ended in FAULT; the lowest
+    tension of the remaining cables after a failure; the true detection delays (from the
+    instant the cable broke); failure-free runs and their false alarms. Runs that did
+    not complete are counted apart."""
+    completed = [row for row in rows if row['error'] is None]
+    failures = [row for row in completed if row['cable'] is not None]
+    failure_free = [row for row in completed if row['cable'] is None]
+    delays = [row['detection_delay_ms'] for row in failures if row['detection_delay_ms'] is not None]
+    tensions = [row['min_tension_n'] for row in failures if row['min_tension_n'] is not None]
+    median, largest = _median_max(delays)
+    return {
+        'failure_runs': len(failures),
+        'detected': len(delays),
+        'named': sum(bool(row['correct_identification']) for row in failures),
+        'reached_safe_point': sum(bool(row['reached_safe_point']) for row in failures),
+        'faults': sum(row['mode'] == FAULT for row in completed),
+        'min_tension_n': min(tensions) if tensions else None,
+        'delay_median_ms': median,
+        'delay_max_ms': largest,
+        'failure_free_runs': len(failure_free),
+        'false_alarms': sum(bool(row['false_alarm']) for row in completed),
+        'not_completed': len(rows) - len(completed),
+    }
+
+
+def outcome_lines(rows: list[dict]) -> list[str]:
+    """The outcome tables: per detector × fidelity with a total, and per cable."""
+    header = ('| {} | failure runs | detected | named | reached SP | FAULT | min tension after '
+              'the failure (N) | delay median / max (ms) | failure-free runs | false alarms '
+              '| not completed |')
+    rule = '|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|'
+
+    def line(label, figures):
+        return (f'| {label} | {figures["failure_runs"]} | {figures["detected"]} | {figures["named"]} '
+                f'| {figures["reached_safe_point"]} | {figures["faults"]} '
+                f'| {_fmt(figures["min_tension_n"], 2)} | {_fmt(figures["delay_median_ms"])} / '
+                f'{_fmt(figures["delay_max_ms"])} | {figures["failure_free_runs"]} '
+                f'| {figures["false_alarms"]} | {figures["not_completed"]} |')
+
+    groups = sorted({group_key(row) for row in rows})
+    lines = [header.format('detector/fidelity'), rule]
+    lines += [line(key, outcome([row for row in rows if group_key(row) == key])) for key in groups]
+    lines += [line('**all**', outcome(rows)), '', header.format('cable'), rule]
+    cables = sorted({row['cable'] for row in rows if row['cable'] is not None})
+    lines += [line(cable, outcome([row for row in rows if row['cable'] == cable])) for cable in cables]
+    return lines
+
+
 def detection_by_motion(rows: list[dict]) -> dict:
     """{(motion, direction): {'detector/fidelity': median delay (ms) over seeds, or 'missed'}}
     of the cable-4 failure runs, to set beside the paper's Tables 5 and 7."""
@@ -382,6 +464,17 @@ def summary_markdown(rows: list[dict]) -> str:
         '',
         f'{len(rows)} runs: {failure_runs} with a cable failure, {len(rows) - failure_runs} '
         f'failure-free; {len(failed)} did not complete.',
+        '',
+        '## Outcome of every run',
+        '',
+        'Failure runs: detected (the supervisor named a broken cable after the failure), '
+        'named (exactly the broken one), reached SP (within the recovery tolerance when the run '
+        'ended), FAULT (the supervisor gave up). Min tension: the lowest tension of a remaining '
+        'cable after the failure, over the runs. Delays: from the instant the cable really broke '
+        'to the detection, every detected failure. False alarms: any run where a detection came '
+        'before the failure, or with none.',
+        '',
+        *outcome_lines(rows),
         '',
         '## Per detector × fidelity',
         '',
@@ -444,6 +537,13 @@ def _integers(text: str) -> list[int]:
     return [int(item) for item in _names(text)]
 
 
+ALL = 'all'
+
+
+def _cables(text: str) -> list[int] | str:
+    return ALL if text.strip() == ALL else _integers(text)
+
+
 def _choices(allowed):
     def parse(text):
         names = _names(text)
@@ -460,12 +560,13 @@ def parse_args(argv=None):
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--motions', default=DEFAULT_MOTIONS, help='motions YAML')
-    parser.add_argument('--cables', type=_integers, default=[PAPER_TEST_CABLE],
-                        help=f'cables to break, 1-based, comma-separated (default {PAPER_TEST_CABLE}, '
-                             'the paper\'s)')
+    parser.add_argument('--cables', type=_cables, default=[PAPER_TEST_CABLE],
+                        help=f'cables to break, 1-based, comma-separated, or all (default '
+                             f'{PAPER_TEST_CABLE}, the paper\'s)')
     parser.add_argument('--motion-set', type=_names, default=['along', 'orthogonal', 'circle'],
-                        help='along (Table 4), orthogonal (Table 6), circle, or motion names, '
-                             'comma-separated (default along,orthogonal,circle)')
+                        help='along (Table 4), orthogonal (Table 6), all (every motion of the '
+                             'motions file), or motion names, comma-separated (default '
+                             'along,orthogonal,circle)')
     parser.add_argument('--directions', type=_choices(DIRECTIONS), default=list(DIRECTIONS))
     parser.add_argument('--fidelities', type=_choices(FIDELITIES), default=list(FIDELITIES))
     parser.add_argument('--detectors', type=_choices(DETECTORS), default=list(DETECTORS))
@@ -473,6 +574,10 @@ def parse_args(argv=None):
     parser.add_argument('--fail-at-fraction', type=float, metavar='F',
                         help='fraction of the move at which the cable breaks (default: the '
                              'paper\'s, the midpoint; 135° of arc on the circle)')
+    parser.add_argument('--random-instants', action='store_true',
+                        help='break each cable at a point of its move drawn from the run\'s seed '
+                             f'(uniform in {RANDOM_FRACTION_RANGE[0]}–{RANDOM_FRACTION_RANGE[1]} '
+                             'of the move) instead of the paper\'s')
     parser.add_argument('--failure-free', action=argparse.BooleanOptionalAction, default=True,
                         help='also run every motion without failure, for false alarms (default on)')
     parser.add_argument('--engine', choices=['inprocess', 'graph'], default='inprocess')
@@ -486,17 +591,23 @@ def parse_args(argv=None):
 @command('cdpr-campaign')
 def main(argv=None):
     args = parse_args(argv)
+    if args.random_instants and args.fail_at_fraction is not None:
+        print('cdpr-campaign: --random-instants and --fail-at-fraction: choose one', file=sys.stderr)
+        return 2
     try:
         motions = expand_motion_set(args.motion_set, motion_names(config_file(args.motions)))
     except ValueError as err:
         print(f'cdpr-campaign: {err}', file=sys.stderr)
         return 2
     cable_count = load_robot(config_file(args.config)).cable_count
+    if args.cables == ALL:
+        args.cables = list(range(1, cable_count + 1))
     if not all(1 <= cable <= cable_count for cable in args.cables):
         print(f'cdpr-campaign: --cables: the robot has cables 1..{cable_count}', file=sys.stderr)
         return 2
     runs = build_matrix(motions, args.cables, args.directions, args.fidelities, args.detectors,
-                        args.seeds, args.fail_at_fraction, args.failure_free, config=args.config,
+                        args.seeds, args.fail_at_fraction, args.failure_free,
+                        args.random_instants, config=args.config,
                         motions_file=args.motions, engine=args.engine, epsilon_nm=args.epsilon)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -14,6 +14,7 @@ import numpy as np
 from cdpr_control.controller import RECOVERY_MOVE, JointController, JointReference
 from cdpr_fdi.supervisor import Supervisor, Verdict
 from cdpr_twin.plant import PlantSimulator
+from cdpr_twin.run_length import RunLength
 from cdpr_twin.twin import DigitalTwin
 
 from .scenario_setup import Scenario
@@ -73,9 +74,12 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
         ('reference_position', 3), ('reference_angle', m), ('residual', m))}
     applied = np.zeros(m)
     recovery_reference = None
+    run_length = RunLength(cycles - 1, scenario.hold_after_cycles)
     ran = 0
     try:
         for k in range(cycles):
+            if k > run_length.last_tick:
+                break
             reference = reference_at(scenario, k)
             angle, speed = plant.measure()
             rows['true_position'][k] = plant.position_m
@@ -88,6 +92,8 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
                                             twin_output.angular_velocity_rad_s, reference)
                 recovery_reference = apply_verdict(controller, verdict)
                 rows['residual'][k] = verdict.residual_nm
+                # the graph's plant learns the verdict once it stands at the next tick
+                run_length.mode(verdict.mode, k + 1)
             plant.step(command, scenario.period_s)
             applied = command
             rows['angle'][k], rows['speed'][k], rows['command'][k] = angle, speed, command
@@ -100,7 +106,8 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             rows['reference_angle'][k] = scenario.reference.angle_rad[row]
             ran = k + 1
     except KeyboardInterrupt:
-        rows = {name: values[:ran] for name, values in rows.items()}
+        pass
+    rows = {name: values[:ran] for name, values in rows.items()}
     return Recording(
         time_s=np.arange(ran) * scenario.period_s,
         angle_rad=rows['angle'], angular_velocity_rad_s=rows['speed'], command_nm=rows['command'],
@@ -111,4 +118,4 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
         true_position_m=rows['true_position'], true_tension_n=rows['true_tension'],
         residual_nm=rows['residual'] if supervisor is not None else None,
         fdi=supervisor.summary() if supervisor is not None else {},
-        interrupted=ran < cycles)
+        interrupted=ran <= run_length.last_tick)

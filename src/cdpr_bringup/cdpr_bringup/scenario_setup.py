@@ -67,7 +67,8 @@ class Scenario:
 
     @property
     def cycles(self) -> int:
-        """The motion, and after a failure the recovery budget (the reference holds its end)."""
+        """The motion, and after a failure the recovery budget (the reference holds its end):
+        the most a run may take."""
         cycles = len(self.reference)
         if self.failures:
             end = self.failure_time_s + self.recovery_budget_s
@@ -76,7 +77,7 @@ class Scenario:
 
     @property
     def recovery_budget_s(self) -> float:
-        """How long the recovery from the scheduled failures takes (s): as given, else
+        """The longest the recovery from the scheduled failures may take (s): as given, else
         from the reference's position and velocity when they happen (no SP: no move)."""
         if self.options.recovery_budget_s is not None:
             return self.options.recovery_budget_s
@@ -91,7 +92,13 @@ class Scenario:
 
     @property
     def duration_s(self) -> float:
+        """The scheduled length (s); a run whose recovery ends sooner ends sooner."""
         return (self.cycles - 1) * self.period_s
+
+    @property
+    def hold_after_cycles(self) -> int:
+        """Ticks a run goes on once its recovery is over (recovery.hold_after_s)."""
+        return int(round(self.recovery.hold_after_s / self.period_s))
 
     def node_parameters(self, clock_mode: str) -> dict:
         """The ROS parameters every node of the graph gets for this run."""
@@ -104,6 +111,7 @@ class Scenario:
             'fail_at_s': -1.0 if options.fail_at_s is None else options.fail_at_s,
             'fail_at_fraction': -1.0 if options.fail_at_fraction is None else options.fail_at_fraction,
             'duration_s': self.duration_s,
+            'end_after_recovery_s': self.hold_after_cycles * self.period_s,
             'fidelity': self.plant.fidelity,
             'detector': self.fdi.detector,
             'epsilon_nm': self.fdi.epsilon_nm,

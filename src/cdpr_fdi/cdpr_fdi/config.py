@@ -147,14 +147,16 @@ class RecoveryConfig:
                    self.minimum_move_s)
 
     def budget_s(self, position_m, velocity_m_s, safe_point_m) -> float:
-        """How long a recovery takes (s) from the failure of a robot whose end-effector is
-        at `position_m` moving at `velocity_m_s`: the tension phase and its settle time
-        (the case outside the residual workspace), braking, the move to SP as first
-        planned, and the hold that shows SP is kept. A re-planned move takes longer."""
+        """The longest a recovery may take (s) from the failure of a robot whose end-effector
+        is at `position_m` moving at `velocity_m_s`: the tension phase and its settle time
+        (the case outside the residual workspace), braking, the move to SP re-planned
+        `replan_attempts` times (each `replan_slowdown` times longer), and the hold that
+        shows SP is kept. A run ends sooner when its recovery does (cdpr_twin.run_length)."""
         brake = self.brake_s(float(np.linalg.norm(velocity_m_s)))
         rest = np.asarray(position_m) + 0.5 * brake * np.asarray(velocity_m_s)
         move = self.move_s(float(np.linalg.norm(np.asarray(safe_point_m) - rest)))
-        return self.tension_phase_s + self.settle_timeout_s + brake + move + self.hold_after_s
+        slowest_move = move * self.replan_slowdown ** self.replan_attempts
+        return self.tension_phase_s + self.settle_timeout_s + brake + slowest_move + self.hold_after_s
 
     @classmethod
     def from_section(cls, recovery: Section, robot: Robot) -> 'RecoveryConfig':

@@ -14,7 +14,7 @@ import numpy as np
 from geometry_msgs.msg import PointStamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Int32
+from std_msgs.msg import Int32, String
 
 from cdpr_control.config import load_config, resolve_config
 from cdpr_control.motions import load_motion
@@ -26,6 +26,7 @@ from cdpr_msgs_py.health import loop_problem
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .plant import PlantConfig, PlantSimulator
+from .run_length import RunLength
 from .watchdog import BRAKING, CommandWatchdog
 from .tick_timing import TickTiming
 
@@ -53,7 +54,10 @@ class PlantSimulatorNode(CdprNode):
         failures = [(failure_time, cable - 1) for cable in self.parameter('fail_cables', [0]) if cable > 0]
         self.plant = PlantSimulator(self.robot, plant_config, motion.trajectory.start, failures)
         duration = self.parameter('duration_s', -1.0)
-        self.last_tick = int(round((motion.trajectory.duration_s if duration < 0 else duration) / self.period_s))
+        end_after_recovery = self.parameter('end_after_recovery_s', -1.0)
+        self.run_length = RunLength(
+            int(round((motion.trajectory.duration_s if duration < 0 else duration) / self.period_s)),
+            None if end_after_recovery < 0 else int(round(end_after_recovery / self.period_s)))
         self.resend_s = self.parameter('command_timeout_s', 0.5)
         self.start_delay_s = self.parameter('start_delay_s', 0.5)
         self.ready_since = None
@@ -69,6 +73,9 @@ class PlantSimulatorNode(CdprNode):
         self.truth_pose = self.create_stream_publisher(PointStamped, contract.GROUND_TRUTH_POSE)
         self.truth_tensions = self.create_stream_publisher(JointState, contract.GROUND_TRUTH_TENSIONS)
         self.clock = self.create_stream_publisher(Clock, contract.CLOCK)
+        # Before the commands: in lockstep a mode change then takes effect at a known tick
+        # (the supervisor has it acknowledged before the next command can come).
+        self.create_subscription(String, contract.MODE, self.on_mode, qos.LATCHED)
         self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.on_command,
                                              qos.STREAM, self.parameter('command_writer', 'controller'))
         self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
@@ -123,7 +130,7 @@ class PlantSimulatorNode(CdprNode):
             # A short grace period: the nodes' last subscriptions settle.
             if self.ready_since is not None and time.monotonic() - self.ready_since >= self.start_delay_s:
                 self.started = True
-                self.get_logger().info(f'starting, {self.clock_mode}, {self.last_tick} ticks')
+                self.get_logger().info(f'starting, {self.clock_mode}, {self.run_length.last_tick} ticks at most')
                 self.publish_state()
                 if self.clock_mode == 'realtime':
                     self.timer = self.create_timer(self.period_s, self.realtime_step)
@@ -152,7 +159,7 @@ class PlantSimulatorNode(CdprNode):
     def advance(self) -> None:
         self.plant.step(self.command, self.period_s)
         self.tick += 1
-        if self.tick > self.last_tick:
+        if self.tick > self.run_length.last_tick:
             self.finished = True
             if self.timer is not None:
                 # the run is over: no more steps (nor watchdog braking) while the node drains
@@ -182,6 +189,9 @@ class PlantSimulatorNode(CdprNode):
         self.advance()
         if not self.finished:
             self.publish_state()
+
+    def on_mode(self, message: String) -> None:
+        self.run_length.mode(message.data, self.tick)
 
     def on_inject(self, message: Int32) -> None:
         if not 1 <= message.data <= self.robot.cable_count:
