@@ -11,7 +11,9 @@ from cdpr_control.controller import (FAULT, NOMINAL, RECOVERY_MOVE, RECOVERY_TEN
                                      JointController, JointReference, PdGains)
 from cdpr_control.friction import FrictionModel
 
-from conftest import PAPER_ROBOT
+from conftest import CONFIG_DIR, PAPER_ROBOT
+
+EIGHT_CABLE_ROBOT = CONFIG_DIR / 'eight_cable_robot.yaml'
 
 
 @pytest.fixture
@@ -135,18 +137,34 @@ def test_fault_after_tension_control_holds_the_drums_where_they_are(controller, 
     np.testing.assert_allclose(pushed - held, -controller.gains.stiffness_nm_rad * 0.01)
 
 
-def test_gains_that_a_motor_alone_cannot_keep_stable_are_refused_naming_the_limit(eight_cable_robot):
+def test_gains_that_a_motor_alone_cannot_keep_stable_are_refused_naming_the_limit(eight_cable_robot,
+                                                                                  tmp_path):
     """12 Hz on the 8-cable robot (5 kg on 50 mm drums, 8e-4 kg·m² motors) gives
     K_d·T/J ≈ 3.5: the motor alone, which the elastic plant's cable spring leaves to
     itself at high frequency, diverges between samples. The limit named is stable."""
-    control = load_section(PAPER_ROBOT, 'control')    # the paper's 12 Hz, 0.7, 2 ms
+    config = tmp_path / 'robot.yaml'
+    config.write_text(EIGHT_CABLE_ROBOT.read_text() + '  pd_natural_frequency_hz: 12.0\n')
+    control = load_section(config, 'control')    # set by the file: the paper's 12 Hz, 0.7, 2 ms
     with pytest.raises(ConfigError, match=r"'control.pd_natural_frequency_hz' 12 Hz is not stable") as error:
         PdGains.from_section(eight_cable_robot, control)
+    assert str(config) in str(error.value)
     limit = float(re.search(r'at most ([0-9.]+) Hz', str(error.value))[1])
     assert 4.0 < limit < 12.0
     assert PdGains.from_bandwidth(eight_cable_robot, limit, 0.7).sampled_stable(eight_cable_robot, 0.002)
     assert not PdGains.from_bandwidth(eight_cable_robot, limit * 1.05, 0.7).sampled_stable(
         eight_cable_robot, 0.002)
+
+
+def test_left_to_the_default_the_gains_are_the_highest_stable(eight_cable_robot, paper_robot):
+    """The shipped 8-cable file sets no frequency: the paper's 12 Hz gives way to the
+    highest stable one; the paper's robot keeps 12 Hz."""
+    gains = PdGains.from_section(eight_cable_robot, load_section(EIGHT_CABLE_ROBOT, 'control'))
+    assert gains.sampled_stable(eight_cable_robot, 0.002)
+    limit = PdGains.highest_stable_frequency_hz(eight_cable_robot, 12.0, 0.7, 0.002)
+    assert gains == PdGains.from_bandwidth(eight_cable_robot, limit, 0.7, gains.tension_damping_nm_s_rad)
+    assert 4.0 < limit < 12.0
+    assert PdGains.from_section(paper_robot, load_section(PAPER_ROBOT, 'control')) == \
+        PdGains.from_bandwidth(paper_robot, 12.0, 0.7, gains.tension_damping_nm_s_rad)
 
 
 def test_the_sampled_loop_diverges_where_the_check_says(eight_cable_robot, paper_robot):

@@ -107,11 +107,11 @@ def test_cusum_alarms_at_once_on_a_jump_in_z_or_in_the_raw_residual():
     assert fresh().update(nominal + np.array([0.07, 0.0, 0.0, 0.0]), speed)
 
 
-def test_config_names_the_missing_key_and_the_file(tmp_path, paper_robot):
-    text = PAPER_ROBOT.read_text().replace('  identification_delta_n: 2.78\n', '')
+def test_config_names_the_wrong_key_and_the_file(tmp_path, paper_robot):
+    # the robot file ends in its fdi section
     broken = tmp_path / 'robot.yaml'
-    broken.write_text(text)
-    with pytest.raises(ConfigError, match=r"fdi\.identification_delta_n.*is missing") as error:
+    broken.write_text(PAPER_ROBOT.read_text() + '  identification_delta_n: -1.0\n')
+    with pytest.raises(ConfigError, match=r"fdi\.identification_delta_n.*must be positive") as error:
         load_fdi_config(broken, paper_robot)
     assert str(broken) in str(error.value)
 
@@ -274,3 +274,27 @@ def test_a_recovery_that_cannot_be_planned_ends_in_fault_not_in_a_crash(paper_ro
     verdict = supervisor.update(settle + 1, impossible, np.zeros(m), np.zeros(m), np.zeros(m),
                                 np.zeros(m), np.zeros(m), reference)
     assert verdict.mode == 'FAULT' and 'recovery failed' in supervisor.summary()['fault']
+
+
+def test_several_free_motors_are_narrowed_before_they_are_named(paper_robot, recovery_config):
+    """One free motor is named at once; of several, those free on every tick since, when
+    one is left or after fdi.identification_confirm_cycles (a slack cable retensions)."""
+    fdi = load_fdi_config(PAPER_ROBOT, paper_robot)
+    distribution = make_tension_distribution('pseudo_inverse', paper_robot.tension_min_n,
+                                             paper_robot.tension_max_n)
+
+    def supervisor():
+        return Supervisor(paper_robot, fdi, recovery_config, distribution, PERIOD_S)
+
+    assert supervisor().confirm(100, [2]) == [2]
+    slack_diagonal = supervisor()
+    assert slack_diagonal.confirm(100, [0, 2]) == []
+    assert slack_diagonal.confirm(101, [2, 0]) == []
+    assert slack_diagonal.confirm(102, [0]) == [0]
+    both_broken = supervisor()
+    window = fdi.identification_confirm_cycles
+    assert all(both_broken.confirm(100 + k, [2, 3]) == [] for k in range(window - 1))
+    assert both_broken.confirm(100 + window - 1, [3, 2]) == [2, 3]
+    # a set that empties starts again from what is free now
+    restarted = supervisor()
+    assert restarted.confirm(100, [0, 1]) == [] and restarted.confirm(101, [3]) == [3]

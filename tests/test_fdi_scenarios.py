@@ -6,10 +6,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import yaml
 
+from cdpr_bringup import robot_summary
+from cdpr_bringup import scenario as scenario_cli
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.metrics import fdi_metrics
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_control.controller import PdGains
 from cdpr_control.motions import motion_names
 from cdpr_control.workspace import contains, sew_cross_section
 from cdpr_twin.run_length import RunLength
@@ -139,3 +143,41 @@ def test_the_run_length_rule():
     never = RunLength(1000, hold_cycles=None)
     never.mode('SAFE_HOLD', 10)
     assert never.last_tick == 1000
+
+
+@pytest.fixture
+def robot_only_file(tmp_path):
+    """The 6-cable robot's `robot:` section alone: every other setting is the paper's."""
+    robot = yaml.safe_load((CONFIG_DIR / 'six_cable_robot.yaml').read_text())['robot']
+    path = tmp_path / 'robot_only.yaml'
+    path.write_text(yaml.safe_dump({'robot': robot}))
+    return path
+
+
+def test_a_robot_file_with_only_its_robot_runs_on_the_papers_settings(robot_only_file):
+    scenario, _, metrics = run('circle', [2], config=robot_only_file,
+                               motions=CONFIG_DIR / 'six_cable_motions.yaml')
+    # the paper's 12 Hz is unstable on its 1.2e-3 kg·m² motors: the highest stable frequency
+    limit = PdGains.highest_stable_frequency_hz(scenario.robot, 12.0, 0.7, scenario.period_s)
+    assert scenario.gains.natural_frequency_hz(scenario.robot) == pytest.approx(limit)
+    assert scenario.gains.sampled_stable(scenario.robot, scenario.period_s)
+    assert scenario.period_s == 0.002 and scenario.recovery.safe_height_m == 1.2
+    assert metrics['identified_cables'] == [2] and not metrics['false_alarm']
+    assert_recovered(scenario, metrics)
+
+
+def test_a_robot_only_file_says_what_it_resolves_to_and_what_the_elastic_plant_lacks(
+        robot_only_file, tmp_path, capsys):
+    assert robot_summary.main(['--config', str(robot_only_file),
+                               '--motions', str(CONFIG_DIR / 'six_cable_motions.yaml')]) in (0, None)
+    said = capsys.readouterr().out
+    assert 'control period 2 ms (default)' in said
+    assert 'Hz (derived: the default 12 Hz is not stable on these motors)' in said
+    assert 'elastic plant calibration none (cdpr-calibrate makes one' in said
+    code = scenario_cli.main(['--config', str(robot_only_file), '--motions',
+                              str(CONFIG_DIR / 'six_cable_motions.yaml'), '--engine', 'inprocess',
+                              '--out', str(tmp_path / 'run')])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count('\n') == 1
+    assert f"{robot_only_file}: 'fdi.elastic_calibration_file' is missing" in err
+    assert f'cdpr-calibrate --config {robot_only_file}' in err

@@ -112,7 +112,7 @@ def test_lockstep_graph_leaves_scheduling_alone(tmp_path):
 
 def test_a_bad_scheduling_value_names_the_key_and_the_file(tmp_path):
     config = yaml.safe_load(PAPER_ROBOT.read_text())
-    config['scheduling']['control_loop_priority'] = 120
+    config['scheduling'] = {'control_loop_priority': 120}
     path = tmp_path / 'robot.yaml'
     path.write_text(yaml.safe_dump(config))
     with pytest.raises(ConfigError, match=r'scheduling\.control_loop_priority') as error:

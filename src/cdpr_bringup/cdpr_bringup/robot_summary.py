@@ -1,19 +1,66 @@
-"""cdpr-robot: what the model says about a robot — geometry, safe points, named motions."""
+"""cdpr-robot: what the model says about a robot — the settings its file resolves to,
+geometry, safe points, named motions."""
 from __future__ import annotations
 
 import argparse
 
 import numpy as np
 
-from cdpr_control.config import load_section
+from cdpr_control.config import ConfigError, load_config
+from cdpr_control.controller import PdGains
 from cdpr_control.dynamics import inverse_dynamics
 from cdpr_control.motions import load_motion, motion_names
 from cdpr_control.robot import load_robot
 from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
 from cdpr_control.workspace import safe_point
+from cdpr_fdi.config import load_fdi_config, load_recovery_config
 
 from .cli import command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
+
+
+def setting(section, name: str, text: str) -> str:
+    """`text` for the value of `name`, marked where defaults.yaml gave it."""
+    return f'{text} (default)' if section.is_default(name) else text
+
+
+def print_settings(config, robot):
+    """What the robot file resolves to: its own values, the paper's defaults, derived ones."""
+    settings = load_config(config)
+    control = settings.section('control')
+    gains = PdGains.from_section(robot, control)
+    frequency = gains.natural_frequency_hz(robot)
+    asked = control.number('pd_natural_frequency_hz')
+    pd = (f'{frequency:.2f} Hz (derived: the default {asked:g} Hz is not stable on these motors)'
+          if abs(frequency - asked) > 1e-9 else setting(control, 'pd_natural_frequency_hz', f'{frequency:g} Hz'))
+    fdi_section = settings.section('fdi')
+    fdi = load_fdi_config(config, robot)
+    recovery = load_recovery_config(config, robot)
+    recovery_section = settings.section('recovery')
+    if fdi_section.has('elastic_calibration_file'):
+        calibration = fdi_section.string('elastic_calibration_file')
+        try:
+            elastic = load_fdi_config(config, robot, config_file(calibration))
+            elastic_text = f'{calibration}: ε = {elastic.epsilon_nm:g} N·m'
+        except (ConfigError, FileNotFoundError) as err:
+            elastic_text = f'{calibration} cannot be used: {err}'
+    else:
+        elastic_text = 'none (cdpr-calibrate makes one; until then --fidelity rigid)'
+    period = setting(control, 'period_s', f"{control.number('period_s') * 1e3:g} ms")
+    damping = setting(control, 'pd_damping_ratio', f"{control.number('pd_damping_ratio'):g}")
+    distribution = setting(control, 'tension_distribution', control.string('tension_distribution'))
+    detector = setting(fdi_section, 'detector', fdi.detector)
+    epsilon = setting(fdi_section, 'epsilon_nm', f'{fdi.epsilon_nm:g} N·m')
+    heights = [setting(recovery_section, name, f'{value:g} m') for name, value in
+               (('safe_height_m', recovery.safe_height_m), ('table_height_m', recovery.table_height_m))]
+    move = setting(recovery_section, 'move_peak_speed_m_s', f'{recovery.move_peak_speed_m_s:g} m/s')
+    print("settings (the robot file's, else the paper's defaults):")
+    print(f'  control period {period}, PD {pd}, damping ratio {damping}, '
+          f'tension distribution {distribution}')
+    print(f'  FDI {detector}, rigid plant ε {epsilon}, identification δ {fdi.delta_nm:g} N·m; '
+          f'elastic plant calibration {elastic_text}')
+    print(f'  recovery SP height {heights[0]}, table {heights[1]}, move {move}')
+    return recovery
 
 
 def motion_extremes(robot, tension_distribution, motion, period_s):
@@ -32,22 +79,24 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--motions', default=DEFAULT_MOTIONS, help='motions YAML')
-    parser.add_argument('--safe-height', type=float, default=1.2,
-                        help='height of the safe points (m)')
+    parser.add_argument('--safe-height', type=float,
+                        help='height of the safe points (m; default recovery.safe_height_m)')
     args = parser.parse_args(argv)
     config = config_file(args.config)
     robot = load_robot(config)
-    control = load_section(config, 'control')
+    control = load_config(config).section('control')
     period = control.number('period_s', positive=True)
     distribution = configured_tension_distribution(control, robot)
 
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, '
           f'end-effector {robot.mass_kg} kg')
+    recovery = print_settings(config, robot)
+    safe_height = recovery.safe_height_m if args.safe_height is None else args.safe_height
     for i, point in enumerate(robot.exit_points_m):
         print(f'  A{i + 1} = ({point[0]:.3f}, {point[1]:.3f}, {point[2]:.3f}) m')
-    print(f'safe points at z = {args.safe_height} m (barycentre of the residual SEW):')
+    print(f'safe points at z = {safe_height} m (barycentre of the residual SEW):')
     for i in range(robot.cable_count):
-        point = safe_point(robot, robot.cable_mask([i]), args.safe_height)
+        point = safe_point(robot, robot.cable_mask([i]), safe_height)
         print(f'  cable {i + 1} broken: SP = ({point[0]:.4f}, {point[1]:.4f}, {point[2]:.4f}) m')
     motions = config_file(args.motions)
     print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}):')

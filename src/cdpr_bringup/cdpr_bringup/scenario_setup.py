@@ -187,7 +187,13 @@ def calibration_for(config_path: Path, plant: PlantConfig, calibration: str | No
     if calibration:
         return config_file(calibration)
     if plant.fidelity == 'elastic':
-        return config_file(load_section(config_path, 'fdi').string('elastic_calibration_file'))
+        fdi = load_section(config_path, 'fdi')
+        if not fdi.has('elastic_calibration_file'):
+            raise fdi.error('elastic_calibration_file', (
+                'is missing: the elastic plant needs thresholds measured on this robot; make '
+                f'them with cdpr-calibrate --config {config_path} --motions MOTIONS.yaml --out '
+                'FILE and name FILE here (or run --fidelity rigid, on the noise-free defaults)'))
+        return config_file(fdi.string('elastic_calibration_file'))
     return None
 
 

@@ -1,6 +1,13 @@
-"""Loading YAML configuration with errors that name the key and the file."""
+"""Loading YAML configuration with errors that name the key and the file.
+
+A robot file (one with a `robot:` section) holds the robot and what it sets differently
+from the paper's settings; load_config fills in the rest from defaults.yaml beside this
+module, key by key, and remembers which keys it filled in (Section.is_default).
+"""
 from __future__ import annotations
 
+import copy
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -49,12 +56,15 @@ def _is_finite(value: int | float) -> bool:
 class Section:
     """A view on one mapping of a config file that reports dotted key paths."""
 
-    def __init__(self, data: Mapping[str, Any], path: str | Path, prefix: str = ''):
+    def __init__(self, data: Mapping[str, Any], path: str | Path, prefix: str = '',
+                 defaulted: frozenset[str] = frozenset()):
         if not isinstance(data, Mapping):
             raise ConfigError(path, prefix or '<root>', 'must be a mapping')
         self.data = data
         self.path = str(path)
         self.prefix = prefix
+        # dotted keys whose values come from defaults.yaml, not from the file
+        self.defaulted = defaulted
 
     def key(self, name: str) -> str:
         return f'{self.prefix}.{name}' if self.prefix else name
@@ -65,6 +75,10 @@ class Section:
     def has(self, name: str) -> bool:
         return name in self.data
 
+    def is_default(self, name: str) -> bool:
+        """The value of `name` is defaults.yaml's: the file does not set it."""
+        return self.key(name) in self.defaulted
+
     def raw(self, name: str, default: Any = ...) -> Any:
         if name not in self.data:
             if default is ...:
@@ -73,7 +87,7 @@ class Section:
         return self.data[name]
 
     def section(self, name: str, default: Any = ...) -> 'Section':
-        return Section(self.raw(name, default), self.path, self.key(name))
+        return Section(self.raw(name, default), self.path, self.key(name), self.defaulted)
 
     def number(self, name: str, default: Any = ..., *, positive: bool = False,
                non_negative: bool = False) -> float:
@@ -130,9 +144,46 @@ class Section:
         return np.array(value, dtype=float)
 
 
+DEFAULTS_PATH = Path(__file__).with_name('defaults.yaml')
+
+
+@lru_cache(maxsize=1)
+def paper_defaults() -> dict:
+    """defaults.yaml: every section of a robot file but `robot`, with the paper's values."""
+    return load_yaml(DEFAULTS_PATH)
+
+
+def with_defaults(data: dict, defaults: Mapping, prefix: str = '') -> tuple[dict, set[str]]:
+    """`data` with every key of `defaults` it lacks, mappings merged key by key; and the
+    dotted keys so filled in. A value the file gives (even of another type) is kept,
+    for the loaders to judge."""
+    merged, filled = dict(data), set()
+    for key, value in defaults.items():
+        dotted = f'{prefix}.{key}' if prefix else str(key)
+        if key not in data:
+            merged[key] = copy.deepcopy(value)   # the cached defaults stay as read
+            filled.add(dotted)
+            filled.update(f'{dotted}.{inner}' for inner in _dotted_keys(value))
+        elif isinstance(value, Mapping) and isinstance(data[key], Mapping):
+            merged[key], inner_filled = with_defaults(data[key], value, dotted)
+            filled |= inner_filled
+    return merged, filled
+
+
+def _dotted_keys(value: Any) -> list[str]:
+    if not isinstance(value, Mapping):
+        return []
+    return [name for key, inner in value.items()
+            for name in [str(key)] + [f'{key}.{deeper}' for deeper in _dotted_keys(inner)]]
+
+
 def load_config(path: str | Path) -> Section:
-    """The whole YAML file at `path`."""
-    return Section(load_yaml(path), path)
+    """The whole YAML file at `path`; a robot file with the paper's settings it leaves out."""
+    data = load_yaml(path)
+    if 'robot' not in data:
+        return Section(data, path)
+    merged, filled = with_defaults(data, paper_defaults())
+    return Section(merged, path, defaulted=frozenset(filled))
 
 
 def load_section(path: str | Path, name: str) -> Section:

@@ -44,27 +44,43 @@ class PdGains:
 
     @classmethod
     def from_section(cls, robot: Robot, control: Section) -> 'PdGains':
-        """The configured gains; a ConfigError naming `pd_natural_frequency_hz` and the
-        highest it may be if the PD, sampled every `period_s`, would not be stable on a
+        """The configured gains. The PD, sampled every `period_s`, must be stable on a
         motor carrying its share of the load *and* on a motor alone: on the elastic plant
         (and a real drive) the cable is a spring, and the motor's own inertia sets the
-        fastest mode."""
+        fastest mode. A `pd_natural_frequency_hz` the file sets that is not is a
+        ConfigError naming the highest it may be; the default (the paper's), where it is
+        not, gives way to that highest stable frequency."""
         frequency = control.number('pd_natural_frequency_hz', positive=True)
         damping = control.number('pd_damping_ratio', positive=True)
         period = control.number('period_s', positive=True)
-        gains = cls.from_bandwidth(robot, frequency, damping,
-                                   control.number('recovery_tension_damping_nm_s_rad', non_negative=True))
-        if not gains.sampled_stable(robot, period):
-            low, high = 0.0, frequency
-            for _ in range(GAIN_BISECTIONS):
-                middle = 0.5 * (low + high)
-                low, high = ((middle, high) if cls.from_bandwidth(robot, middle, damping)
-                             .sampled_stable(robot, period) else (low, middle))
-            raise control.error('pd_natural_frequency_hz', (
-                f'{frequency:g} Hz is not stable at a period of {period:g} s on this robot\'s '
-                f'motors (inertia {robot.motor.inertia_kg_m2:g} kg·m² alone): at most '
-                f'{low:.2f} Hz with pd_damping_ratio {damping:g}'))
-        return gains
+        tension_damping = control.number('recovery_tension_damping_nm_s_rad', non_negative=True)
+        gains = cls.from_bandwidth(robot, frequency, damping, tension_damping)
+        if gains.sampled_stable(robot, period):
+            return gains
+        highest = cls.highest_stable_frequency_hz(robot, frequency, damping, period)
+        if control.is_default('pd_natural_frequency_hz'):
+            return cls.from_bandwidth(robot, highest, damping, tension_damping)
+        raise control.error('pd_natural_frequency_hz', (
+            f'{frequency:g} Hz is not stable at a period of {period:g} s on this robot\'s '
+            f'motors (inertia {robot.motor.inertia_kg_m2:g} kg·m² alone): at most '
+            f'{highest:.2f} Hz with pd_damping_ratio {damping:g}'))
+
+    def natural_frequency_hz(self, robot: Robot) -> float:
+        """The frequency these gains place the loaded joint at (from_bandwidth's inverse)."""
+        inertia = robot.motor.inertia_kg_m2 + robot.mass_kg * robot.motor.drum_radius_m ** 2
+        return float(np.sqrt(self.stiffness_nm_rad / inertia) / (2.0 * np.pi))
+
+    @classmethod
+    def highest_stable_frequency_hz(cls, robot: Robot, unstable_hz: float, damping: float,
+                                    period_s: float) -> float:
+        """The highest natural frequency below `unstable_hz` whose sampled PD is stable
+        (bisection, from below: the value returned is stable)."""
+        low, high = 0.0, unstable_hz
+        for _ in range(GAIN_BISECTIONS):
+            middle = 0.5 * (low + high)
+            low, high = ((middle, high) if cls.from_bandwidth(robot, middle, damping)
+                         .sampled_stable(robot, period_s) else (low, middle))
+        return low
 
     def sampled_stable(self, robot: Robot, period_s: float) -> bool:
         """The PD held over each period (zero-order hold) keeps a motor of inertia J,

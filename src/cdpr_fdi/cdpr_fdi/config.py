@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cdpr_control.config import ConfigError, Section, load_section, load_yaml
+from cdpr_control.config import Section, load_config, load_section, load_yaml
 from cdpr_control.friction import FrictionModel
 from cdpr_control.robot import Robot
 from cdpr_control.trajectories import QUINTIC_PEAK_SPEED_RATIO
@@ -35,6 +35,7 @@ class FdiConfig:
     late_command_guard_cycles: int
     late_command_burst: int
     late_command_window_cycles: int
+    identification_confirm_cycles: int
 
     @classmethod
     def from_section(cls, fdi: Section, robot: Robot, friction: FrictionModel) -> 'FdiConfig':
@@ -59,6 +60,7 @@ class FdiConfig:
             late_command_guard_cycles=fdi.integer('late_command_guard_cycles', minimum=0),
             late_command_burst=fdi.integer('late_command_burst', minimum=1),
             late_command_window_cycles=fdi.integer('late_command_window_cycles', minimum=1),
+            identification_confirm_cycles=fdi.integer('identification_confirm_cycles', minimum=1),
         )
 
     def with_overrides(self, detector: str | None = None, epsilon_nm: float | None = None,
@@ -81,10 +83,7 @@ class FdiConfig:
 def load_fdi_config(config_path: str | Path, robot: Robot,
                     calibration_path: str | Path | None = None) -> FdiConfig:
     """The robot file's `fdi` section, with a calibration file's values on top."""
-    data = load_yaml(config_path).get('fdi') or {}
-    if not isinstance(data, dict):
-        raise ConfigError(config_path, 'fdi', f'must be a mapping, got {data!r}')
-    data = dict(data)
+    data = dict(load_config(config_path).section('fdi').data)
     path = config_path
     if calibration_path:
         document = Section(load_yaml(calibration_path), calibration_path)

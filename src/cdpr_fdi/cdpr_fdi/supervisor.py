@@ -60,6 +60,7 @@ class Supervisor:
         self.previous_reference: JointReference | None = None
         self.tension_bounds_n = (np.zeros(robot.cable_count), np.zeros(robot.cable_count))
         self.candidates: list[int] = []
+        self.candidates_since = 0
         self.previous_command: np.ndarray | None = None
         self.late_commands = 0
         self.recent_late_ticks: deque[int] = deque()
@@ -97,7 +98,7 @@ class Supervisor:
             if alarm and self.previous_speed is not None:
                 found = identify_broken_cables(*self.tension_bounds_n, residual,
                                                self.robot.motor.drum_radius_m, self.fdi.delta_nm)
-                confirmed = self.confirm(found)
+                confirmed = self.confirm(tick, found)
                 if confirmed:
                     events += self.on_identified(tick, confirmed, angle_rad, command_nm, reference)
             elif not alarm and self.alarm_tick is not None:
@@ -123,16 +124,24 @@ class Supervisor:
         return Verdict(tick, residual, alarm, [c + 1 for c in self.broken], self.mode, tensions,
                        setpoint, events)
 
-    def confirm(self, found: list[int]) -> list[int]:
-        """One free motor is named at once; several only if they stay free a second tick.
+    def confirm(self, tick: int, found: list[int]) -> list[int]:
+        """One free motor is named at once; several are watched, narrowed to those free on
+        every tick since, and named when one is left or after identification_confirm_cycles.
 
-        Right after a failure a loaded motor can look free for one tick (its cable
-        briefly unloaded); the broken cables' motors stay free.
+        Right after a failure a loaded motor can look free for a while (its cable
+        unloaded); the broken cables' motors stay free.
         """
-        previous, self.candidates = self.candidates, found
-        if len(found) == 1 and not previous:
-            return found
-        return sorted(set(found) & set(previous)) if previous else []
+        if not self.candidates:
+            if len(found) == 1:
+                return found
+            self.candidates, self.candidates_since = found, tick
+            return []
+        self.candidates = [cable for cable in self.candidates if cable in found]
+        if not self.candidates:
+            return self.confirm(tick, found)
+        if len(self.candidates) == 1 or tick - self.candidates_since + 1 >= self.fdi.identification_confirm_cycles:
+            return sorted(self.candidates)
+        return []
 
     def on_identified(self, tick: int, cables: list[int], angle_rad, command_nm,
                       reference: JointReference) -> list[str]:
