@@ -181,3 +181,12 @@ def test_a_robot_only_file_says_what_it_resolves_to_and_what_the_elastic_plant_l
     assert code == 2 and err.count('\n') == 1
     assert f"{robot_only_file}: 'fdi.elastic_calibration_file' is missing" in err
     assert f'cdpr-calibrate --config {robot_only_file}' in err
+
+
+def test_cdpr_robot_warns_where_a_loaded_cable_carries_less_than_the_identification_delta(capsys):
+    """The paper's δ (2.78 N) is above along-4's least pseudo-inverse tension (2.44 N)."""
+    robot_summary.main(['--config', str(PAPER_ROBOT), '--motions', str(MOTIONS)])
+    lines = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()
+             if line.startswith('  ') and line.split()[0] in ('along-4', 'circle')}
+    assert 'below the identification δ 2.78 N' in lines['along-4']
+    assert 'identification δ' not in lines['circle']

@@ -25,7 +25,8 @@ def setting(section, name: str, text: str) -> str:
 
 
 def print_settings(config, robot):
-    """What the robot file resolves to: its own values, the paper's defaults, derived ones."""
+    """What the robot file resolves to: its own values, the paper's defaults, derived ones.
+    Returns the recovery settings and the identification δ (N of tension)."""
     settings = load_config(config)
     control = settings.section('control')
     gains = PdGains.from_section(robot, control)
@@ -57,10 +58,12 @@ def print_settings(config, robot):
     print("settings (the robot file's, else the paper's defaults):")
     print(f'  control period {period}, PD {pd}, damping ratio {damping}, '
           f'tension distribution {distribution}')
-    print(f'  FDI {detector}, rigid plant ε {epsilon}, identification δ {fdi.delta_nm:g} N·m; '
+    delta = setting(fdi_section, 'identification_delta_n',
+                    f"{fdi_section.number('identification_delta_n'):g} N ({fdi.delta_nm:.3g} N·m)")
+    print(f'  FDI {detector}, rigid plant ε {epsilon}, identification δ {delta}; '
           f'elastic plant calibration {elastic_text}')
     print(f'  recovery SP height {heights[0]}, table {heights[1]}, move {move}')
-    return recovery
+    return recovery, fdi.delta_nm / robot.motor.drum_radius_m
 
 
 def motion_extremes(robot, tension_distribution, motion, period_s):
@@ -90,7 +93,7 @@ def main(argv=None):
 
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, '
           f'end-effector {robot.mass_kg} kg')
-    recovery = print_settings(config, robot)
+    recovery, delta_n = print_settings(config, robot)
     safe_height = recovery.safe_height_m if args.safe_height is None else args.safe_height
     for i, point in enumerate(robot.exit_points_m):
         print(f'  A{i + 1} = ({point[0]:.3f}, {point[1]:.3f}, {point[2]:.3f}) m')
@@ -108,7 +111,10 @@ def main(argv=None):
         except InfeasibleTensionError as err:
             print(f'  {name:<14} {motion.move.duration_s:7.3f} no tensions within the bounds: {err}')
             continue
-        print(f'  {name:<14} {motion.move.duration_s:7.3f} {low:7.2f} {high:7.2f} {torque:12.3f}')
+        # a loaded cable below δ looks free to the identification (eq. 21)
+        warning = (f'  below the identification δ {delta_n:g} N: a loaded cable can look free'
+                   if low < delta_n else '')
+        print(f'  {name:<14} {motion.move.duration_s:7.3f} {low:7.2f} {high:7.2f} {torque:12.3f}{warning}')
 
 
 if __name__ == '__main__':
