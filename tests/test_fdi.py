@@ -188,6 +188,8 @@ def test_recovery_goes_from_tension_quintic_to_a_move_to_sp_then_holds(paper_rob
     start_tensions = np.array([12.0, 9.0, 14.0, 0.0])
     sp = safe_point_for(robot, recovery_config, attached)
     here = sp + [0.05, 0.0, 0.02]    # inside the residual SEW: phase 1 holds it here
+    # the phases alone: the swing damping (tested on its own) would add to the tensions
+    recovery_config = dataclasses.replace(recovery_config, swing_damping_ratio=0.0)
     recovery = Recovery(robot, recovery_config, distribution, PERIOD_S, attached, 100, start_tensions,
                         entry_point(robot, attached, here,
                                     taut_tension_n(robot, recovery_config, attached)), inside=False)
@@ -298,3 +300,28 @@ def test_several_free_motors_are_narrowed_before_they_are_named(paper_robot, rec
     # a set that empties starts again from what is free now
     restarted = supervisor()
     assert restarted.confirm(100, [0, 1]) == [] and restarted.confirm(101, [3]) == [3]
+
+
+def test_phase_1_damps_the_swing_with_a_force_against_the_velocity(paper_robot, recovery_config):
+    """S_R Δt = −c ṗ, c = 2 ζ m √(g / d̄): a pendulum on the remaining cables damped at ζ."""
+    robot = paper_robot
+    attached = robot.cable_mask([3])
+    distribution = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
+    position = np.array([0.6, 1.2, 1.3])
+    recovery = Recovery(robot, recovery_config, distribution, PERIOD_S, attached, 0,
+                        static_tensions(robot, position, attached), position, inside=False)
+    velocity = np.array([0.4, -0.3, 0.2])
+    directions, lengths = cable_vectors(robot.exit_points_m, position)
+    # l̇ = −u·ṗ = ρ θ̇ (eq. 17)
+    speeds = -(directions @ velocity) / robot.motor.drum_radius_m
+    angles = inverse_kinematics(robot, position)
+    damping = recovery.swing_damping_n(angles, speeds)
+    c = 2.0 * recovery_config.swing_damping_ratio * robot.mass_kg * np.sqrt(9.81 / np.mean(lengths[attached]))
+    np.testing.assert_allclose(directions[attached].T @ damping, -c * velocity, atol=1e-6)
+    at_rest = recovery.damped_tension_setpoint(10, angles, np.zeros(robot.cable_count))
+    np.testing.assert_allclose(at_rest, recovery.tension_setpoint(10), atol=1e-9)
+    undamped = Recovery(robot, dataclasses.replace(recovery_config, swing_damping_ratio=0.0),
+                        distribution, PERIOD_S, attached, 0, static_tensions(robot, position, attached),
+                        position, inside=False)
+    np.testing.assert_array_equal(undamped.damped_tension_setpoint(10, angles, speeds),
+                                  undamped.tension_setpoint(10))

@@ -134,6 +134,7 @@ class RecoveryConfig:
     replan_slowdown: float
     reached_tolerance_m: float
     hold_after_s: float
+    swing_damping_ratio: float
 
     def brake_s(self, speed_m_s: float) -> float:
         """How long phase 2 takes to bring an end-effector moving at `speed_m_s` to rest."""
@@ -181,6 +182,7 @@ class RecoveryConfig:
             replan_slowdown=recovery.number('replan_slowdown', positive=True),
             reached_tolerance_m=recovery.number('reached_tolerance_m', positive=True),
             hold_after_s=recovery.number('hold_after_s', non_negative=True),
+            swing_damping_ratio=recovery.number('swing_damping_ratio', non_negative=True),
         )
 
 

@@ -180,6 +180,32 @@ class Recovery:
         s, _, _ = quintic_profile((tick - self.start_tick) * self.period_s, self.config.tension_phase_s)
         return self.start_tensions_n + (self.target_tensions_n - self.start_tensions_n) * s
 
+    def swing_damping_n(self, angle_rad, angular_velocity_rad_s) -> np.ndarray:
+        """Tensions (N, remaining cables, least squares) of the force −c ṗ that damps the
+        end-effector's swing: c = 2 ζ m √(g / d̄), the pendulum on the mean remaining cable
+        length d̄ critically damped at ζ = 1. Zeros where its pose cannot be found."""
+        try:
+            position, velocity = self.end_effector_state(angle_rad, angular_velocity_rad_s)
+        except (ValueError, np.linalg.LinAlgError):
+            return np.zeros(int(np.count_nonzero(self.attached)))
+        directions, lengths = cable_vectors(self.robot.exit_points_m[self.attached], position)
+        gravity = float(np.linalg.norm(self.robot.gravity_m_s2))
+        damping = (2.0 * self.config.swing_damping_ratio * self.robot.mass_kg
+                   * np.sqrt(gravity / float(np.mean(lengths))))
+        tensions, *_ = np.linalg.lstsq(directions.T, -damping * velocity, rcond=None)
+        return tensions
+
+    def damped_tension_setpoint(self, tick: int, angle_rad, angular_velocity_rad_s) -> np.ndarray:
+        """Phase 1's setpoint with the swing damping added, kept within [taut, τ_max]
+        (never raised to taut where the quintic itself is below it)."""
+        tensions = self.tension_setpoint(tick)
+        if self.config.swing_damping_ratio == 0.0:
+            return tensions
+        attached = tensions[self.attached]
+        tensions[self.attached] = np.clip(attached + self.swing_damping_n(angle_rad, angular_velocity_rad_s),
+                                          np.minimum(attached, self.taut_n), self.robot.tension_max_n)
+        return tensions
+
     def end_effector_state(self, angle_rad, angular_velocity_rad_s):
         """Position (m, forward kinematics of the remaining cables) and velocity (m/s):
         l̇ = −S_Rᵀ ṗ = ρ θ̇  ⇒  ṗ = −(S_Rᵀ)⁺ ρ θ̇ (eq. 17)."""
@@ -256,7 +282,7 @@ class Recovery:
                 if self.timed_out:
                     raise self.last_plan_error
         if self.mode == RECOVERY_TENSION:
-            return self.mode, self.tension_setpoint(tick + 1), None
+            return self.mode, self.damped_tension_setpoint(tick + 1, angle_rad, angular_velocity_rad_s), None
         if self.mode == RECOVERY_MOVE:
             start, table = self.move
             row = tick + 1 - start
