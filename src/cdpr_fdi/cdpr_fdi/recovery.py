@@ -196,14 +196,23 @@ class Recovery:
         return tensions
 
     def damped_tension_setpoint(self, tick: int, angle_rad, angular_velocity_rad_s) -> np.ndarray:
-        """Phase 1's setpoint with the swing damping added, kept within [taut, τ_max]
-        (never raised to taut where the quintic itself is below it)."""
+        """Phase 1's setpoint with the swing damping added, scaled down as far as needed to
+        keep every tension within [taut, τ_max] (never raised to taut where the quintic
+        itself is below it): clipping cable by cable would turn the force away from −ṗ,
+        and on a light robot pull a cable slack."""
         tensions = self.tension_setpoint(tick)
         if self.config.swing_damping_ratio == 0.0:
             return tensions
         attached = tensions[self.attached]
-        tensions[self.attached] = np.clip(attached + self.swing_damping_n(angle_rad, angular_velocity_rad_s),
-                                          np.minimum(attached, self.taut_n), self.robot.tension_max_n)
+        damping = self.swing_damping_n(angle_rad, angular_velocity_rad_s)
+        lower = np.minimum(attached, self.taut_n)
+        upper = np.maximum(attached, self.robot.tension_max_n)
+        # the largest s in [0, 1] with lower <= attached + s damping <= upper
+        room = np.where(damping < 0.0, (lower - attached) / np.where(damping < 0.0, damping, -1.0),
+                        np.where(damping > 0.0, (upper - attached) / np.where(damping > 0.0, damping, 1.0),
+                                 np.inf))
+        scale = float(np.clip(np.min(room, initial=1.0), 0.0, 1.0))
+        tensions[self.attached] = attached + scale * damping
         return tensions
 
     def end_effector_state(self, angle_rad, angular_velocity_rad_s):
