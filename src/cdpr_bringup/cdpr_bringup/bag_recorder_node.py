@@ -56,7 +56,7 @@ def type_name(message_class) -> str:
 
 
 def contract_qos(topic: str):
-    """The QoS the graph's readers of `topic` ask for (DESIGN §3): what the recorder
+    """The QoS the graph's readers of `topic` ask for (docs/design.md §3): what the recorder
     subscribes with, and what `ros2 bag play` offers again."""
     if topic in contract.LATCHED_TOPICS:
         return qos.LATCHED

@@ -41,7 +41,7 @@ def ticks_before(recording, time_s: float | None) -> int:
 
 def fdi_metrics(robot: Robot, period_s: float, failure_time_s: float | None,
                 true_broken: list[int], recording, reached_tolerance_m: float) -> dict:
-    """The detection and recovery keys of metrics.json (DESIGN §7) from a run's recording
+    """The detection and recovery keys of metrics.json (docs/design.md §7) from a run's recording
     and its supervisor summary (`recording.fdi`, ticks and 1-based cables)."""
     fdi = recording.fdi or {}
     identified_tick = fdi.get('identified_tick')

@@ -226,7 +226,7 @@ def failure_of(bag: Path, recording: Recording) -> tuple[float | None, list[int]
 
 
 def metrics_of(run: Run) -> dict:
-    """The metrics.json keys of DESIGN §7 (and of cdpr-scenario), recomputed from the bag.
+    """The metrics.json keys of docs/design.md §7 (and of cdpr-scenario), recomputed from the bag.
 
     The KPIs and the tracking error cover the ticks before the failure (or its
     detection). recovery.min_tension_n covers the remaining cables from then on (true

@@ -1,6 +1,6 @@
 """cdpr-scenario: one run of a named motion, through the node graph or in-process.
 
-Writes into --out: bag/ (graph engine: every /cdpr topic), metrics.json (DESIGN §7) and
+Writes into --out: bag/ (graph engine: every /cdpr topic), metrics.json (docs/design.md §7) and
 plots/, and prints the detection, identification and recovery figures and the
 twin-vs-robot KPIs next to the paper's.
 """

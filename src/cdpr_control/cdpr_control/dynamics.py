@@ -1,4 +1,4 @@
-"""Inverse and rigid direct dynamics of the cable robot (DESIGN §4).
+"""Inverse and rigid direct dynamics of the cable robot (docs/design.md §4).
 
 Motor i:        J θ̈_i = −b θ̇_i + c_i + ρ τ_i
 End-effector:   m_e p̈ = S τ + m_e g
@@ -116,8 +116,9 @@ class RigidDirectDynamics:
         mass, reflected = self.mass_kg, self.reflected_mass_kg
         vx, vy, vz = velocity_m_s
         speed_squared = vx * vx + vy * vy + vz * vz
-        # Per cable, ṗ·u_i (m/s) and ṗ·u̇_i = ((u_i·ṗ)² − |ṗ|²) / d_i (m/s², u̇_i of DESIGN §4);
-        # the motor law then gives τ_i = −(J/ρ²) u_i·p̈ − pull_i, pull_i (N) free of p̈.
+        # Per cable, ṗ·u_i (m/s) and ṗ·u̇_i = ((u_i·ṗ)² − |ṗ|²) / d_i (m/s², u̇_i of
+        # docs/design.md §4); the motor law then gives τ_i = −(J/ρ²) u_i·p̈ − pull_i,
+        # pull_i (N) free of p̈.
         cable_speed, cable_rate, pull = [], [], []
         for (ux, uy, uz, d), c in zip(directions, torque_nm):
             speed = ux * vx + uy * vy + uz * vz

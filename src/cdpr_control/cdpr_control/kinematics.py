@@ -1,4 +1,4 @@
-"""Kinematics of a point-mass cable robot (DESIGN §4 sign conventions).
+"""Kinematics of a point-mass cable robot (docs/design.md §4 sign conventions).
 
 r_i = A_i − p, d_i = |r_i|, u_i = r_i / d_i; structure matrix S = [u_1 … u_m] (3 × m).
 l_i = l_i0 + ρ θ_i, l̇ = −Sᵀ ṗ, θ̇ = −Sᵀ ṗ / ρ, θ̈ = −(Sᵀ p̈ + Ṡᵀ ṗ) / ρ.

@@ -1,4 +1,4 @@
-"""Which cables broke (paper eq. 21, DESIGN §5).
+"""Which cables broke (paper eq. 21, docs/design.md §5).
 
 A broken cable's motor turns freely: its sensorless tension is about zero and the
 controller, pulling on nothing, commands more torque than the twin (positive residual).

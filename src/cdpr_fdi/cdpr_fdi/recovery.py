@@ -1,4 +1,4 @@
-"""End-effector recovery after a cable failure (paper §3.2, DESIGN §5), for any robot.
+"""End-effector recovery after a cable failure (paper §3.2, docs/design.md §5), for any robot.
 
 "Taut" below: every remaining cable's static tension (eq. 22) at least `taut_tension_n`,
 a fraction of an equal share of the weight.

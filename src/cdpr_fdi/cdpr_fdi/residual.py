@@ -1,6 +1,6 @@
 """What the supervisor reads off the motors: torque residuals and sensorless tensions.
 
-r = c − c_DT (DESIGN §5). A motor obeys J θ̈ = −b θ̇ − f_c sgn(θ̇) + c + ρ τ, so over one
+r = c − c_DT (docs/design.md §5). A motor obeys J θ̈ = −b θ̇ − f_c sgn(θ̇) + c + ρ τ, so over one
 control period the tension its cable pulled with is
 τ̂ = (J θ̈ + b θ̇ + f_c sgn(θ̇) − c) / ρ, with θ̈ from two resolver speeds: a freed motor
 (eq. 18) shows τ̂ ≈ 0. The Coulomb term is smoothed as the drives' friction is.

@@ -1,4 +1,4 @@
-"""The topic contract of DESIGN §3: names (relative to the namespace), QoS and modes."""
+"""The topic contract of docs/design.md §3: names (relative to the namespace), QoS and modes."""
 from __future__ import annotations
 
 from enum import Enum
