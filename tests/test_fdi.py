@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from cdpr_control.config import ConfigError
-from cdpr_control.controller import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, JointReference
+from cdpr_control.controller import JointReference
 from cdpr_control.friction import FrictionModel
 from cdpr_control.kinematics import cable_vectors, inverse_kinematics
 from cdpr_control.statics import static_tensions
@@ -20,6 +20,7 @@ from cdpr_fdi.recovery import (Recovery, RecoveryInfeasible, entry_point, initia
                                least_static_tension_n, safe_point_for, taut_tension_n)
 from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
 from cdpr_fdi.supervisor import Supervisor
+from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
 from cdpr_twin.rigid_model import RigidCableRobot
 
 from conftest import PAPER_ROBOT

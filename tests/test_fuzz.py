@@ -56,7 +56,7 @@ TORQUE_LIMIT_NM = ROBOT.motor.torque_limit_nm
 CONTROL = load_section(PAPER_ROBOT, 'control')
 PERIOD_NS = int(round(CONTROL.number('period_s') * 1e9))
 LEAD_CYCLES = CONTROL.integer('reference_lead_cycles')
-MODES = tuple(mode.value for mode in contract.Mode)
+MODES = contract.MODES
 ALL_FIELDS = ('position', 'velocity', 'effort')
 
 FUZZ = settings(max_examples=100, deadline=None, database=None,
@@ -557,8 +557,8 @@ def test_supervisor_names_a_freed_motor_whatever_the_pose(
         assert len(published[contract.FDI_RESIDUAL]) == failure_tick + extra_ticks
         assert [message.data for message in published[contract.FDI_BROKEN_CABLE]] == [cable + 1]
         modes = [message.data for message in published[contract.MODE]]
-        assert modes and modes[0] in (contract.Mode.RECOVERY_TENSION, contract.Mode.RECOVERY_MOVE,
-                                      contract.Mode.FAULT)
+        assert modes and modes[0] in (contract.RECOVERY_TENSION, contract.RECOVERY_MOVE,
+                                      contract.FAULT)
         assert_sane_verdicts(published)
 
 

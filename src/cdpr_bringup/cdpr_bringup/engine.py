@@ -11,8 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cdpr_control.controller import RECOVERY_MOVE, JointController, JointReference
+from cdpr_control.controller import JointController, JointReference
 from cdpr_fdi.supervisor import Supervisor, Verdict
+from cdpr_msgs_py.contract import RECOVERY_MOVE
 from cdpr_twin.plant import PlantSimulator
 from cdpr_twin.run_length import RunLength
 from cdpr_twin.twin import DigitalTwin

@@ -13,9 +13,9 @@ matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 import numpy as np  # noqa: E402
 
-from cdpr_control.controller import (FAULT, NOMINAL, RECOVERY_MOVE,  # noqa: E402
-                                     RECOVERY_TENSION, SAFE_HOLD)
 from cdpr_control.workspace import sew_cross_section  # noqa: E402
+from cdpr_msgs_py.contract import (FAULT, NOMINAL, RECOVERY_MOVE,  # noqa: E402
+                                   RECOVERY_TENSION, SAFE_HOLD)
 
 DPI = 120
 AXIS_COLOURS = ('tab:red', 'tab:green', 'tab:blue')

@@ -21,7 +21,6 @@ from pathlib import Path
 import numpy as np
 
 from cdpr_control.config import ConfigError
-from cdpr_control.controller import NOMINAL, SAFE_HOLD
 from cdpr_control.friction import FrictionModel
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.robot import Robot, load_robot
@@ -29,6 +28,7 @@ from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_fdi.residual import sensorless_tensions
 from cdpr_msgs_py import contract
+from cdpr_msgs_py.contract import NOMINAL, SAFE_HOLD
 
 from . import plots
 from .bag_io import NANOSECONDS, read_messages, recording_from_bag, stamp_ns

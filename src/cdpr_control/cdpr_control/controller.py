@@ -5,16 +5,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cdpr_msgs_py.contract import FAULT, MODES, NOMINAL, RECOVERY_TENSION, SAFE_HOLD
+
 from .config import Section
 from .friction import FrictionModel
 from .robot import Robot
 
-NOMINAL = 'NOMINAL'
-RECOVERY_TENSION = 'RECOVERY_TENSION'
-RECOVERY_MOVE = 'RECOVERY_MOVE'
-SAFE_HOLD = 'SAFE_HOLD'
-FAULT = 'FAULT'
-MODES = (NOMINAL, RECOVERY_TENSION, RECOVERY_MOVE, SAFE_HOLD, FAULT)
 # A sampled PD loop counts as stable with every pole inside this radius: 1 − a margin
 # that keeps its slowest-decaying mode from ringing for hundreds of periods.
 STABILITY_RADIUS = 0.98

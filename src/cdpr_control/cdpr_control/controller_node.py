@@ -16,12 +16,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
 from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.contract import NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.runtime import CdprNode, run
 
 from .config import load_config, resolve_config
-from .controller import (NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, JointController,
-                         JointReference, PdGains)
+from .controller import JointController, JointReference, PdGains
 from .friction import FrictionModel
 from .robot import load_robot
 

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.controller import JointReference, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
+from cdpr_control.controller import JointReference
 from cdpr_control.kinematics import cable_vectors, forward_kinematics
 from cdpr_control.reference import tabulate_reference
 from cdpr_control.robot import Robot
@@ -36,6 +36,7 @@ from cdpr_control.tension_distribution import (InfeasibleTensionError, TensionDi
                                                make_tension_distribution)
 from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence, quintic_profile
 from cdpr_control.workspace import safe_point
+from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
 
 from .config import RecoveryConfig
 

@@ -12,10 +12,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cdpr_control.controller import FAULT, NOMINAL, JointReference
+from cdpr_control.controller import JointReference
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.robot import Robot
 from cdpr_control.tension_distribution import TensionDistribution
+from cdpr_msgs_py.contract import FAULT, NOMINAL
 
 from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector

@@ -17,10 +17,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
 from cdpr_control.config import load_config, resolve_config
-from cdpr_control.controller import NOMINAL, JointReference
+from cdpr_control.controller import JointReference
 from cdpr_control.robot import load_robot
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.contract import NOMINAL
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.health import unjudged_problem, verdict_problems
 from cdpr_msgs_py.runtime import CdprNode, run

@@ -1,7 +1,5 @@
-"""The topic contract of docs/design.md §3: names (relative to the namespace), QoS and modes."""
+"""The topic contract of docs/design.md §3: names (relative to the namespace) and modes."""
 from __future__ import annotations
-
-from enum import Enum
 
 DEFAULT_NAMESPACE = '/cdpr'
 
@@ -27,14 +25,14 @@ DIAGNOSTICS = '/diagnostics'
 LATCHED_TOPICS = (FDI_BROKEN_CABLE, MODE)
 
 
-class Mode(str, Enum):
-    """What the controller is doing (published on /cdpr/mode)."""
-
-    NOMINAL = 'NOMINAL'
-    RECOVERY_TENSION = 'RECOVERY_TENSION'
-    RECOVERY_MOVE = 'RECOVERY_MOVE'
-    SAFE_HOLD = 'SAFE_HOLD'
-    FAULT = 'FAULT'
+# What the controller is doing, published on `mode` by the supervisor: the one
+# definition of the mode names (the controller core and the health rules import them).
+NOMINAL = 'NOMINAL'
+RECOVERY_TENSION = 'RECOVERY_TENSION'
+RECOVERY_MOVE = 'RECOVERY_MOVE'
+SAFE_HOLD = 'SAFE_HOLD'
+FAULT = 'FAULT'
+MODES = (NOMINAL, RECOVERY_TENSION, RECOVERY_MOVE, SAFE_HOLD, FAULT)
 
 
 def joint_names(cable_count: int) -> list[str]:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-from .contract import Mode
+from .contract import FAULT
 
 # diagnostic_msgs/DiagnosticStatus levels
 OK, WARN, ERROR = 0, 1, 2
@@ -104,7 +104,7 @@ def unjudged_problem(limits: HealthLimits, ticks: int, unjudged: int) -> str:
 def verdict_problems(mode: str, broken_cables: list[int], fault: str) -> tuple[str, str]:
     """(error, warning) from the supervisor's verdict: FAULT is an error (the robot can
     only be held); a broken cable being recovered from, or held after, is a warning."""
-    if mode == Mode.FAULT:
+    if mode == FAULT:
         return f'FAULT: {fault}', ''
     if broken_cables:
         return '', f'cable(s) {", ".join(map(str, broken_cables))} broken: {mode}'

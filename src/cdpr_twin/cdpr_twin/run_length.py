@@ -9,7 +9,7 @@ which learns the mode on /cdpr/mode.
 """
 from __future__ import annotations
 
-from cdpr_control.controller import FAULT, SAFE_HOLD
+from cdpr_msgs_py.contract import FAULT, SAFE_HOLD
 
 RECOVERY_OVER = (SAFE_HOLD, FAULT)
 

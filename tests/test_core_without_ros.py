@@ -1,0 +1,22 @@
+"""The core runs without ROS: importing the model, controller, twin, plants, FDI,
+recovery and the in-process engine loads no rclpy (docs/architecture.md)."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+CORE = ['cdpr_msgs_py.contract', 'cdpr_msgs_py.health', 'cdpr_msgs_py.sole_writer',
+        'cdpr_control.controller', 'cdpr_control.dynamics', 'cdpr_control.reference',
+        'cdpr_twin.twin', 'cdpr_twin.plant', 'cdpr_twin.run_length',
+        'cdpr_fdi.supervisor', 'cdpr_fdi.recovery', 'cdpr_fdi.calibration',
+        'cdpr_bringup.engine', 'cdpr_bringup.scenario_setup']
+
+
+def test_the_core_imports_no_rclpy():
+    script = ('import importlib, sys\n'
+              f'for name in {CORE!r}:\n'
+              '    importlib.import_module(name)\n'
+              'print(sorted(m for m in sys.modules if m.split(".")[0] in ("rclpy", "rosidl_runtime_py")))\n')
+    result = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == '[]', result.stdout
