@@ -42,7 +42,8 @@ from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.supervisor_node import SupervisorNode
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import NANOSECONDS, joint_state, ns_to_stamp, point_stamped, stamp_to_ns
+from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped, stamp_to_ns
+from cdpr_msgs_py.stamps import NANOSECONDS
 from cdpr_msgs_py.health import HealthLimits
 from cdpr_twin.digital_twin_node import DigitalTwinNode
 from cdpr_twin.plant import PlantConfig

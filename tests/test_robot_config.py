@@ -11,6 +11,7 @@ import yaml
 from cdpr_control.config import ConfigError, load_section
 from cdpr_control.robot import load_robot
 from cdpr_fdi.config import load_fdi_config
+from cdpr_msgs_py import contract
 from conftest import CONFIG_DIR, PAPER_ROBOT
 
 # DESIGN §6: frame a x b x h, exit points at the upper vertices.
@@ -21,7 +22,7 @@ def test_paper_robot_has_design_parameters(paper_robot):
     expected_exits = np.array([[0, 0, H], [0, B, H], [A, B, H], [A, 0, H]])
     np.testing.assert_allclose(paper_robot.exit_points_m, expected_exits, atol=1e-12)
     assert paper_robot.cable_count == 4
-    assert paper_robot.joint_names() == ['motor_1', 'motor_2', 'motor_3', 'motor_4']
+    assert contract.joint_names(paper_robot.cable_count) == ['motor_1', 'motor_2', 'motor_3', 'motor_4']
     assert paper_robot.mass_kg == pytest.approx(2.941)
     np.testing.assert_allclose(paper_robot.gravity_m_s2, [0.0, 0.0, -9.81])
     np.testing.assert_allclose(paper_robot.weight_wrench_n, [0.0, 0.0, -2.941 * 9.81])

@@ -21,10 +21,10 @@ from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
 from rosbags.typesys import Stores, get_typestore
 
 from cdpr_msgs_py import contract
+from cdpr_msgs_py.stamps import NANOSECONDS, ns_parts, stamp_to_ns
 
 from .engine import Recording
 
-NANOSECONDS = 1e9
 # A chunk is what survives a SIGKILL whole, so chunks stay small; the recorder also
 # flushes the open one on a timer when traffic is too slow to fill it.
 CHUNK_SIZE_BYTES = 64 * 1024
@@ -167,8 +167,7 @@ def read_messages(bag: str | Path, topics: list[str]) -> dict[str, list[tuple[in
 
 
 def stamp_ns(message) -> int:
-    stamp = message.header.stamp
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
+    return stamp_to_ns(message.header.stamp)
 
 
 def read_topics(bag: str | Path, topics: list[str]) -> dict[str, dict[int, object]]:
@@ -238,10 +237,9 @@ def write_recording(writer: BagWriter, recording: Recording,
     names = contract.joint_names(recording.angle_rad.shape[1])
 
     def header(k):
-        stamp = int(stamps[k])
+        sec, nanosec = ns_parts(int(stamps[k]))
         return types['std_msgs/msg/Header'](
-            stamp=types['builtin_interfaces/msg/Time'](sec=stamp // 1_000_000_000,
-                                                      nanosec=stamp % 1_000_000_000),
+            stamp=types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec),
             frame_id='')
 
     def joints(k, position=(), velocity=(), effort=()):

@@ -24,6 +24,7 @@ from std_msgs.msg import Int32, String
 from cdpr_control.config import load_config, resolve_config
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.stamps import ns_parts
 
 from .bag_io import BagWriter
 
@@ -66,7 +67,7 @@ def contract_qos(topic: str):
 def bag_qos(profile) -> Qos:
     """An rclpy QoS profile as rosbag2 metadata, so `ros2 bag play` offers it again."""
     def duration(value) -> QosTime:
-        seconds, nanoseconds = divmod(value.nanoseconds, 1_000_000_000)
+        seconds, nanoseconds = ns_parts(value.nanoseconds)
         return QosTime(seconds, nanoseconds)
     return Qos(QosHistory[profile.history.name], profile.depth,
                QosReliability[profile.reliability.name], QosDurability[profile.durability.name],

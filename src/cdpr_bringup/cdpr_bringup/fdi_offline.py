@@ -20,8 +20,9 @@ from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.offline import RecordedTick, replay
 from cdpr_msgs_py import contract
+from cdpr_msgs_py.stamps import NANOSECONDS
 
-from .bag_io import NANOSECONDS, read_topics, recording_from_bag
+from .bag_io import read_topics, recording_from_bag
 from .cli import command
 from .paths import DEFAULT_ROBOT, config_file
 from .report import failure_of

@@ -29,9 +29,10 @@ from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_fdi.residual import sensorless_tensions
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.contract import NOMINAL, SAFE_HOLD
+from cdpr_msgs_py.stamps import NANOSECONDS
 
 from . import plots
-from .bag_io import NANOSECONDS, read_messages, recording_from_bag, stamp_ns
+from .bag_io import read_messages, recording_from_bag, stamp_ns
 from .cli import command
 from .engine import Recording
 from .metrics import fdi_summary_from_diagnostics, tracking_error_m, twin_kpis

@@ -19,6 +19,7 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.contract import NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.stamps import NANOSECONDS, seconds_to_ns
 
 from .config import load_config, resolve_config
 from .controller import JointController, JointReference, PdGains
@@ -54,7 +55,7 @@ class ControllerNode(CdprNode):
         settings = load_config(config)
         control = settings.section('control')
         period_s = control.number('period_s', positive=True)
-        self.period_ns = int(round(period_s * 1e9))
+        self.period_ns = seconds_to_ns(period_s)
         self.configure(settings, period_s)
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
         self.last_state_at: float | None = None
@@ -161,7 +162,7 @@ class ControllerNode(CdprNode):
         super().idle()
         if (self.clock_mode == 'realtime' and self.last_state_at is not None
                 and self.controller.mode == NOMINAL
-                and time.monotonic() - self.last_state_at > self.stale_ns / 1e9):
+                and time.monotonic() - self.last_state_at > self.stale_ns / NANOSECONDS):
             self.go_safe_hold(f'no joint states for {time.monotonic() - self.last_state_at:.3f} s')
 
     def answer(self, joints) -> None:

@@ -72,9 +72,6 @@ class Robot:
         """External wrench w_e = m_e g on the end-effector (N)."""
         return self.mass_kg * self.gravity_m_s2
 
-    def joint_names(self) -> list[str]:
-        return [f'motor_{i + 1}' for i in range(self.cable_count)]
-
     def fingerprint(self) -> str:
         """A short hash of everything the model of this robot is made of (geometry, mass,
         motors, tension bounds), not of its name or how its file is written: what a

@@ -25,6 +25,7 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import (InvalidMessage, joint_state, point_from_message,
                                       point_stamped, stamp_to_ns)
 from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.stamps import seconds_to_ns
 
 from .config import load_config, load_section, resolve_config
 from .motions import load_motion
@@ -45,7 +46,7 @@ class TrajectoryGeneratorNode(CdprNode):
         control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
         self.configure(settings, self.period_s)
-        self.period_ns = int(round(self.period_s * 1e9))
+        self.period_ns = seconds_to_ns(self.period_s)
         self.lead = control.integer('reference_lead_cycles', minimum=1)
         self.distribution = configured_tension_distribution(control, self.robot)
         self.goal_speed_m_s = load_section(motions, 'motion_defaults').number('peak_speed_m_s', positive=True)

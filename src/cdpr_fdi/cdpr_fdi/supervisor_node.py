@@ -25,6 +25,7 @@ from cdpr_msgs_py.contract import NOMINAL
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.health import unjudged_problem, verdict_problems
 from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.stamps import seconds_to_ns
 
 from .config import load_fdi_config, load_recovery_config
 from .supervisor import Supervisor
@@ -44,7 +45,7 @@ class SupervisorNode(CdprNode):
         control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
         self.configure(settings, self.period_s)
-        self.period_ns = int(round(self.period_s * 1e9))
+        self.period_ns = seconds_to_ns(self.period_s)
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
         calibration = self.parameter('calibration_file', '')
         epsilon = self.parameter('epsilon_nm', -1.0)

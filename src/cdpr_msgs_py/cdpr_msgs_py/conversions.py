@@ -9,7 +9,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PointStamped
 from sensor_msgs.msg import JointState
 
-NANOSECONDS = 1_000_000_000
+from .stamps import ns_parts, stamp_to_ns
 
 
 class InvalidMessage(ValueError):
@@ -26,12 +26,9 @@ class Joints:
     effort: np.ndarray
 
 
-def stamp_to_ns(stamp: Time) -> int:
-    return stamp.sec * NANOSECONDS + stamp.nanosec
-
-
 def ns_to_stamp(stamp_ns: int) -> Time:
-    return Time(sec=stamp_ns // NANOSECONDS, nanosec=stamp_ns % NANOSECONDS)
+    sec, nanosec = ns_parts(stamp_ns)
+    return Time(sec=sec, nanosec=nanosec)
 
 
 def joint_state(names: list[str], stamp_ns: int, position=(), velocity=(), effort=(),

@@ -25,6 +25,7 @@ from .conversions import InvalidMessage, joints_from_message
 from .health import ERROR, OK, WARN, AcknowledgementWatch, Health, HealthLimits
 from .scheduling import apply_scheduling
 from .sole_writer import Endpoint, SoleWriter, qualified_name
+from .stamps import seconds_to_ns
 
 SPIN_TIMEOUT_S = 0.05
 # On a stop request a node keeps handling what is queued until it has been quiet this
@@ -111,7 +112,7 @@ def watching_acknowledgements(node):
     def watch(publisher, topic):
         pointer = publisher.handle.pointer
         while not stop.is_set():
-            result = wait(pointer, int(ACKNOWLEDGEMENT_WAIT_S * 1e9))
+            result = wait(pointer, seconds_to_ns(ACKNOWLEDGEMENT_WAIT_S))
             if result == RCL_RET_OK:
                 node.acknowledgements.acknowledged(topic, time.monotonic())
                 stop.wait(ACKNOWLEDGEMENT_REST_S)

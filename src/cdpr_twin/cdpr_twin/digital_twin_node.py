@@ -12,6 +12,7 @@ from cdpr_control.robot import load_robot
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, point_stamped
 from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.stamps import seconds_to_ns
 
 from .twin import DigitalTwin
 
@@ -26,7 +27,7 @@ class DigitalTwinNode(CdprNode):
         control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
         self.configure(settings, self.period_s)
-        self.period_ns = int(round(self.period_s * 1e9))
+        self.period_ns = seconds_to_ns(self.period_s)
         self.stale_cycles = control.integer('stale_cycles', minimum=1)
         self.gains = PdGains.from_section(self.robot, control)
         self.substeps = settings.section('twin').integer('substeps', minimum=1)

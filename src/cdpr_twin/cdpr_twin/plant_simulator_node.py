@@ -24,6 +24,7 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
 from cdpr_msgs_py.health import loop_problem
 from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.stamps import seconds_to_ns
 
 from .plant import PlantConfig, PlantSimulator
 from .run_length import RunLength
@@ -40,7 +41,7 @@ class PlantSimulatorNode(CdprNode):
         self.robot = load_robot(config)
         settings = load_config(config)
         self.period_s = settings.section('control').number('period_s', positive=True)
-        self.period_ns = int(round(self.period_s * 1e9))
+        self.period_ns = seconds_to_ns(self.period_s)
         self.configure(settings, self.period_s)
         motion = load_motion(motions, self.parameter('motion', 'circle'), self.parameter('reverse', False))
         fidelity = self.parameter('fidelity', '') or None
