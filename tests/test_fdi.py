@@ -316,23 +316,25 @@ def test_phase_1_damps_the_swing_with_a_force_against_the_velocity(paper_robot, 
     # l̇ = −u·ṗ = ρ θ̇ (eq. 17)
     speeds = -(directions @ velocity) / robot.motor.drum_radius_m
     angles = inverse_kinematics(robot, position)
-    damping = recovery.swing_damping_n(angles, speeds)
+    damping = recovery.swing_damping_n(*recovery.end_effector_state(angles, speeds))
     c = 2.0 * recovery_config.swing_damping_ratio * robot.mass_kg * np.sqrt(9.81 / np.mean(lengths[attached]))
     np.testing.assert_allclose(directions[attached].T @ damping, -c * velocity, atol=1e-6)
     # fast enough that the full force would take a cable below taut: scaled, not clipped,
     # so the force added still points against the velocity
     fast = 20.0 * speeds
-    tensions = recovery.damped_tension_setpoint(10, angles, fast)[attached]
+    tensions = recovery.damped_tension_setpoint(10, recovery.end_effector_state(angles, fast))[attached]
     quintic = recovery.tension_setpoint(10)[attached]
     assert np.min(quintic + 20.0 * damping) < recovery.taut_n
     assert np.min(tensions) == pytest.approx(min(recovery.taut_n, np.min(quintic)))
     added = directions[attached].T @ (tensions - quintic)
     np.testing.assert_allclose(added / np.linalg.norm(added), -velocity / np.linalg.norm(velocity),
                                atol=1e-9)
-    at_rest = recovery.damped_tension_setpoint(10, angles, np.zeros(robot.cable_count))
+    at_rest = recovery.damped_tension_setpoint(
+        10, recovery.end_effector_state(angles, np.zeros(robot.cable_count)))
     np.testing.assert_allclose(at_rest, recovery.tension_setpoint(10), atol=1e-9)
     undamped = Recovery(robot, dataclasses.replace(recovery_config, swing_damping_ratio=0.0),
                         distribution, PERIOD_S, attached, 0, static_tensions(robot, position, attached),
                         position, inside=False)
-    np.testing.assert_array_equal(undamped.damped_tension_setpoint(10, angles, speeds),
-                                  undamped.tension_setpoint(10))
+    np.testing.assert_array_equal(
+        undamped.damped_tension_setpoint(10, undamped.end_effector_state(angles, speeds)),
+        undamped.tension_setpoint(10))

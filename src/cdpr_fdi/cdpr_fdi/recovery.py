@@ -181,38 +181,33 @@ class Recovery:
         s, _, _ = quintic_profile((tick - self.start_tick) * self.period_s, self.config.tension_phase_s)
         return self.start_tensions_n + (self.target_tensions_n - self.start_tensions_n) * s
 
-    def swing_damping_n(self, angle_rad, angular_velocity_rad_s) -> np.ndarray:
+    def swing_damping_n(self, position_m, velocity_m_s) -> np.ndarray:
         """Tensions (N, remaining cables, least squares) of the force −c ṗ that damps the
         end-effector's swing: c = 2 ζ m √(g / d̄), the pendulum on the mean remaining cable
-        length d̄ critically damped at ζ = 1. Zeros where its pose cannot be found."""
-        try:
-            position, velocity = self.end_effector_state(angle_rad, angular_velocity_rad_s)
-        except (ValueError, np.linalg.LinAlgError):
-            return np.zeros(int(np.count_nonzero(self.attached)))
-        directions, lengths = cable_vectors(self.robot.exit_points_m[self.attached], position)
+        length d̄ critically damped at ζ = 1."""
+        directions, lengths = cable_vectors(self.robot.exit_points_m[self.attached], position_m)
         gravity = float(np.linalg.norm(self.robot.gravity_m_s2))
         damping = (2.0 * self.config.swing_damping_ratio * self.robot.mass_kg
                    * np.sqrt(gravity / float(np.mean(lengths))))
-        tensions, *_ = np.linalg.lstsq(directions.T, -damping * velocity, rcond=None)
+        tensions, *_ = np.linalg.lstsq(directions.T, -damping * np.asarray(velocity_m_s), rcond=None)
         return tensions
 
-    def damped_tension_setpoint(self, tick: int, angle_rad, angular_velocity_rad_s) -> np.ndarray:
-        """Phase 1's setpoint with the swing damping added, scaled down as far as needed to
-        keep every tension within [taut, τ_max] (never raised to taut where the quintic
-        itself is below it): clipping cable by cable would turn the force away from −ṗ,
-        and on a light robot pull a cable slack."""
+    def damped_tension_setpoint(self, tick: int, state) -> np.ndarray:
+        """Phase 1's setpoint with the swing damping of the end-effector's `state`
+        (position, velocity; None where its pose cannot be found: no damping) added,
+        scaled down as far as needed to keep every tension within [taut, τ_max] (never
+        raised to taut where the quintic itself is below it): clipping cable by cable would
+        turn the force away from −ṗ, and on a light robot pull a cable slack."""
         tensions = self.tension_setpoint(tick)
-        if self.config.swing_damping_ratio == 0.0:
+        if self.config.swing_damping_ratio == 0.0 or state is None:
             return tensions
         attached = tensions[self.attached]
-        damping = self.swing_damping_n(angle_rad, angular_velocity_rad_s)
-        lower = np.minimum(attached, self.taut_n)
-        upper = np.maximum(attached, self.robot.tension_max_n)
+        damping = self.swing_damping_n(*state)
         # the largest s in [0, 1] with lower <= attached + s damping <= upper
-        room = np.where(damping < 0.0, (lower - attached) / np.where(damping < 0.0, damping, -1.0),
-                        np.where(damping > 0.0, (upper - attached) / np.where(damping > 0.0, damping, 1.0),
-                                 np.inf))
-        scale = float(np.clip(np.min(room, initial=1.0), 0.0, 1.0))
+        bound = np.where(damping < 0.0, np.minimum(attached, self.taut_n),
+                         np.maximum(attached, self.robot.tension_max_n))
+        acting = damping != 0.0
+        scale = float(np.clip(np.min((bound - attached)[acting] / damping[acting], initial=1.0), 0.0, 1.0))
         tensions[self.attached] = attached + scale * damping
         return tensions
 
@@ -282,8 +277,9 @@ class Recovery:
 
     def setpoint(self, tick: int, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray):
         """(mode, tensions or None, JointReference or None) for tick + 1."""
+        state = None
         if self.mode == RECOVERY_TENSION and self.planning_due(tick):
-            position, velocity = self.end_effector_state(angle_rad, angular_velocity_rad_s)
+            state = position, velocity = self.end_effector_state(angle_rad, angular_velocity_rad_s)
             if self.tension_phase_s == 0.0:
                 # no plan from where it is: hold it there by tension until it settles
                 if not self.plan_move(tick, position, velocity):
@@ -292,7 +288,14 @@ class Recovery:
                 if self.timed_out:
                     raise self.last_plan_error
         if self.mode == RECOVERY_TENSION:
-            return self.mode, self.damped_tension_setpoint(tick + 1, angle_rad, angular_velocity_rad_s), None
+            if state is None and self.config.swing_damping_ratio > 0.0:
+                # the swing damping needs the pose before planning is due; a tick where it
+                # cannot be found goes undamped (planning, when due, raises instead)
+                try:
+                    state = self.end_effector_state(angle_rad, angular_velocity_rad_s)
+                except (ValueError, np.linalg.LinAlgError):
+                    state = None
+            return self.mode, self.damped_tension_setpoint(tick + 1, state), None
         if self.mode == RECOVERY_MOVE:
             start, table = self.move
             row = tick + 1 - start
