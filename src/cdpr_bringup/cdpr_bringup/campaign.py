@@ -37,6 +37,7 @@ import numpy as np
 from cdpr_control.config import load_section
 from cdpr_control.motions import motion_names
 from cdpr_control.robot import load_robot
+from cdpr_msgs_py.contract import FAULT
 
 from .cli import command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
@@ -357,9 +358,6 @@ def summarize(rows: list[dict]) -> dict:
             'final_error_max_m': max(final_errors) if final_errors else None,
         }
     return summary
-
-
-FAULT = 'FAULT'
 
 
 def outcome(rows: list[dict]) -> dict:

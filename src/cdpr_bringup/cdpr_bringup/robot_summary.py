@@ -58,12 +58,12 @@ def print_settings(config, robot):
     print("settings (the robot file's, else the paper's defaults):")
     print(f'  control period {period}, PD {pd}, damping ratio {damping}, '
           f'tension distribution {distribution}')
-    delta = setting(fdi_section, 'identification_delta_n',
-                    f"{fdi_section.number('identification_delta_n'):g} N ({fdi.delta_nm:.3g} N·m)")
+    delta_n = fdi_section.number('identification_delta_n')
+    delta = setting(fdi_section, 'identification_delta_n', f'{delta_n:g} N ({fdi.delta_nm:.3g} N·m)')
     print(f'  FDI {detector}, rigid plant ε {epsilon}, identification δ {delta}; '
           f'elastic plant calibration {elastic_text}')
     print(f'  recovery SP height {heights[0]}, table {heights[1]}, move {move}')
-    return recovery, fdi.delta_nm / robot.motor.drum_radius_m
+    return recovery, delta_n
 
 
 def motion_extremes(robot, tension_distribution, motion, period_s):

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cdpr_control.config import Section, load_config, load_section, load_yaml
+from cdpr_control.config import Section, load_config, load_section, load_yaml, with_defaults
 from cdpr_control.friction import FrictionModel
 from cdpr_control.robot import Robot
 from cdpr_control.trajectories import QUINTIC_PEAK_SPEED_RATIO
@@ -88,7 +88,8 @@ def load_fdi_config(config_path: str | Path, robot: Robot,
     if calibration_path:
         document = Section(load_yaml(calibration_path), calibration_path)
         check_calibration_robot(document, robot, config_path)
-        data = _merged(data, dict(document.section('fdi').data))
+        # the calibration's values, the robot file's where it has none
+        data, _ = with_defaults(dict(document.section('fdi').data), data)
         path = calibration_path
     friction = FrictionModel.of_robot(robot, load_section(config_path, 'control'))
     return FdiConfig.from_section(Section(data, path, 'fdi'), robot, friction)
@@ -105,14 +106,6 @@ def check_calibration_robot(calibration: Section, robot: Robot, config_path: str
             'robot_fingerprint', f'is {fingerprint} (robot {made_on.string("robot", "?")}), but '
             f'{config_path} describes robot {robot.name}, {robot.fingerprint()}: make its own with '
             f'cdpr-calibrate --config {config_path} --motions MOTIONS.yaml --out FILE')
-
-
-def _merged(base: dict, update: dict) -> dict:
-    merged = dict(base)
-    for key, value in update.items():
-        merged[key] = (_merged(base[key], value) if isinstance(value, dict)
-                       and isinstance(base.get(key), dict) else value)
-    return merged
 
 
 @dataclass(frozen=True)
