@@ -1,9 +1,10 @@
 """The in-process engine: the graph's core classes in one loop, without DDS.
 
 Per cycle k, as the node graph does it: the plant reports θ, θ̇ (and the torque it
-applied); the controller answers with c from the reference of tick k (or the recovery's
-setpoint); the twin computes c_DT from the same reference; the supervisor judges tick k,
-and its verdict steers the controller from tick k + 1; the plant steps under c.
+applied); the controller answers with c from the setpoint of tick k (the reference, or
+the recovery's: cdpr_control.setpoints, as the controller node); the twin computes c_DT
+from the same reference and the supervisor judges tick k (cdpr_fdi.monitor); its verdict
+steers the controller from tick k + 1; the plant steps under c.
 """
 from __future__ import annotations
 
@@ -12,8 +13,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from cdpr_control.controller import JointController, JointReference
+from cdpr_control.setpoints import Setpoints
+from cdpr_fdi.monitor import Monitor
 from cdpr_fdi.supervisor import Supervisor, Verdict
-from cdpr_msgs_py.contract import RECOVERY_MOVE
+from cdpr_msgs_py.stamps import seconds_to_ns
 from cdpr_twin.plant import PlantSimulator
 from cdpr_twin.run_length import RunLength
 from cdpr_twin.twin import DigitalTwin
@@ -51,13 +54,16 @@ def reference_at(scenario: Scenario, k: int) -> JointReference:
                           table.feedforward_nm[row])
 
 
-def apply_verdict(controller: JointController, verdict: Verdict) -> JointReference | None:
-    """Steer the controller as the supervisor's messages do; the recovery reference, if any."""
-    controller.set_broken([cable - 1 for cable in verdict.broken_cables])
-    controller.set_mode(verdict.mode)
+def steer(setpoints: Setpoints, verdict: Verdict, next_stamp_ns: int) -> None:
+    """What the supervisor node publishes of a verdict, handed to the controller's setpoints:
+    the broken cables, the mode, and the recovery's setpoint for the next tick."""
+    for cable in verdict.broken_cables:
+        setpoints.cable_broken(cable)
+    setpoints.set_mode(verdict.mode)
     if verdict.tension_setpoint_n is not None:
-        controller.set_tension_setpoint(verdict.tension_setpoint_n)
-    return verdict.reference
+        setpoints.put_recovery_tensions(next_stamp_ns, verdict.tension_setpoint_n)
+    if verdict.reference is not None:
+        setpoints.put_recovery_reference(next_stamp_ns, verdict.reference)
 
 
 def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
@@ -66,32 +72,35 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     plant = PlantSimulator(robot, scenario.plant, start, scenario.failures)
     twin = DigitalTwin(robot, scenario.gains, start, scenario.twin_substeps)
     controller = JointController(robot, scenario.gains, scenario.fdi.friction)
+    setpoints = Setpoints(controller, exact=True)
     supervisor = (Supervisor(robot, scenario.fdi, scenario.recovery, scenario.distribution,
                              scenario.period_s) if supervised else None)
+    monitor = Monitor(twin, supervisor, scenario.period_s)
+    period_ns = seconds_to_ns(scenario.period_s)
     cycles, m = scenario.cycles, robot.cable_count
     rows = {name: np.empty((cycles, width)) for name, width in (
         ('angle', m), ('speed', m), ('command', m), ('twin_angle', m), ('twin_speed', m),
         ('twin_torque', m), ('twin_position', 3), ('true_position', 3), ('true_tension', m),
         ('reference_position', 3), ('reference_angle', m), ('residual', m))}
     applied = np.zeros(m)
-    recovery_reference = None
     run_length = RunLength(cycles - 1, scenario.hold_after_cycles)
     ran = 0
     try:
         for k in range(cycles):
             if k > run_length.last_tick:
                 break
+            stamp = k * period_ns
             reference = reference_at(scenario, k)
+            setpoints.put_reference(stamp, reference)
             angle, speed = plant.measure()
             rows['true_position'][k] = plant.position_m
             rows['true_tension'][k] = plant.tension_n
-            command = controller.command(
-                angle, speed, recovery_reference if controller.mode == RECOVERY_MOVE else reference)
-            twin_output = twin.step(reference, scenario.period_s)
-            if supervisor is not None:
-                verdict = supervisor.update(k, angle, speed, applied, command, twin_output.torque_nm,
-                                            twin_output.angular_velocity_rad_s, reference)
-                recovery_reference = apply_verdict(controller, verdict)
+            command = setpoints.command(stamp, angle, speed)
+            if command is None:
+                raise RuntimeError(f'tick {k}: no {controller.mode} setpoint from the supervisor')
+            twin_output, verdict = monitor.step(k, angle, speed, applied, command, reference)
+            if verdict is not None:
+                steer(setpoints, verdict, stamp + period_ns)
                 rows['residual'][k] = verdict.residual_nm
                 # the graph's plant learns the verdict once it stands at the next tick
                 run_length.mode(verdict.mode, k + 1)

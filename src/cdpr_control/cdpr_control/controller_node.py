@@ -9,14 +9,13 @@ the in-process engine. Realtime: the latest of each, never waiting.
 from __future__ import annotations
 
 import time
-from collections import OrderedDict
 
 import numpy as np
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.contract import NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
+from cdpr_msgs_py.contract import NOMINAL, SAFE_HOLD
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.runtime import CdprNode, run
 from cdpr_msgs_py.stamps import NANOSECONDS, seconds_to_ns
@@ -25,26 +24,7 @@ from .config import load_config, resolve_config
 from .controller import JointController, JointReference, PdGains
 from .friction import FrictionModel
 from .robot import load_robot
-
-BUFFER_LENGTH = 256
-
-
-class StampedBuffer(OrderedDict):
-    """The last BUFFER_LENGTH values by stamp (ns)."""
-
-    def put(self, stamp_ns: int, value) -> None:
-        self[stamp_ns] = value
-        while len(self) > BUFFER_LENGTH:
-            self.popitem(last=False)
-
-    def at(self, stamp_ns: int, exact: bool):
-        """(stamp, value) of exactly this stamp, or (not exact) of the latest not after
-        it; (None, None) when there is none."""
-        if exact:
-            return (stamp_ns, self[stamp_ns]) if stamp_ns in self else (None, None)
-        earlier = [stamp for stamp in self if stamp <= stamp_ns]
-        return (max(earlier), self[max(earlier)]) if earlier else (None, None)
-
+from .setpoints import Setpoints
 
 class ControllerNode(CdprNode):
 
@@ -63,11 +43,10 @@ class ControllerNode(CdprNode):
         self.controller = JointController(
             self.robot, PdGains.from_section(self.robot, control),
             FrictionModel.of_robot(self.robot, control, None if friction < 0 else friction))
+        self.setpoints = Setpoints(self.controller, exact=self.clock_mode == 'lockstep',
+                                   stale_ns=self.stale_ns)
         self.wait_for_supervisor = self.parameter('wait_for_supervisor', False)
         self.names = contract.joint_names(self.robot.cable_count)
-        self.references = StampedBuffer()
-        self.recovery_references = StampedBuffer()
-        self.recovery_tensions = StampedBuffer()
         self.verdict_ns: int | None = None
         self.first_state_ns: int | None = None
         self.pending = None
@@ -88,21 +67,21 @@ class ControllerNode(CdprNode):
     def on_reference(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.REFERENCE)
         if joints is not None:
-            self.references.put(joints.stamp_ns, JointReference(joints.position, joints.velocity,
-                                                                joints.effort))
+            self.setpoints.put_reference(joints.stamp_ns, JointReference(
+                joints.position, joints.velocity, joints.effort))
             self.retry()
 
     def on_recovery_reference(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.RECOVERY_REFERENCE)
         if joints is not None:
-            self.recovery_references.put(joints.stamp_ns, JointReference(
+            self.setpoints.put_recovery_reference(joints.stamp_ns, JointReference(
                 joints.position, joints.velocity, joints.effort))
             self.retry()
 
     def on_tensions(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.RECOVERY_TENSIONS, ('effort',))
         if joints is not None:
-            self.recovery_tensions.put(joints.stamp_ns, joints.effort)
+            self.setpoints.put_recovery_tensions(joints.stamp_ns, joints.effort)
             self.retry()
 
     def on_residual(self, message: JointState) -> None:
@@ -134,36 +113,18 @@ class ControllerNode(CdprNode):
             return True
         return self.verdict_ns is not None and self.verdict_ns >= stamp_ns - self.period_ns
 
-    def setpoint_for(self, stamp_ns: int):
-        """(ready, reference) for this tick in the current mode."""
-        exact = self.clock_mode == 'lockstep'
-        mode = self.controller.mode
-        if mode == RECOVERY_TENSION:
-            _, tensions = self.recovery_tensions.at(stamp_ns, exact)
-            if tensions is not None:
-                self.controller.set_tension_setpoint(tensions)
-            return tensions is not None or not exact, None
-        if mode == RECOVERY_MOVE:
-            _, reference = self.recovery_references.at(stamp_ns, exact)
-            return reference is not None or not exact, reference
-        stamp, reference = self.references.at(stamp_ns, exact)
-        if not exact and reference is not None and mode == NOMINAL and stamp_ns - stamp > self.stale_ns:
-            self.go_safe_hold(f'reference stale by {(stamp_ns - stamp) / 1e6:.0f} ms')
-        return reference is not None or mode != NOMINAL, reference
-
-    def go_safe_hold(self, why: str) -> None:
-        """Realtime: a stale input; hold where the last reference was, at rest."""
-        self.controller.set_mode(SAFE_HOLD)
-        self.diagnostics.error = f'SAFE_HOLD: {why}'
+    def report_safe_hold(self) -> None:
+        self.diagnostics.error = f'SAFE_HOLD: {self.setpoints.safe_hold_reason}'
         self.get_logger().warning(self.diagnostics.error)
         self.diagnostics.publish()
 
     def idle(self) -> None:
         super().idle()
         if (self.clock_mode == 'realtime' and self.last_state_at is not None
-                and self.controller.mode == NOMINAL
-                and time.monotonic() - self.last_state_at > self.stale_ns / NANOSECONDS):
-            self.go_safe_hold(f'no joint states for {time.monotonic() - self.last_state_at:.3f} s')
+                and time.monotonic() - self.last_state_at > self.stale_ns / NANOSECONDS
+                and self.setpoints.go_safe_hold(
+                    f'no joint states for {time.monotonic() - self.last_state_at:.3f} s')):
+            self.report_safe_hold()
 
     def answer(self, joints) -> None:
         if joints.stamp_ns in self.answered:
@@ -172,11 +133,13 @@ class ControllerNode(CdprNode):
             if not self.verdict_arrived(joints.stamp_ns):
                 self.pending = joints
                 return
-            ready, reference = self.setpoint_for(joints.stamp_ns)
-            if not ready:
+            mode = self.controller.mode
+            torque = self.setpoints.command(joints.stamp_ns, joints.position, joints.velocity)
+            if mode == NOMINAL and self.controller.mode == SAFE_HOLD:
+                self.report_safe_hold()
+            if torque is None:
                 self.pending = joints
                 return
-            torque = self.controller.command(joints.position, joints.velocity, reference)
             self.answered = {joints.stamp_ns: torque}
         self.pending = None
         if not np.all(np.isfinite(torque)):
@@ -193,11 +156,11 @@ class ControllerNode(CdprNode):
             self.diagnostics.reject(contract.FDI_BROKEN_CABLE, f'cable {message.data} out of range')
             return
         if message.data:
-            self.controller.set_broken([message.data - 1])
+            self.setpoints.cable_broken(message.data)
 
     def on_mode(self, message: String) -> None:
         try:
-            self.controller.set_mode(message.data)
+            self.setpoints.set_mode(message.data)
         except ValueError as err:
             self.diagnostics.reject(contract.MODE, str(err))
             return

@@ -18,6 +18,7 @@ from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_twin.twin import DigitalTwin
 
 from .config import FdiConfig, RecoveryConfig
+from .monitor import Monitor
 from .supervisor import Supervisor
 
 
@@ -47,11 +48,10 @@ def replay(ticks: list[RecordedTick], robot: Robot, gains: PdGains, twin_substep
     twin = DigitalTwin(robot, gains, forward_kinematics(robot, ticks[0].reference.angle_rad),
                        twin_substeps)
     supervisor = Supervisor(robot, fdi, recovery, distribution, period_s)
+    monitor = Monitor(twin, supervisor, period_s)
     for k, tick in enumerate(ticks):
-        output = twin.step(tick.reference, period_s)
-        verdict = supervisor.update(k, tick.angle_rad, tick.angular_velocity_rad_s,
-                                    tick.applied_torque_nm, tick.command_nm, output.torque_nm,
-                                    output.angular_velocity_rad_s, tick.reference)
+        _, verdict = monitor.step(k, tick.angle_rad, tick.angular_velocity_rad_s,
+                                  tick.applied_torque_nm, tick.command_nm, tick.reference)
         if verdict.broken_cables:
             return OfflineVerdict(k + 1, supervisor.alarm_tick, k, verdict.broken_cables)
     return OfflineVerdict(len(ticks), supervisor.alarm_tick, None, [])
