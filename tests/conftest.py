@@ -46,6 +46,14 @@ def pytest_configure(config):
 STALE = ('fastdds_port7000',)
 
 
+def settled_parameters(clock_mode: str = 'lockstep', **options) -> dict[str, dict]:
+    """Per node, the parameters cdpr-scenario gives it for the paper robot's run that
+    `options` (ScenarioOptions' fields) describe."""
+    from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+    return build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+                                          **options)).node_parameters(clock_mode)
+
+
 @functools.cache
 def private_shm_allowed() -> bool:
     probe = subprocess.run(['unshare', '-m', 'sh', '-c', 'mount -t tmpfs tmpfs /dev/shm'],

@@ -27,8 +27,8 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime import CdprNode, make_executor, message_info_callback
 from cdpr_msgs_py.sole_writer import Endpoint, SoleWriter
 
-from conftest import wait_until_the_plant_runs
-from test_faults import START_TIMEOUT_S, realtime_parameters
+from conftest import settled_parameters, wait_until_the_plant_runs
+from test_faults import START_TIMEOUT_S
 
 CONTROLLER = '/cdpr/controller'
 REAL, OTHER, SPOOF = b'\x01' * 16, b'\x02' * 16, b'\x03' * 16
@@ -228,7 +228,7 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
     namespace = f'/cdpr_second_writer_{clock_mode}'
     bag = tmp_path / 'bag'
     lines = []
-    parameters = dict(realtime_parameters(), clock_mode=clock_mode, duration_s=RUN_S[clock_mode])
+    parameters = settled_parameters(clock_mode, motion='circle', duration_s=RUN_S[clock_mode])
     graph = Graph(graph_nodes(parameters, str(bag)), namespace, completion='plant_simulator',
                   log=lines.append)
     try:

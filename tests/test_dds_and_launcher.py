@@ -17,12 +17,13 @@ import time
 from pathlib import Path
 
 import pytest
+import yaml
 
 from cdpr_bringup.graph import STOP_GRACE_S, TEMP_PREFIX, node_environment
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_msgs_py import dds
 
-from conftest import STALE, MOTIONS, PAPER_ROBOT, in_private_shm, needs_private_shm
+from conftest import CONFIG_DIR, STALE, MOTIONS, PAPER_ROBOT, in_private_shm, needs_private_shm
 
 pytestmark = pytest.mark.graph
 BIN = Path(sys.executable).parent
@@ -183,9 +184,16 @@ def test_the_launcher_gives_the_supervisor_the_thresholds_of_its_plant(fidelity)
     scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
                                               motion='circle', fidelity=fidelity))
     parameters = scenario.node_parameters('lockstep')
-    assert parameters['fidelity'] == fidelity
+    assert parameters['plant_simulator']['plant.fidelity'] == fidelity
+    supervisor = parameters['supervisor']
+    calibration = yaml.safe_load((CONFIG_DIR / 'fdi_calibration_elastic.yaml').read_text())['fdi']
     if fidelity == 'elastic':
-        assert Path(parameters['calibration_file']).name == 'fdi_calibration_elastic.yaml'
-        assert parameters['epsilon_nm'] > 0.1   # calibrated for the elastic plant's noise
+        # the calibrated thresholds themselves, for the elastic plant's noise
+        assert supervisor['fdi.epsilon_nm'] == calibration['epsilon_nm'] > 0.1
+        assert supervisor['control.coulomb_friction_nm'] > 0.0
     else:
-        assert 'calibration_file' not in parameters and parameters['coulomb_friction_nm'] == 0.0
+        assert supervisor['fdi.epsilon_nm'] == 0.03 and supervisor['control.coulomb_friction_nm'] == 0.0
+    # every node assumes the same friction, and no node is handed a file to read
+    assert {node['control.coulomb_friction_nm'] for node in parameters.values()} == {
+        supervisor['control.coulomb_friction_nm']}
+    assert not any(key.endswith('_file') for node in parameters.values() for key in node)

@@ -15,9 +15,8 @@ import pytest
 
 from cdpr_bringup.bag_io import read_messages
 from cdpr_bringup.graph import Graph, GraphError, graph_nodes
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 
-from conftest import MOTIONS, PAPER_ROBOT, wait_until_the_plant_runs
+from conftest import settled_parameters, wait_until_the_plant_runs
 
 pytestmark = pytest.mark.graph
 RUN_BEFORE_KILL_S = 3.0
@@ -27,13 +26,8 @@ NODES = ['controller', 'digital_twin', 'supervisor', 'trajectory_generator', 'ba
          'plant_simulator']
 
 
-def realtime_parameters() -> dict:
-    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
-                                              motion='circle'))
-    return {'config_file': str(PAPER_ROBOT), 'motions_file': str(MOTIONS), 'motion': 'circle',
-            'clock_mode': 'realtime', 'duration_s': 60.0,
-            'calibration_file': str(scenario.calibration_path),
-            'coulomb_friction_nm': scenario.fdi.friction.coulomb_nm}
+def realtime_parameters() -> dict[str, dict]:
+    return settled_parameters('realtime', motion='circle', duration_s=60.0)
 
 
 @pytest.mark.parametrize('victim', NODES)

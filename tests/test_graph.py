@@ -18,21 +18,17 @@ from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 
 from cdpr_msgs_py.dds import PROFILE_VARIABLE
 
-from conftest import MOTIONS, PAPER_ROBOT, in_private_shm, private_shm_allowed
+from conftest import MOTIONS, PAPER_ROBOT, in_private_shm, private_shm_allowed, settled_parameters
 
 pytestmark = pytest.mark.graph
 QUIET = lambda line: None  # noqa: E731
 
 
-def parameters(**extra):
-    return dict({'config_file': str(PAPER_ROBOT), 'motions_file': str(MOTIONS),
-                 'motion': 'along-2', 'clock_mode': 'lockstep'}, **extra)
-
-
-def run(tmp_path, name, **extra):
+def run(tmp_path, name, clock_mode='lockstep', **options):
+    """A run of along-2 (or `options`' motion) as cdpr-scenario settles it; its bag."""
     bag = tmp_path / name
-    run_to_completion(graph_nodes(parameters(**extra), str(bag)), f'/cdpr_test_{name}',
-                      timeout_s=120.0, log=QUIET)
+    run_to_completion(graph_nodes(settled_parameters(clock_mode, **dict({'motion': 'along-2'}, **options)),
+                                  str(bag)), f'/cdpr_test_{name}', timeout_s=120.0, log=QUIET)
     return bag
 
 
@@ -41,18 +37,10 @@ def failure_scenario():
                                           motion='along-2', fail_cables=[4]))
 
 
-def fdi_parameters(scenario) -> dict:
-    """What cdpr-scenario gives the nodes: run length, calibration, the FDI's friction."""
-    given = scenario.node_parameters('lockstep')
-    return {key: given[key] for key in ('duration_s', 'end_after_recovery_s', 'calibration_file',
-                                        'coulomb_friction_nm')}
-
-
 @pytest.fixture(scope='module')
 def lockstep_bags(tmp_path_factory):
     folder = tmp_path_factory.mktemp('lockstep')
-    extra = fdi_parameters(failure_scenario())
-    return [run(folder, f'run{i}', fail_cables=[4], **extra) for i in range(2)]
+    return [run(folder, f'run{i}', fail_cables=[4]) for i in range(2)]
 
 
 def test_lockstep_graph_equals_the_inprocess_engine(lockstep_bags):
@@ -132,8 +120,8 @@ def test_outside_tools_and_late_joiners_see_the_broken_cable():
     diagnostics and the broken cable; one that joins after the failure still gets it."""
     namespace = '/cdpr_test_listen'
     scenario = failure_scenario()
-    graph = Graph(graph_nodes(parameters(fail_cables=[4], fidelity='rigid', coulomb_friction_nm=0.0,
-                                         duration_s=scenario.duration_s + 30.0)),
+    graph = Graph(graph_nodes(settled_parameters(motion='along-2', fail_cables=[4], fidelity='rigid',
+                                                 duration_s=scenario.duration_s + 30.0)),
                   namespace, completion='plant_simulator', log=QUIET)
     try:
         graph.start()
@@ -166,7 +154,7 @@ def test_offline_fdi_on_a_recorded_failure_names_the_cable_as_live(lockstep_bags
 
 def test_offline_fdi_on_a_failure_free_bag_raises_no_alarm(tmp_path):
     scenario = failure_scenario()
-    bag = run(tmp_path, 'healthy', motion='along-4', **dict(fdi_parameters(scenario), duration_s=-1.0))
+    bag = run(tmp_path, 'healthy', motion='along-4')
     verdict = offline_verdict(bag, '/cdpr_test_healthy', tmp_path, scenario)
     assert verdict['detection_time_s'] is None and verdict['alarm_time_s'] is None
     assert verdict['ticks_replayed'] > 3000

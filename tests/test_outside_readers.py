@@ -24,8 +24,8 @@ from cdpr_bringup.graph import Graph, graph_nodes, node_environment
 from cdpr_msgs_py.conversions import stamp_to_ns
 from cdpr_msgs_py.health import WARN
 
-from conftest import in_private_shm, private_shm_allowed
-from test_faults import START_TIMEOUT_S, realtime_parameters
+from conftest import in_private_shm, private_shm_allowed, settled_parameters
+from test_faults import START_TIMEOUT_S
 from test_graph import user_environment
 
 pytestmark = pytest.mark.graph
@@ -76,7 +76,7 @@ def run_with_a_stopped_reader(tmp_path, clock_mode: str, duration_s: float):
     clock ns of the stop, s from the stop to the run's end)."""
     namespace = f'/cdpr_outside_{clock_mode}'
     bag = tmp_path / 'bag'
-    parameters = dict(realtime_parameters(), clock_mode=clock_mode, duration_s=duration_s)
+    parameters = settled_parameters(clock_mode, motion='circle', duration_s=duration_s)
     graph = Graph(graph_nodes(parameters, str(bag)), namespace, completion='plant_simulator',
                   log=lambda line: None)
     reader = None

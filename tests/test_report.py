@@ -21,7 +21,7 @@ from cdpr_bringup.metrics import tracking_error_m, twin_kpis
 from cdpr_bringup.report import main, write_report
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 
-from conftest import MOTIONS, PAPER_ROBOT
+from conftest import MOTIONS, PAPER_ROBOT, settled_parameters
 
 DESIGN_KEYS = {'failure_time_s', 'detection_time_s', 'detection_delay_ms', 'identified_cables',
                'true_broken_cables', 'false_alarm', 'recovery', 'kpi', 'cycles', 'wall_time_s'}
@@ -160,9 +160,8 @@ def test_report_refuses_to_overwrite_the_runs_own_metrics(failure_run):
 def test_report_of_a_graph_bag(tmp_path):
     """The node graph's own bag: cable 4 breaks at 1.501 s, between two ticks so that
     the first tick without it is unambiguous (1.502 s); the run stops at 3 s."""
-    parameters = {'config_file': str(PAPER_ROBOT), 'motions_file': str(MOTIONS),
-                  'motion': 'along-4', 'clock_mode': 'lockstep', 'fidelity': 'rigid',
-                  'fail_cables': [4], 'fail_at_s': 1.501, 'duration_s': 3.0}
+    parameters = settled_parameters(motion='along-4', fidelity='rigid', fail_cables=[4],
+                                    fail_at_s=1.501, duration_s=3.0)
     bag = tmp_path / 'bag'
     run_to_completion(graph_nodes(parameters, str(bag)), '/cdpr', timeout_s=60.0,
                       log=lambda line: None)

@@ -8,11 +8,12 @@ import threading
 import pytest
 import yaml
 
-from cdpr_bringup.graph import BACKGROUND, CONTROL_LOOP, FDI, graph_nodes
+from cdpr_bringup.graph import graph_nodes
+from cdpr_bringup.scenario_setup import BACKGROUND, CONTROL_LOOP, FDI, ScenarioOptions, build_scenario
 from cdpr_control.config import ConfigError, load_section
 from cdpr_msgs_py import scheduling
 
-from conftest import PAPER_ROBOT
+from conftest import MOTIONS, PAPER_ROBOT, settled_parameters
 
 
 def thread_settings() -> list[tuple[int, int]]:
@@ -91,7 +92,7 @@ def scheduling_of(nodes) -> dict[str, dict]:
 
 def test_realtime_graph_puts_the_loop_first_as_configured(tmp_path):
     section = load_section(PAPER_ROBOT, 'scheduling')
-    nodes = graph_nodes({'config_file': str(PAPER_ROBOT), 'clock_mode': 'realtime'}, str(tmp_path))
+    nodes = graph_nodes(settled_parameters('realtime'), str(tmp_path))
     settings = scheduling_of(nodes)
     assert set(settings) == set(CONTROL_LOOP) | set(FDI) | set(BACKGROUND)
     for name in CONTROL_LOOP:
@@ -106,7 +107,7 @@ def test_realtime_graph_puts_the_loop_first_as_configured(tmp_path):
 
 
 def test_lockstep_graph_leaves_scheduling_alone(tmp_path):
-    nodes = graph_nodes({'config_file': str(PAPER_ROBOT), 'clock_mode': 'lockstep'}, str(tmp_path))
+    nodes = graph_nodes(settled_parameters('lockstep'), str(tmp_path))
     assert all(not values for values in scheduling_of(nodes).values())
 
 
@@ -116,5 +117,5 @@ def test_a_bad_scheduling_value_names_the_key_and_the_file(tmp_path):
     path = tmp_path / 'robot.yaml'
     path.write_text(yaml.safe_dump(config))
     with pytest.raises(ConfigError, match=r'scheduling\.control_loop_priority') as error:
-        graph_nodes({'config_file': str(path), 'clock_mode': 'realtime'})
+        build_scenario(ScenarioOptions(config=str(path), motions=str(MOTIONS))).node_parameters('realtime')
     assert str(path) in str(error.value)

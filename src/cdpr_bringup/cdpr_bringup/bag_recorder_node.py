@@ -21,7 +21,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
-from cdpr_control.config import load_config, resolve_config
+from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime import CdprNode, run
 from cdpr_msgs_py.stamps import ns_parts
@@ -80,7 +80,7 @@ class BagRecorderNode(CdprNode):
 
     def __init__(self):
         super().__init__('bag_recorder')
-        settings = load_config(resolve_config(self.get_parameter('config_file').value))
+        settings = node_settings(self)
         self.configure(settings, settings.section('control').number('period_s', positive=True))
         path = self.parameter('bag_path', 'bag')
         storage = self.parameter('storage', 'mcap')

@@ -31,7 +31,6 @@ from cdpr_msgs_py.contract import DIAGNOSTICS
 
 from .engine import run_inprocess
 from .graph import Graph, GraphError, graph_nodes, launch_environment
-from .paths import DEFAULT_MOTIONS, config_file
 from .scenario_setup import ScenarioOptions, build_scenario
 
 NAMESPACE = '/cdpr_bench'
@@ -179,32 +178,27 @@ def inprocess_realtime_factor(config: str) -> float:
     return recording.time_s.size * scenario.period_s / best
 
 
-def graph_parameters(config: str) -> dict:
-    """The nodes' parameters for the circle, with the FDI thresholds cdpr-scenario would use."""
-    scenario = build_scenario(ScenarioOptions(config=config, motion=MOTION))
-    parameters = {'config_file': str(config_file(config)),
-                  'motions_file': str(config_file(DEFAULT_MOTIONS)), 'motion': MOTION,
-                  'coulomb_friction_nm': scenario.fdi.friction.coulomb_nm}
-    if scenario.calibration_path is not None:
-        parameters['calibration_file'] = str(scenario.calibration_path)
-    return parameters
+def graph_parameters(config: str, clock_mode: str, duration_s: float | None = None,
+                     scheduling: bool = True) -> dict[str, dict]:
+    """The nodes' parameters for the circle as cdpr-scenario settles it, `duration_s` long
+    (default: the motion)."""
+    return build_scenario(ScenarioOptions(config=config, motion=MOTION, duration_s=duration_s)
+                          ).node_parameters(clock_mode, scheduling)
 
 
 def bench_graph(config: str, log=lambda line: None) -> dict:
     """The figures of this module's docstring, by the keys of TARGETS, plus CPU per node."""
     launch_environment()
     figures = {'inprocess_realtime_factor': round(inprocess_realtime_factor(config), 1)}
-    parameters = graph_parameters(config)
+    scheduled = graph_parameters(config, 'realtime', REALTIME_DURATION_S)
+    normal = graph_parameters(config, 'realtime', REALTIME_DURATION_S, scheduling=False)
     listener = DiagnosticsListener()
     try:
-        lockstep, lockstep_cpu = run_graph(dict(parameters, clock_mode='lockstep'), listener, log)
+        lockstep, lockstep_cpu = run_graph(graph_parameters(config, 'lockstep'), listener, log)
         scheduled_runs, normal_runs = [], []
         for _ in range(REALTIME_REPEATS):
-            scheduled_runs.append(run_graph(
-                dict(parameters, clock_mode='realtime', duration_s=REALTIME_DURATION_S), listener, log))
-            normal_runs.append(run_graph(dict(parameters, clock_mode='realtime',
-                                              duration_s=REALTIME_DURATION_S,
-                                              realtime_priority=0, nice=0), listener, log))
+            scheduled_runs.append(run_graph(scheduled, listener, log))
+            normal_runs.append(run_graph(normal, listener, log))
     finally:
         listener.close()
     realtime, normal = median_facts(scheduled_runs), median_facts(normal_runs)

@@ -48,7 +48,7 @@ def graph_memory_kib(graph: Graph) -> dict[str, int]:
 def bench_soak(config: str, minutes: float, log=lambda line: None) -> dict:
     launch_environment()
     duration_s = minutes * 60.0
-    parameters = dict(graph_parameters(config), clock_mode='realtime', duration_s=duration_s + 60.0)
+    parameters = graph_parameters(config, 'realtime', duration_s + 60.0)
     listener = DiagnosticsListener()
     goal = listener.node.create_publisher(PointStamped, f'{NAMESPACE}/{GOAL}', qos.STREAM)
     graph = Graph(graph_nodes(parameters), NAMESPACE, log=log)

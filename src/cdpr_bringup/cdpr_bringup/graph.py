@@ -20,13 +20,11 @@ from pathlib import Path
 
 import yaml
 
-from cdpr_control.config import load_section, resolve_config
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, shipped_environment,
                               use_shipped_setup)
 from cdpr_msgs_py.runtime import READY_MARK, SHUTDOWN_LIMIT_S
-from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 
 from .cli import command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
@@ -41,11 +39,6 @@ TEMP_PREFIX = 'cdpr-graph-'
 LAST_LINES = 5
 # What a shell reports for a command ended by Ctrl-C (128 + SIGINT).
 INTERRUPTED_EXIT_CODE = 130
-# Realtime: the nodes a command waits on; the FDI, whose recovery setpoints a command
-# waits on after a failure; and what may lag without harm.
-CONTROL_LOOP = ('plant_simulator', 'controller', 'trajectory_generator')
-FDI = ('digital_twin', 'supervisor')
-BACKGROUND = ('bag_recorder',)
 
 
 class GraphError(RuntimeError):
@@ -232,9 +225,10 @@ def run_until_stopped(nodes: list[NodeSpec], namespace: str, log=print) -> None:
         graph.stop()
 
 
-def graph_nodes(parameters: dict, bag_path: str | None = None,
+def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
                 supervised: bool = True, plant: bool = True) -> list[NodeSpec]:
-    """The closed loop: generator, controller, twin, supervisor, plant, and a recorder.
+    """The closed loop: generator, controller, twin, supervisor, plant, and a recorder,
+    each with its settled parameters (Scenario.node_parameters).
 
     Each node gets the `matches` its per-cycle endpoints must reach before it subscribes
     to its tick (CdprNode.start_when_matched); the plant starts when all have. Without
@@ -252,7 +246,7 @@ def graph_nodes(parameters: dict, bag_path: str | None = None,
     specs = [('cdpr_control', 'trajectory_generator', {}),
              ('cdpr_control', 'controller', {'wait_for_supervisor': supervised}),
              ('cdpr_twin', 'digital_twin', {})]
-    realtime = parameters.get('clock_mode', 'lockstep') == 'realtime'
+    realtime = parameters['controller']['clock_mode'] == 'realtime'
     if supervised:
         specs.append(('cdpr_fdi', 'supervisor', {}))
         for topic in (c.JOINT_STATES, c.REFERENCE, c.EFFORT_COMMAND, c.TWIN_JOINT_STATES):
@@ -276,31 +270,14 @@ def graph_nodes(parameters: dict, bag_path: str | None = None,
                  c.TWIN_JOINT_STATES: 'digital_twin', c.TWIN_POSE: 'digital_twin',
                  c.FDI_RESIDUAL: 'supervisor', c.GROUND_TRUTH_POSE: 'plant_simulator',
                  c.GROUND_TRUTH_TENSIONS: 'plant_simulator', c.CLOCK: 'plant_simulator'}
-    scheduling = realtime_scheduling(parameters) if realtime else {}
     nodes = []
     for package, executable, extra in specs:
         matches = [f'publisher:{topic}={len(names)}' for topic, names in listeners.items()
                    if names and publishes[topic] == executable]
         matches += [f'subscription:{topic}=1' for topic in heard[executable]]
-        # parameters given here override the config's scheduling
-        nodes.append(NodeSpec(package, executable, dict(scheduling.get(executable, {}), **parameters,
-                                                        **extra, matches=matches)))
+        nodes.append(NodeSpec(package, executable, dict(parameters[executable], **extra,
+                                                        matches=matches)))
     return nodes
-
-
-def realtime_scheduling(parameters: dict) -> dict[str, dict]:
-    """Per node, the scheduling parameters the config's `scheduling` section asks for in
-    realtime mode: SCHED_FIFO for the control loop and, below it, the FDI; niceness for
-    the rest."""
-    section = load_section(resolve_config(parameters.get('config_file', 'paper_robot.yaml')),
-                           'scheduling')
-    loop = {'realtime_priority': section.integer('control_loop_priority', minimum=0,
-                                                 maximum=PRIORITY_RANGE[1])}
-    fdi = {'realtime_priority': section.integer('fdi_priority', minimum=0,
-                                                maximum=PRIORITY_RANGE[1])}
-    background = {'nice': section.integer('background_nice', minimum=0, maximum=NICE_RANGE[1])}
-    return ({name: loop for name in CONTROL_LOOP} | {name: fdi for name in FDI}
-            | {name: background for name in BACKGROUND})
 
 
 @command('cdpr-graph')

@@ -1,20 +1,28 @@
-"""Everything one scenario run needs, built from the config files and the CLI options."""
+"""A run settled once, from the config files and the CLI options, and everything it needs.
+
+The settled run (`settle`) is the one place where files are read and merged and options
+applied; the cores' settings and every node's parameters are made from it.
+"""
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from cdpr_control.config import load_section
+from cdpr_control.config import Section, load_config
 from cdpr_control.controller import PdGains
-from cdpr_control.motions import Motion, load_motion
+from cdpr_control.friction import FrictionModel
+from cdpr_control.motions import Motion, motion_from_settled, settled_motion
 from cdpr_control.reference import ReferenceTable, tabulate_reference
-from cdpr_control.robot import Robot, load_robot
+from cdpr_control.robot import Robot, robot_from_section
+from cdpr_control.settings import ROBOT_DESCRIPTION, flatten, robot_description
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_control.tension_distribution import TensionDistribution
-from cdpr_fdi.config import FdiConfig, RecoveryConfig, load_fdi_config, load_recovery_config
+from cdpr_fdi.config import FdiConfig, RecoveryConfig, calibrated_fdi
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
-from cdpr_twin.plant import PlantConfig
+from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
+from cdpr_twin.plant import FIDELITIES, PlantConfig
 
 from .cli import UsageError
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
@@ -22,6 +30,21 @@ from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
 
 # ScenarioOptions.calibration for a run that needs no thresholds (cdpr-calibrate's).
 NO_CALIBRATION = 'none'
+# The settled sections each node reads, besides the robot and COMMON_SECTIONS.
+NODE_SECTIONS = {
+    'trajectory_generator': ('control', 'motion'),
+    'controller': ('control',),
+    'digital_twin': ('control', 'twin'),
+    'supervisor': ('control', 'fdi', 'recovery'),
+    'plant_simulator': ('control', 'plant', 'run'),
+    'bag_recorder': ('control',),
+}
+COMMON_SECTIONS = ('streams', 'health')
+# Realtime: the nodes a command waits on; the FDI, whose recovery setpoints a command
+# waits on after a failure; and what may lag without harm.
+CONTROL_LOOP = ('plant_simulator', 'controller', 'trajectory_generator')
+FDI = ('digital_twin', 'supervisor')
+BACKGROUND = ('bag_recorder',)
 
 
 @dataclass
@@ -41,13 +64,16 @@ class ScenarioOptions:
     epsilon_nm: float | None = None
     calibration: str | None = None
     recovery_budget_s: float | None = None
+    # The run's length (s), as given: a realtime run that outlasts its motion, and does
+    # not end early when a recovery is over.
+    duration_s: float | None = None
 
 
 @dataclass
 class Scenario:
     options: ScenarioOptions
+    settings: Section          # the settled run (`settle`)
     config_path: Path
-    motions_path: Path
     robot: Robot
     period_s: float
     gains: PdGains
@@ -68,7 +94,9 @@ class Scenario:
     @property
     def cycles(self) -> int:
         """The motion, and after a failure the recovery budget (the reference holds its end):
-        the most a run may take."""
+        the most a run may take; or as long as `options.duration_s` says."""
+        if self.options.duration_s is not None:
+            return int(round(self.options.duration_s / self.period_s)) + 1
         cycles = len(self.reference)
         if self.failures:
             end = self.failure_time_s + self.recovery_budget_s
@@ -100,63 +128,105 @@ class Scenario:
         """Ticks a run goes on once its recovery is over (recovery.hold_after_s)."""
         return int(round(self.recovery.hold_after_s / self.period_s))
 
-    def node_parameters(self, clock_mode: str) -> dict:
-        """The ROS parameters every node of the graph gets for this run."""
-        options = self.options
-        parameters = {
-            'config_file': str(self.config_path.resolve()),
-            'motions_file': str(self.motions_path.resolve()),
-            'motion': options.motion, 'reverse': options.reverse, 'clock_mode': clock_mode,
-            'fail_cables': options.fail_cables or [0],
-            'fail_at_s': -1.0 if options.fail_at_s is None else options.fail_at_s,
-            'fail_at_fraction': -1.0 if options.fail_at_fraction is None else options.fail_at_fraction,
-            'duration_s': self.duration_s,
-            'end_after_recovery_s': self.hold_after_cycles * self.period_s,
-            'fidelity': self.plant.fidelity,
-            'detector': self.fdi.detector,
-            'epsilon_nm': self.fdi.epsilon_nm,
-            'coulomb_friction_nm': self.fdi.friction.coulomb_nm,
-        }
-        if self.calibration_path is not None:
-            parameters['calibration_file'] = str(self.calibration_path.resolve())
-        if options.seed is not None:
-            parameters['seed'] = options.seed
-        return parameters
+    def node_parameters(self, clock_mode: str, scheduling: bool = True) -> dict[str, dict]:
+        """Per node of the graph, the ROS parameters it is started with: the settled
+        sections it reads (cdpr_control.settings) and, in realtime, the OS scheduling the
+        `scheduling` section asks for (unless not `scheduling`: the OS's normal one)."""
+        document = self.settings.data
+        scheduling = (realtime_scheduling(self.settings.section('scheduling'))
+                      if clock_mode == 'realtime' and scheduling else {})
+        common = {ROBOT_DESCRIPTION: robot_description(document['robot']), 'clock_mode': clock_mode,
+                  **flatten({name: document[name] for name in COMMON_SECTIONS})}
+        return {node: dict(common, **scheduling.get(node, {}),
+                           **flatten({name: document[name] for name in sections}))
+                for node, sections in NODE_SECTIONS.items()}
+
+
+def settle(options: ScenarioOptions) -> tuple[Section, Path | None]:
+    """The run `options` describe, settled once: the robot file's sections with the paper's
+    settings for what it leaves out; the plant's fidelity and seed; the thresholds of the
+    calibration for that plant, the detector and ε given; the Coulomb friction the
+    controller and the FDI assume (control.coulomb_friction_nm); the motion; when and
+    which cables fail (absolute s, 0-based), the start and the scheduled length (`run`).
+    Also the calibration file used, if any."""
+    config_path = config_file(options.config)
+    settings = load_config(config_path)
+    robot = robot_from_section(settings.section('robot'))
+    motion_section = settled_motion(config_file(options.motions), options.motion, options.reverse)
+    motion = motion_from_settled(motion_section)
+    check_options(options, robot, motion)
+    document = copy.deepcopy(dict(settings.data))
+    if options.fidelity is not None:
+        document['plant']['fidelity'] = options.fidelity
+    if options.seed is not None:
+        document['plant']['seed'] = options.seed
+    fidelity = Section(document, config_path).section('plant').string('fidelity', choices=FIDELITIES)
+    calibration = calibration_for(config_path, settings.section('fdi'), fidelity, options.calibration)
+    fdi = dict(calibrated_fdi(settings.section('fdi'), robot, calibration).data)
+    fdi.pop('elastic_calibration_file', None)
+    friction = fdi.pop('coulomb_friction_nm', robot.motor.static_friction_nm)
+    # The rigid plant is the twin's model, without Coulomb friction: the stack must know.
+    document['control']['coulomb_friction_nm'] = 0.0 if fidelity == 'rigid' else friction
+    if options.detector is not None:
+        fdi['detector'] = options.detector
+    if options.epsilon_nm is not None:
+        fdi['epsilon_nm'] = options.epsilon_nm
+    document['fdi'] = fdi
+    document['motion'] = dict(motion_section.data)
+    document['run'] = {
+        'start_position_m': motion.trajectory.start.tolist(),
+        'failure_times_s': [motion.failure_time(options.fail_at_s, options.fail_at_fraction)
+                            for _ in options.fail_cables],
+        'failure_cable_indices': [cable - 1 for cable in options.fail_cables],
+    }
+    return Section(document, config_path, defaulted=settings.defaulted), calibration
 
 
 def build_scenario(options: ScenarioOptions) -> Scenario:
-    config_path = config_file(options.config)
-    motions_path = config_file(options.motions)
-    robot = load_robot(config_path)
-    control = load_section(config_path, 'control')
+    """The settled run and the cores' settings made from it (each checked here, before
+    any node starts); its scheduled length completes `run`."""
+    settings, calibration = settle(options)
+    robot = robot_from_section(settings.section('robot'))
+    control = settings.section('control')
     period = control.number('period_s', positive=True)
     distribution = configured_tension_distribution(control, robot)
-    motion = load_motion(motions_path, options.motion, options.reverse)
-    reference = tabulate_reference(robot, distribution, motion.trajectory, period)
-    check_options(options, robot, motion)
-    failures = [(motion.failure_time(options.fail_at_s, options.fail_at_fraction), cable - 1)
-                for cable in options.fail_cables]
-    plant = PlantConfig.from_section(load_section(config_path, 'plant'), options.fidelity, options.seed)
-    calibration = calibration_for(config_path, plant, options.calibration)
-    fdi = load_fdi_config(config_path, robot, calibration).with_overrides(
-        options.detector, options.epsilon_nm, rigid_plant_friction(plant))
-    return Scenario(
+    motion = motion_from_settled(settings.section('motion'))
+    run = settings.section('run')
+    failures = list(zip(run.raw('failure_times_s'), run.raw('failure_cable_indices')))
+    scenario = Scenario(
         options=options,
-        config_path=config_path,
-        motions_path=motions_path,
+        settings=settings,
+        config_path=config_file(options.config),
         robot=robot,
         period_s=period,
         gains=PdGains.from_section(robot, control),
-        twin_substeps=load_section(config_path, 'twin').integer('substeps', minimum=1),
+        twin_substeps=settings.section('twin').integer('substeps', minimum=1),
         motion=motion,
-        reference=reference,
-        plant=plant,
+        reference=tabulate_reference(robot, distribution, motion.trajectory, period),
+        plant=PlantConfig.from_section(settings.section('plant')),
         failures=failures,
         calibration_path=calibration,
         distribution=distribution,
-        fdi=fdi,
-        recovery=load_recovery_config(config_path, robot),
+        fdi=FdiConfig.from_section(settings.section('fdi'), robot,
+                                   FrictionModel.of_robot(robot, control)),
+        recovery=RecoveryConfig.from_section(settings.section('recovery'), robot),
     )
+    settings.data['run']['last_tick'] = scenario.cycles - 1
+    if options.duration_s is None:
+        settings.data['run']['hold_after_ticks'] = scenario.hold_after_cycles
+    return scenario
+
+
+def realtime_scheduling(section: Section) -> dict[str, dict]:
+    """Per node, the scheduling the `scheduling` section asks for in realtime mode:
+    SCHED_FIFO for the control loop and, below it, the FDI; niceness for the rest."""
+    loop = {'realtime_priority': section.integer('control_loop_priority', minimum=0,
+                                                 maximum=PRIORITY_RANGE[1])}
+    fdi = {'realtime_priority': section.integer('fdi_priority', minimum=0,
+                                                maximum=PRIORITY_RANGE[1])}
+    background = {'nice': section.integer('background_nice', minimum=0, maximum=NICE_RANGE[1])}
+    return ({name: loop for name in CONTROL_LOOP} | {name: fdi for name in FDI}
+            | {name: background for name in BACKGROUND})
 
 
 def check_options(options: ScenarioOptions, robot: Robot, motion: Motion) -> None:
@@ -178,7 +248,7 @@ def check_options(options: ScenarioOptions, robot: Robot, motion: Motion) -> Non
         raise UsageError(f'--seed {options.seed}: must be 0 or more')
 
 
-def calibration_for(config_path: Path, plant: PlantConfig, calibration: str | None) -> Path | None:
+def calibration_for(config_path: Path, fdi: Section, fidelity: str, calibration: str | None) -> Path | None:
     """The given calibration file; else, on the elastic plant, the robot file's
     `fdi.elastic_calibration_file`; the rigid plant keeps the paper's noise-free values.
     NO_CALIBRATION: the robot file's own thresholds (a run without a supervisor)."""
@@ -186,8 +256,7 @@ def calibration_for(config_path: Path, plant: PlantConfig, calibration: str | No
         return None
     if calibration:
         return config_file(calibration)
-    if plant.fidelity == 'elastic':
-        fdi = load_section(config_path, 'fdi')
+    if fidelity == 'elastic':
         if not fdi.has('elastic_calibration_file'):
             raise fdi.error('elastic_calibration_file', (
                 'is missing: the elastic plant needs thresholds measured on this robot; make '
@@ -195,8 +264,3 @@ def calibration_for(config_path: Path, plant: PlantConfig, calibration: str | No
                 'FILE and name FILE here (or run --fidelity rigid, on the noise-free defaults)'))
         return config_file(fdi.string('elastic_calibration_file'))
     return None
-
-
-def rigid_plant_friction(plant: PlantConfig) -> float | None:
-    """The rigid plant is the twin's model, without Coulomb friction: the FDI must know."""
-    return 0.0 if plant.fidelity == 'rigid' else None

@@ -20,29 +20,25 @@ from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.runtime import CdprNode, run
 from cdpr_msgs_py.stamps import NANOSECONDS, seconds_to_ns
 
-from .config import load_config, resolve_config
 from .controller import JointController, JointReference, PdGains
 from .friction import FrictionModel
-from .robot import load_robot
+from .settings import node_settings
 from .setpoints import Setpoints
 
 class ControllerNode(CdprNode):
 
     def __init__(self):
         super().__init__('controller')
-        config = resolve_config(self.get_parameter('config_file').value)
-        self.robot = load_robot(config)
-        settings = load_config(config)
+        settings = node_settings(self)
+        self.robot = settings.robot
         control = settings.section('control')
         period_s = control.number('period_s', positive=True)
         self.period_ns = seconds_to_ns(period_s)
         self.configure(settings, period_s)
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
         self.last_state_at: float | None = None
-        friction = self.parameter('coulomb_friction_nm', -1.0)
-        self.controller = JointController(
-            self.robot, PdGains.from_section(self.robot, control),
-            FrictionModel.of_robot(self.robot, control, None if friction < 0 else friction))
+        self.controller = JointController(self.robot, PdGains.from_section(self.robot, control),
+                                          FrictionModel.of_robot(self.robot, control))
         self.setpoints = Setpoints(self.controller, exact=self.clock_mode == 'lockstep',
                                    stale_ns=self.stale_ns)
         self.wait_for_supervisor = self.parameter('wait_for_supervisor', False)

@@ -18,10 +18,13 @@ class FrictionModel:
 
     @classmethod
     def of_robot(cls, robot: Robot, control: Section, coulomb_nm: float | None = None) -> 'FrictionModel':
-        """The motors' static friction (robot.motor), unless `coulomb_nm` says otherwise
-        (0 on the rigid plant, which is the twin's friction-free model)."""
-        return cls(robot.motor.static_friction_nm if coulomb_nm is None else float(coulomb_nm),
-                   control.number('coulomb_smoothing_rad_s', positive=True))
+        """The motors' static friction (robot.motor), unless `coulomb_nm` or the control
+        section's `coulomb_friction_nm` (a settled run's: 0 on the rigid plant, which is the
+        twin's friction-free model, or as calibrated) says otherwise."""
+        if coulomb_nm is None:
+            coulomb_nm = control.number('coulomb_friction_nm', robot.motor.static_friction_nm,
+                                        non_negative=True)
+        return cls(float(coulomb_nm), control.number('coulomb_smoothing_rad_s', positive=True))
 
     def torque_nm(self, angular_velocity_rad_s: np.ndarray) -> np.ndarray:
         """The torque friction takes from a motor turning at `angular_velocity_rad_s`."""

@@ -67,10 +67,27 @@ def motion_names(path: str | Path) -> list[str]:
     return list(load_section(path, 'motions').data)
 
 
-def load_motion(path: str | Path, name: str, reverse: bool = False) -> Motion:
-    """The motion `name` of the `motions` section of the YAML file at `path`."""
+def settled_motion(path: str | Path, name: str, reverse: bool = False) -> Section:
+    """The motion `name` of the YAML file at `path` as a settled run carries it: its entry
+    with `motion_defaults` filled in, its name, its direction, and the peak speed of a
+    move to a goal (m/s)."""
     motions = load_section(path, 'motions')
     if not motions.has(name):
         raise motions.error(name, f'is not a known motion; choose one of {", ".join(motions.data)}')
-    return motion_from_section(name, motions.section(name), load_section(path, 'motion_defaults'),
-                               reverse)
+    defaults = load_section(path, 'motion_defaults')
+    entry = motions.section(name)
+    if not isinstance(entry.data, dict):
+        raise motions.error(name, 'must be a mapping')
+    settled = {**defaults.data, **entry.data, 'name': name, 'reverse': bool(reverse),
+               'goal_peak_speed_m_s': defaults.number('peak_speed_m_s', positive=True)}
+    return Section(settled, path, entry.prefix)
+
+
+def motion_from_settled(motion: Section) -> Motion:
+    """The Motion a settled motion section describes."""
+    return motion_from_section(motion.string('name'), motion, motion, motion.raw('reverse', False))
+
+
+def load_motion(path: str | Path, name: str, reverse: bool = False) -> Motion:
+    """The motion `name` of the `motions` section of the YAML file at `path`."""
+    return motion_from_settled(settled_motion(path, name, reverse))

@@ -27,10 +27,10 @@ from cdpr_msgs_py.conversions import (InvalidMessage, joint_state, point_from_me
 from cdpr_msgs_py.runtime import CdprNode, run
 from cdpr_msgs_py.stamps import seconds_to_ns
 
-from .config import load_config, load_section, resolve_config
-from .motions import load_motion
+from .config import resolve_config
+from .motions import motion_from_settled, settled_motion
 from .reference import IncrementalTabulation, ReferenceTable, tabulate_reference
-from .robot import load_robot
+from .settings import node_settings
 from .tension_distribution import InfeasibleTensionError, configured_tension_distribution
 from .trajectories import Hold, Sequence, StraightLine
 
@@ -39,20 +39,22 @@ class TrajectoryGeneratorNode(CdprNode):
 
     def __init__(self):
         super().__init__('trajectory_generator')
-        config = resolve_config(self.get_parameter('config_file').value)
-        motions = resolve_config(self.parameter('motions_file', 'motions.yaml'))
-        self.robot = load_robot(config)
-        settings = load_config(config)
+        settings = node_settings(self)
+        self.robot = settings.robot
         control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
         self.configure(settings, self.period_s)
         self.period_ns = seconds_to_ns(self.period_s)
         self.lead = control.integer('reference_lead_cycles', minimum=1)
         self.distribution = configured_tension_distribution(control, self.robot)
-        self.goal_speed_m_s = load_section(motions, 'motion_defaults').number('peak_speed_m_s', positive=True)
-        motion = load_motion(motions, self.parameter('motion', 'circle'), self.parameter('reverse', False))
+        # started alone, without a settled motion: the named one of a motions file
+        motion = (settings.section('motion') if settings.has('motion') else settled_motion(
+            resolve_config(self.parameter('motions_file', 'motions.yaml')),
+            self.parameter('motion', 'circle'), self.parameter('reverse', False)))
+        self.goal_speed_m_s = motion.number('goal_peak_speed_m_s', positive=True)
         self.segments: list[tuple[int, ReferenceTable]] = [
-            (0, tabulate_reference(self.robot, self.distribution, motion.trajectory, self.period_s))]
+            (0, tabulate_reference(self.robot, self.distribution, motion_from_settled(motion).trajectory,
+                                   self.period_s))]
         self.names = contract.joint_names(self.robot.cable_count)
         self.origin_ns: int | None = None
         self.next_index = 0

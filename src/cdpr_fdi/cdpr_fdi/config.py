@@ -80,19 +80,25 @@ class FdiConfig:
         return dataclasses.replace(self, **changes)
 
 
+def calibrated_fdi(fdi: Section, robot: Robot, calibration_path: str | Path | None) -> Section:
+    """A robot file's `fdi` section with a calibration file's values on top (checked to
+    be made on this robot)."""
+    if not calibration_path:
+        return fdi
+    document = Section(load_yaml(calibration_path), calibration_path)
+    check_calibration_robot(document, robot, fdi.path)
+    # the calibration's values, the robot file's where it has none
+    data, _ = with_defaults(dict(document.section('fdi').data), fdi.data)
+    return Section(data, calibration_path, 'fdi')
+
+
 def load_fdi_config(config_path: str | Path, robot: Robot,
                     calibration_path: str | Path | None = None) -> FdiConfig:
     """The robot file's `fdi` section, with a calibration file's values on top."""
-    data = dict(load_config(config_path).section('fdi').data)
-    path = config_path
-    if calibration_path:
-        document = Section(load_yaml(calibration_path), calibration_path)
-        check_calibration_robot(document, robot, config_path)
-        # the calibration's values, the robot file's where it has none
-        data, _ = with_defaults(dict(document.section('fdi').data), data)
-        path = calibration_path
-    friction = FrictionModel.of_robot(robot, load_section(config_path, 'control'))
-    return FdiConfig.from_section(Section(data, path, 'fdi'), robot, friction)
+    config = load_config(config_path)
+    friction = FrictionModel.of_robot(robot, config.section('control'))
+    return FdiConfig.from_section(calibrated_fdi(config.section('fdi'), robot, calibration_path),
+                                  robot, friction)
 
 
 def check_calibration_robot(calibration: Section, robot: Robot, config_path: str | Path) -> None:
@@ -153,12 +159,14 @@ class RecoveryConfig:
 
     @classmethod
     def from_section(cls, recovery: Section, robot: Robot) -> 'RecoveryConfig':
-        overrides = recovery.section('safe_points_m')
+        overrides = recovery.section('safe_points_m', {})
         safe_points = {}
         for cable in overrides.data:
-            if not isinstance(cable, int) or not 1 <= cable <= robot.cable_count:
+            # an int in YAML; its digits as a ROS parameter name
+            number = int(cable) if isinstance(cable, str) and cable.isdigit() else cable
+            if not isinstance(number, int) or not 1 <= number <= robot.cable_count:
                 raise overrides.error(str(cable), f'must be a cable number 1..{robot.cable_count}')
-            safe_points[cable] = overrides.vector(cable, 3)
+            safe_points[number] = overrides.vector(cable, 3)
         return cls(
             safe_height_m=recovery.number('safe_height_m', positive=True),
             table_height_m=recovery.number('table_height_m', non_negative=True),

@@ -16,9 +16,9 @@ from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
-from cdpr_control.config import load_config, resolve_config
 from cdpr_control.controller import JointReference
-from cdpr_control.robot import load_robot
+from cdpr_control.friction import FrictionModel
+from cdpr_control.settings import node_settings
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.contract import NOMINAL
@@ -27,7 +27,7 @@ from cdpr_msgs_py.health import unjudged_problem, verdict_problems
 from cdpr_msgs_py.runtime import CdprNode, run
 from cdpr_msgs_py.stamps import seconds_to_ns
 
-from .config import load_fdi_config, load_recovery_config
+from .config import FdiConfig, RecoveryConfig
 from .supervisor import Supervisor
 
 INPUTS = ('state', 'command', 'twin', 'reference')
@@ -39,23 +39,18 @@ class SupervisorNode(CdprNode):
 
     def __init__(self):
         super().__init__('supervisor')
-        config = resolve_config(self.get_parameter('config_file').value)
-        self.robot = load_robot(config)
-        settings = load_config(config)
+        settings = node_settings(self)
+        self.robot = settings.robot
         control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
         self.configure(settings, self.period_s)
         self.period_ns = seconds_to_ns(self.period_s)
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
-        calibration = self.parameter('calibration_file', '')
-        epsilon = self.parameter('epsilon_nm', -1.0)
-        friction = self.parameter('coulomb_friction_nm', -1.0)
-        fdi = load_fdi_config(config, self.robot, resolve_config(calibration) if calibration else None)
-        fdi = fdi.with_overrides(self.parameter('detector', '') or None,
-                                 None if epsilon < 0 else epsilon, None if friction < 0 else friction)
+        fdi = FdiConfig.from_section(settings.section('fdi'), self.robot,
+                                     FrictionModel.of_robot(self.robot, control))
+        recovery = RecoveryConfig.from_section(settings.section('recovery'), self.robot)
         distribution = configured_tension_distribution(control, self.robot)
-        self.supervisor = Supervisor(self.robot, fdi, load_recovery_config(config, self.robot),
-                                     distribution, self.period_s)
+        self.supervisor = Supervisor(self.robot, fdi, recovery, distribution, self.period_s)
         self.names = contract.joint_names(self.robot.cable_count)
         self.inputs: dict[str, dict[int, object]] = {name: {} for name in INPUTS}
         self.origin_ns: int | None = None

@@ -338,14 +338,17 @@ def parse_matches(entries) -> list[tuple[str, str, int]]:
 
 
 class CdprNode(Node):
-    """A node of the graph: config file parameter, diagnostics, idle and close hooks."""
+    """A node of the graph: settled parameters, diagnostics, idle and close hooks.
+
+    Every parameter it is given is declared (the settled sections of a run are dotted
+    names: cdpr_control.settings reads them).
+    """
 
     def __init__(self, name: str):
-        super().__init__(name)
+        super().__init__(name, automatically_declare_parameters_from_overrides=True)
         self.sole_writers: list[SoleWriterSubscription] = []
-        self.declare_parameter('config_file', 'paper_robot.yaml')
-        self.declare_parameter('clock_mode', 'lockstep')
-        self.clock_mode = self.get_parameter('clock_mode').value
+        self.parameter('config_file', 'paper_robot.yaml')
+        self.clock_mode = self.parameter('clock_mode', 'lockstep')
         if self.clock_mode not in ('lockstep', 'realtime'):
             raise ValueError(f"parameter clock_mode must be lockstep or realtime, got {self.clock_mode!r}")
         self.diagnostics = Diagnostics(self)
@@ -354,7 +357,7 @@ class CdprNode(Node):
         self.acknowledgements = AcknowledgementWatch(HealthLimits().reader_lag_limit_s)
         self.stream_publishers: list[GuardedPublisher] = []
         self.finished = False
-        self.match_requirements = parse_matches(self.declare_parameter('matches', ['']).value)
+        self.match_requirements = parse_matches(self.parameter('matches', ['']))
         self.pending_start = None
         self.schedule()
 
@@ -425,7 +428,9 @@ class CdprNode(Node):
         return subscription
 
     def parameter(self, name: str, default):
-        """Declare and read one parameter."""
+        """One parameter: as given, else declared with `default`."""
+        if self.has_parameter(name):
+            return self.get_parameter(name).value
         return self.declare_parameter(name, default).value
 
     def joints_or_reject(self, message, topic: str,

@@ -5,10 +5,9 @@ import numpy as np
 from geometry_msgs.msg import PointStamped
 from sensor_msgs.msg import JointState
 
-from cdpr_control.config import load_config, resolve_config
 from cdpr_control.controller import JointReference, PdGains
 from cdpr_control.kinematics import forward_kinematics
-from cdpr_control.robot import load_robot
+from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, point_stamped
 from cdpr_msgs_py.runtime import CdprNode, run
@@ -21,9 +20,8 @@ class DigitalTwinNode(CdprNode):
 
     def __init__(self):
         super().__init__('digital_twin')
-        config = resolve_config(self.get_parameter('config_file').value)
-        self.robot = load_robot(config)
-        settings = load_config(config)
+        settings = node_settings(self)
+        self.robot = settings.robot
         control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
         self.configure(settings, self.period_s)

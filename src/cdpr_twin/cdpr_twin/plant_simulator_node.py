@@ -3,11 +3,15 @@
 lockstep: publishes the state of tick k (and /clock), steps only when the command
 stamped with tick k has arrived; bit-for-bit repeatable. realtime: steps on a wall
 clock timer with zero-order hold of the last command, as hardware does. Exits with
-code 0 after `duration_s` of simulated time (the run is complete). Obeys the commands of
-the graph's controller only (parameter `command_writer`), as a hardware bridge must.
+code 0 after the settled run's `run.last_tick` (the run is complete; sooner, as
+cdpr_twin.run_length says, once a recovery is over). The run's start, failures and
+length are values the launcher settled (cdpr_control.settings): the plant knows no motion.
+Obeys the commands of the graph's controller only (parameter `command_writer`), as a
+hardware bridge must.
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -16,9 +20,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
-from cdpr_control.config import load_config, resolve_config
-from cdpr_control.motions import load_motion
-from cdpr_control.robot import load_robot
+from cdpr_control.settings import node_settings
 from cdpr_control.statics import static_tensions
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
@@ -36,29 +38,21 @@ class PlantSimulatorNode(CdprNode):
 
     def __init__(self):
         super().__init__('plant_simulator')
-        config = resolve_config(self.get_parameter('config_file').value)
-        motions = resolve_config(self.parameter('motions_file', 'motions.yaml'))
-        self.robot = load_robot(config)
-        settings = load_config(config)
+        settings = node_settings(self)
+        self.robot = settings.robot
         self.period_s = settings.section('control').number('period_s', positive=True)
         self.period_ns = seconds_to_ns(self.period_s)
         self.configure(settings, self.period_s)
-        motion = load_motion(motions, self.parameter('motion', 'circle'), self.parameter('reverse', False))
-        fidelity = self.parameter('fidelity', '') or None
-        seed = self.parameter('seed', -1)
         plant_section = settings.section('plant')
-        plant_config = PlantConfig.from_section(plant_section, fidelity, None if seed < 0 else seed)
-        fail_at_s = self.parameter('fail_at_s', -1.0)
-        fail_at_fraction = self.parameter('fail_at_fraction', -1.0)
-        failure_time = motion.failure_time(None if fail_at_s < 0 else fail_at_s,
-                                           None if fail_at_fraction < 0 else fail_at_fraction)
-        failures = [(failure_time, cable - 1) for cable in self.parameter('fail_cables', [0]) if cable > 0]
-        self.plant = PlantSimulator(self.robot, plant_config, motion.trajectory.start, failures)
-        duration = self.parameter('duration_s', -1.0)
-        end_after_recovery = self.parameter('end_after_recovery_s', -1.0)
+        # Started alone, without a settled run: from the robot's home, until stopped.
+        run = settings.section('run', {})
+        failures = zip(run.raw('failure_times_s', []), run.raw('failure_cable_indices', []))
+        self.plant = PlantSimulator(self.robot, PlantConfig.from_section(plant_section),
+                                    run.vector('start_position_m', 3, self.robot.home_position_m.tolist()),
+                                    failures)
         self.run_length = RunLength(
-            int(round((motion.trajectory.duration_s if duration < 0 else duration) / self.period_s)),
-            None if end_after_recovery < 0 else int(round(end_after_recovery / self.period_s)))
+            run.integer('last_tick', minimum=0) if run.has('last_tick') else math.inf,
+            run.integer('hold_after_ticks', minimum=0) if run.has('hold_after_ticks') else None)
         self.resend_s = self.parameter('command_timeout_s', 0.5)
         self.start_delay_s = self.parameter('start_delay_s', 0.5)
         self.ready_since = None
