@@ -23,7 +23,7 @@ from rosbags.typesys import Stores, get_typestore
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.stamps import NANOSECONDS, ns_parts, stamp_to_ns
 
-from .engine import Recording
+from .recording import Recording
 
 # A chunk is what survives a SIGKILL whole, so chunks stay small; the recorder also
 # flushes the open one on a timer when traffic is too slow to fill it.

@@ -34,7 +34,7 @@ from cdpr_msgs_py.stamps import NANOSECONDS
 from . import plots
 from .bag_io import read_messages, recording_from_bag, stamp_ns
 from .cli import command
-from .engine import Recording
+from .recording import Recording
 from .metrics import fdi_summary_from_diagnostics, tracking_error_m, twin_kpis
 from .paths import DEFAULT_ROBOT, config_file
 
