@@ -28,3 +28,8 @@ class Recording:
     # Ctrl-C ended the run early: the rows are the cycles that ran.
     interrupted: bool = False
 
+    @property
+    def has_ground_truth(self) -> bool:
+        """Whether the plant's true pose was recorded on every tick (only a simulated run
+        has it: a bag of the real robot reads back NaN there)."""
+        return bool(np.isfinite(self.true_position_m).all())
