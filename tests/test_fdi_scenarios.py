@@ -11,7 +11,6 @@ import yaml
 from cdpr_bringup import robot_summary
 from cdpr_bringup import scenario as scenario_cli
 from cdpr_bringup.engine import run_inprocess
-from cdpr_bringup.metrics import fdi_metrics
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_control.controller import PdGains
 from cdpr_control.motions import motion_names
@@ -26,8 +25,7 @@ def run(motion, cables=(), reverse=False, config=PAPER_ROBOT, motions=MOTIONS, *
         config=str(config), motions=str(motions), motion=motion, reverse=reverse,
         fail_cables=list(cables), fidelity='rigid', epsilon_nm=0.03, **options))
     recording = run_inprocess(scenario)
-    metrics = fdi_metrics(scenario.robot, scenario.period_s, scenario.failure_time_s,
-                          sorted(cables), recording, scenario.recovery.reached_tolerance_m)
+    metrics = scenario_cli.metrics_of(scenario, recording, wall_time_s=0.0)
     return scenario, recording, metrics
 
 
@@ -202,8 +200,7 @@ def test_a_break_near_a_corner_swings_into_the_frame_not_up_to_its_exit_points()
                                               motion='along-1', fail_cables=[4],
                                               fail_at_fraction=0.895, fidelity='elastic'))
     recording = run_inprocess(scenario)
-    metrics = fdi_metrics(scenario.robot, scenario.period_s, scenario.failure_time_s, [4],
-                          recording, scenario.recovery.reached_tolerance_m)
+    metrics = scenario_cli.metrics_of(scenario, recording, wall_time_s=0.0)
     assert metrics['identified_cables'] == [4]
     assert_recovered(scenario, metrics)
     after = recording.time_s >= scenario.failure_time_s

@@ -14,6 +14,7 @@ import pytest
 from cdpr_control.robot import load_robot
 
 from cdpr_bringup import plots
+from cdpr_bringup import scenario as scenario_cli
 from cdpr_bringup.bag_io import BagWriter, recording_from_bag, write_recording
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.graph import graph_nodes, run_to_completion
@@ -90,6 +91,37 @@ def test_recomputed_metrics_equal_those_of_the_recording(failure_run):
     final = np.linalg.norm(recording.true_position_m[-1] - np.array(fdi['safe_point_m']))
     assert metrics['recovery']['final_error_m'] == pytest.approx(final, abs=1e-12)
     assert metrics['recovery']['reached_safe_point'] is True
+
+
+def flat(metrics: dict, prefix: str = '') -> dict:
+    """{'recovery.final_error_m': …} for {'recovery': {'final_error_m': …}}."""
+    items = {}
+    for key, value in metrics.items():
+        if isinstance(value, dict) and key != 'phase_times_s':
+            items.update(flat(value, f'{prefix}{key}.'))
+        else:
+            items[f'{prefix}{key}'] = value
+    return items
+
+
+def test_scenario_and_report_compute_the_same_metrics_of_one_run(failure_run, tmp_path):
+    """cdpr-scenario's metrics.json from the run itself, and cdpr-report's from its bag
+    with that metrics.json beside it, as `make demo` leaves them: every key alike but the
+    wall time (the run's, against the span of the bag)."""
+    scenario, recording, folder, _ = failure_run
+    own = scenario_cli.metrics_of(scenario, recording, wall_time_s=1.0)
+    run = tmp_path / 'run'
+    shutil.copytree(folder / 'bag', run / 'bag')
+    (run / 'metrics.json').write_text(json.dumps(own))
+    recomputed = write_report(run / 'bag', run / 'plots', PAPER_ROBOT, epsilon_nm=scenario.fdi.epsilon_nm,
+                              coulomb_friction_nm=scenario.fdi.friction.coulomb_nm)
+    own, recomputed = flat(own), flat(recomputed)
+    assert set(own) - set(recomputed) == {'motion', 'fidelity', 'detector'}
+    assert set(recomputed) <= set(own)
+    differ = {key: (own[key], recomputed[key]) for key in sorted(set(recomputed) - {'wall_time_s'})
+              if not (recomputed[key] == own[key] if own[key] is None or isinstance(own[key], (bool, str))
+                      else recomputed[key] == pytest.approx(own[key], rel=1e-12, abs=1e-12))}
+    assert not differ, differ
 
 
 def test_report_md_shows_every_figure_and_metric(failure_run):

@@ -7,6 +7,7 @@ rosbags, and MCAP viewers open it without the message packages.
 """
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,7 @@ from rosbags.typesys import Stores, get_typestore
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.stamps import NANOSECONDS, ns_parts, stamp_to_ns
 
-from .engine import Recording
+from .recording import Recording
 
 # A chunk is what survives a SIGKILL whole, so chunks stay small; the recorder also
 # flushes the open one on a timer when traffic is too slow to fill it.
@@ -228,10 +229,11 @@ def recording_from_bag(bag: str | Path, namespace: str = '/cdpr') -> Recording:
 def write_recording(writer: BagWriter, recording: Recording,
                     namespace: str = contract.DEFAULT_NAMESPACE) -> None:
     """An in-process Recording into an open bag as the graph would have recorded it, so
-    that it gets the same report: the per-tick topics, the residual, and the verdict and
-    mode changes of the supervisor's summary (`recording.fdi`). Bag times are the tick
-    stamps plus 1 ns per message in the graph's order: the state, the command and the
-    twin, then the supervisor's verdict and mode, then its residual of that tick."""
+    that it gets the same report: the per-tick topics, the residual, the verdict and mode
+    changes of the supervisor's summary (`recording.fdi`), and that summary on
+    /diagnostics at the last tick. Bag times are the tick stamps plus 1 ns per message in
+    the graph's order: the state, the command and the twin, then the supervisor's verdict
+    and mode, then its residual of that tick."""
     types = TYPESTORE.types
     stamps = np.round(recording.time_s * NANOSECONDS).astype(np.int64)
     names = contract.joint_names(recording.angle_rad.shape[1])
@@ -263,7 +265,7 @@ def write_recording(writer: BagWriter, recording: Recording,
         contract.REFERENCE: lambda k: joints(k, r.reference_angle_rad[k]),
         contract.REFERENCE_POSE: lambda k: point(k, r.reference_position_m[k]),
     }
-    if np.isfinite(r.true_position_m).all():
+    if r.has_ground_truth:
         per_tick[contract.GROUND_TRUTH_POSE] = lambda k: point(k, r.true_position_m[k])
         per_tick[contract.GROUND_TRUTH_TENSIONS] = lambda k: joints(k, effort=r.true_tension_n[k])
     int32, string = types['std_msgs/msg/Int32'], types['std_msgs/msg/String']
@@ -276,12 +278,16 @@ def write_recording(writer: BagWriter, recording: Recording,
                        for cable in r.fdi['broken_cables']]
         events += [(tick, contract.MODE, string(data=mode))
                    for mode, tick in r.fdi['phase_ticks'].items()]
+        events.append((stamps.size - 1, contract.DIAGNOSTICS, supervisor_diagnostics(
+            r.fdi, header(stamps.size - 1), namespace)))
     events.sort(key=lambda event: event[0])
     connections = {}
 
     def write(topic, k, message, order_ns):
         if topic not in connections:
-            connections[topic] = writer.add_topic(f'{namespace}/{topic}', message.__msgtype__)
+            # as ROS resolves names: /diagnostics stays outside the namespace
+            name = topic if topic.startswith('/') else f'{namespace}/{topic}'
+            connections[topic] = writer.add_topic(name, message.__msgtype__)
         writer.write(connections[topic], int(stamps[k]) + order_ns,
                      TYPESTORE.serialize_cdr(message, message.__msgtype__))
 
@@ -294,3 +300,14 @@ def write_recording(writer: BagWriter, recording: Recording,
             write(topic, k, message, order)
         if r.residual_nm is not None:
             write(contract.FDI_RESIDUAL, k, joints(k, effort=r.residual_nm[k]), order + 1)
+
+
+def supervisor_diagnostics(summary: dict, header, namespace: str):
+    """The supervisor's summary as its node reports it on /diagnostics (`fdi KEY`: JSON)."""
+    types = TYPESTORE.types
+    status = types['diagnostic_msgs/msg/DiagnosticStatus']
+    return types['diagnostic_msgs/msg/DiagnosticArray'](header=header, status=[status(
+        level=status.ERROR if summary.get('fault') else status.OK,
+        name=f'{namespace}/supervisor', message=summary.get('fault') or '', hardware_id='cdpr',
+        values=[types['diagnostic_msgs/msg/KeyValue'](key=f'fdi {key}', value=json.dumps(value))
+                for key, value in summary.items()])])

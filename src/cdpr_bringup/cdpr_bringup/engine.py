@@ -8,8 +8,6 @@ steers the controller from tick k + 1; the plant steps under c.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from cdpr_control.controller import JointController, JointReference
@@ -21,29 +19,8 @@ from cdpr_twin.plant import PlantSimulator
 from cdpr_twin.run_length import RunLength
 from cdpr_twin.twin import DigitalTwin
 
+from .recording import Recording
 from .scenario_setup import Scenario
-
-
-@dataclass
-class Recording:
-    """What a run produced, one row per control cycle (SI units)."""
-
-    time_s: np.ndarray
-    angle_rad: np.ndarray
-    angular_velocity_rad_s: np.ndarray
-    command_nm: np.ndarray
-    twin_angle_rad: np.ndarray
-    twin_angular_velocity_rad_s: np.ndarray
-    twin_torque_nm: np.ndarray
-    twin_position_m: np.ndarray
-    reference_position_m: np.ndarray
-    reference_angle_rad: np.ndarray
-    true_position_m: np.ndarray
-    true_tension_n: np.ndarray
-    residual_nm: np.ndarray | None = None
-    fdi: dict = field(default_factory=dict)
-    # Ctrl-C ended the run early: the rows are the cycles that ran.
-    interrupted: bool = False
 
 
 def reference_at(scenario: Scenario, k: int) -> JointReference:

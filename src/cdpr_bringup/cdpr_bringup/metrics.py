@@ -2,11 +2,15 @@
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 
 import numpy as np
 
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.robot import Robot
+from cdpr_msgs_py.contract import SAFE_HOLD
+
+from .recording import Recording
 
 PAPER_KPI = {'K_c_m': 0.0143, 'K_j_rad': 0.0583, 'K_t_nm': 0.1566}
 
@@ -33,49 +37,100 @@ def tracking_error_m(recording, ticks: slice = slice(None)) -> float:
 
 
 def ticks_before(recording, time_s: float | None) -> int:
-    """How many ticks of the recording come at or before `time_s` (all when None)."""
+    """How many ticks of the recording are stamped before `time_s` (all when None).
+
+    A tick stamped at the instant itself counts as after it: a failure time read off the
+    ground truth, like a detection time, is the first tick that shows the failure. (A
+    failure scheduled on a tick's stamp breaks the cable right after that tick's state,
+    so there one nominal tick is left out.)
+    """
     if time_s is None:
         return recording.time_s.size
-    return int(np.searchsorted(recording.time_s, time_s, side='right'))
+    return int(np.searchsorted(recording.time_s, time_s, side='left'))
 
 
-def fdi_metrics(robot: Robot, period_s: float, failure_time_s: float | None,
-                true_broken: list[int], recording, reached_tolerance_m: float) -> dict:
-    """The detection and recovery keys of metrics.json (docs/design.md §7) from a run's recording
-    and its supervisor summary (`recording.fdi`, ticks and 1-based cables)."""
-    fdi = recording.fdi or {}
-    identified_tick = fdi.get('identified_tick')
-    detection_time = None if identified_tick is None else identified_tick * period_s
-    after = slice(ticks_before(recording, failure_time_s) if failure_time_s is not None else 0, None)
-    remaining = robot.cable_mask([cable - 1 for cable in true_broken])
-    safe_point = fdi.get('safe_point_m')
-    phases = fdi.get('phase_ticks') or {}
-    final_error = (None if safe_point is None
-                   else float(np.linalg.norm(recording.true_position_m[-1] - np.array(safe_point))))
-    hold_tick = phases.get('SAFE_HOLD')
+@dataclass
+class KnownRun:
+    """What is known about one run, from the run itself (cdpr-scenario: its recording and
+    the supervisor's summary) or from its bag (cdpr-report, where the ground truth or the
+    supervisor may be missing): the input of `metrics_json`. Times in s, cables 1-based."""
+
+    robot: Robot
+    recording: Recording
+    position_m: np.ndarray            # end-effector per tick: true, else as measured (FK)
+    tension_n: np.ndarray             # per tick: true, else the sensorless estimate (N; one tick short)
+    epsilon_nm: float                 # the detection threshold ε
+    failure_time_s: float | None      # the first cable's break; None: none, or unknown
+    true_broken_cables: list[int] | None  # None: unknown (no ground truth)
+    detection_time_s: float | None    # the tick whose verdict first named a cable
+    identified_cables: list[int]
+    mode: str | None                  # the last one; None: no supervisor
+    phase_times_s: dict[str, float]   # the first tick of each recovery mode
+    safe_point_m: list[float] | np.ndarray | None
+    reached_tolerance_m: float | None  # distance to SP that counts as reached
+    supervisor: dict                  # its last summary (Supervisor.summary()); {}: none
+    wall_time_s: float
+
+    @property
+    def event_time_s(self) -> float | None:
+        """Where the run stops being nominal: the failure, else its detection."""
+        return self.failure_time_s if self.failure_time_s is not None else self.detection_time_s
+
+    @property
+    def remaining(self) -> np.ndarray:
+        """Mask of the cables that still hold: all but the truly broken ones, else (the
+        truth unknown) all but the identified ones."""
+        broken = (self.true_broken_cables if self.true_broken_cables is not None
+                  else self.identified_cables)
+        return self.robot.cable_mask([cable - 1 for cable in broken])
+
+
+def metrics_json(run: KnownRun) -> dict:
+    """The metrics.json keys of docs/design.md §7 (and `epsilon_nm`).
+
+    The KPIs and the tracking error cover the ticks before the failure (or its
+    detection): from then on the twin is meant to differ. recovery.min_tension_n covers
+    the remaining cables from then on, min_height_m the whole run, duration_s the
+    detection to SAFE_HOLD. Unknowable figures are None: the tracking error without
+    ground truth, false_alarm when nothing tells whether a cable broke.
+    """
+    detection, failure = run.detection_time_s, run.failure_time_s
+    nominal = slice(0, ticks_before(run.recording, run.event_time_s))
+    tensions_after = run.tension_n[nominal.stop:]
+    final_error = (None if run.safe_point_m is None
+                   else float(np.linalg.norm(run.position_m[-1] - np.asarray(run.safe_point_m))))
+    hold = run.phase_times_s.get(SAFE_HOLD)
+    failure_known = failure is not None or run.true_broken_cables is not None
     return {
-        'failure_time_s': failure_time_s,
-        'detection_time_s': detection_time,
-        'detection_delay_ms': (None if detection_time is None or failure_time_s is None
-                               else (detection_time - failure_time_s) * 1000.0),
-        'identified_cables': list(fdi.get('broken_cables') or []),
-        'true_broken_cables': list(true_broken),
-        'false_alarm': bool(detection_time is not None
-                            and (failure_time_s is None or detection_time < failure_time_s)),
-        'mode': fdi.get('mode'),
-        'fault': fdi.get('fault') or None,
-        'safe_point_m': safe_point,
+        'epsilon_nm': run.epsilon_nm,
+        'failure_time_s': failure,
+        'detection_time_s': detection,
+        'detection_delay_ms': (None if detection is None or failure is None
+                               else (detection - failure) * 1000.0),
+        'identified_cables': list(run.identified_cables),
+        'true_broken_cables': (None if run.true_broken_cables is None
+                               else list(run.true_broken_cables)),
+        'false_alarm': (detection is not None and (failure is None or detection < failure)
+                        if failure_known else None),
+        'mode': run.mode,
+        'fault': run.supervisor.get('fault') or None,
+        'safe_point_m': None if run.safe_point_m is None else [float(v) for v in run.safe_point_m],
         'recovery': {
-            'reached_safe_point': None if final_error is None else final_error <= reached_tolerance_m,
+            'reached_safe_point': (None if final_error is None or run.reached_tolerance_m is None
+                                   else final_error <= run.reached_tolerance_m),
             'final_error_m': final_error,
-            'min_tension_n': (float(np.min(recording.true_tension_n[after][:, remaining]))
-                              if recording.true_tension_n[after].size else None),
-            'min_height_m': float(np.min(recording.true_position_m[:, 2])),
-            'duration_s': (None if hold_tick is None or identified_tick is None
-                           else (hold_tick - identified_tick) * period_s),
-            'phase_times_s': {mode: tick * period_s for mode, tick in phases.items()},
-            'settle_timed_out': fdi.get('settle_timed_out'),
+            'min_tension_n': (float(np.min(tensions_after[:, run.remaining]))
+                              if tensions_after.size else None),
+            'min_height_m': float(np.min(run.position_m[:, 2])),
+            'duration_s': None if hold is None or detection is None else hold - detection,
+            'phase_times_s': dict(run.phase_times_s),
+            'settle_timed_out': run.supervisor.get('settle_timed_out'),
         },
+        'kpi': twin_kpis(run.robot, run.recording, nominal),
+        'tracking_error_m': (tracking_error_m(run.recording, nominal)
+                             if run.recording.has_ground_truth else None),
+        'cycles': int(run.recording.time_s.size),
+        'wall_time_s': run.wall_time_s,
     }
 
 

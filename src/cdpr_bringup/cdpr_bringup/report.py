@@ -28,15 +28,15 @@ from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_fdi.residual import sensorless_tensions
 from cdpr_msgs_py import contract
-from cdpr_msgs_py.contract import NOMINAL, SAFE_HOLD
+from cdpr_msgs_py.contract import NOMINAL
 from cdpr_msgs_py.stamps import NANOSECONDS
 
 from . import plots
 from .bag_io import read_messages, recording_from_bag, stamp_ns
 from .cli import command
-from .engine import Recording
-from .metrics import fdi_summary_from_diagnostics, tracking_error_m, twin_kpis
+from .metrics import KnownRun, fdi_summary_from_diagnostics, metrics_json
 from .paths import DEFAULT_ROBOT, config_file
+from .recording import Recording
 
 
 @dataclass
@@ -64,7 +64,7 @@ class Run:
 
     @property
     def has_ground_truth(self) -> bool:
-        return bool(np.isfinite(self.recording.true_position_m).all())
+        return self.recording.has_ground_truth
 
     @property
     def detection_time_s(self) -> float | None:
@@ -86,18 +86,7 @@ class Run:
 
     @property
     def event_time_s(self) -> float | None:
-        """Where the run stops being nominal: the failure, else its detection."""
-        return self.failure_time_s if self.failure_time_s is not None else self.detection_time_s
-
-    def mode_time_s(self, mode: str) -> float | None:
-        return next((t for t, m in self.modes if m == mode), None)
-
-    @property
-    def nominal_ticks(self) -> slice:
-        """The ticks before the failure (or its detection): where the twin should agree."""
-        if self.event_time_s is None:
-            return slice(None)
-        return slice(0, int(np.searchsorted(self.time_s, self.event_time_s, side='left')))
+        return self.known.event_time_s
 
     @property
     def position_label(self) -> str:
@@ -124,6 +113,26 @@ class Run:
         return recording.time_s[:-1], sensorless_tensions(
             self.robot.motor, self.friction, recording.command_nm[:-1],
             speed[:-1], speed[1:], period)
+
+    @property
+    def known(self) -> KnownRun:
+        """What the bag tells about the run, as `metrics_json` takes it: the recovery
+        phases from the mode changes, the pose and tensions true or else measured and
+        estimated, the safe point the supervisor's (/diagnostics) or else the config's."""
+        phase_times = {}
+        for t, mode in self.modes:
+            if mode != NOMINAL:
+                phase_times.setdefault(mode, t)
+        return KnownRun(
+            robot=self.robot, recording=self.recording, position_m=self.position_m,
+            tension_n=(self.recording.true_tension_n if self.has_ground_truth
+                       else self.tension_estimate_n[1]),
+            epsilon_nm=self.epsilon_nm, failure_time_s=self.failure_time_s,
+            true_broken_cables=self.true_broken_cables, detection_time_s=self.detection_time_s,
+            identified_cables=self.identified_cables,
+            mode=self.modes[-1][1] if self.modes else None, phase_times_s=phase_times,
+            safe_point_m=self.safe_point_m, reached_tolerance_m=self.reached_tolerance_m,
+            supervisor=self.supervisor, wall_time_s=self.wall_time_s)
 
 
 def load_run(bag: str | Path, config_path: str | Path = DEFAULT_ROBOT,
@@ -161,7 +170,7 @@ def load_run(bag: str | Path, config_path: str | Path = DEFAULT_ROBOT,
         notes.append(f'no {topics[contract.FDI_BROKEN_CABLE]} (no supervisor): no detection signal')
     if not modes:
         notes.append(f'no {topics[contract.MODE]}: recovery phases unknown')
-    if not np.isfinite(recording.true_position_m).all():
+    if not recording.has_ground_truth:
         notes.append('no ground truth (real robot): end-effector from forward kinematics of the '
                      'measured angles, tensions only as estimated')
     failure_time, true_broken, source = failure_of(bag, recording)
@@ -226,59 +235,6 @@ def failure_of(bag: Path, recording: Recording) -> tuple[float | None, list[int]
             'failure time: first tick from which a true cable tension stays 0 (ground truth)')
 
 
-def metrics_of(run: Run) -> dict:
-    """The metrics.json keys of docs/design.md §7 (and of cdpr-scenario), recomputed from the bag.
-
-    The KPIs and the tracking error cover the ticks before the failure (or its
-    detection). recovery.min_tension_n covers the remaining cables from then on (true
-    tensions, else the sensorless estimate), min_height_m the whole run, duration_s the
-    detection to SAFE_HOLD. The safe point is the supervisor's (from /diagnostics), else
-    the one the robot config gives.
-    """
-    detection, failure = run.detection_time_s, run.failure_time_s
-    nominal = run.nominal_ticks
-    after = slice(nominal.stop or 0, None)
-    tensions = (run.recording.true_tension_n[after] if run.has_ground_truth
-                else run.tension_estimate_n[1][after])
-    position = run.position_m
-    final_error = (float(np.linalg.norm(position[-1] - run.safe_point_m))
-                   if run.safe_point_m is not None else None)
-    hold = run.mode_time_s(SAFE_HOLD)
-    known_failure = failure is not None or run.true_broken_cables is not None
-    phase_times = {}
-    for t, mode in run.modes:
-        if mode != NOMINAL:
-            phase_times.setdefault(mode, t)
-    return {
-        'epsilon_nm': run.epsilon_nm,
-        'failure_time_s': failure,
-        'detection_time_s': detection,
-        'detection_delay_ms': (detection - failure) * 1000.0
-        if detection is not None and failure is not None else None,
-        'identified_cables': run.identified_cables,
-        'true_broken_cables': run.true_broken_cables,
-        'false_alarm': (detection is not None and (failure is None or detection < failure))
-        if known_failure else None,
-        'mode': run.modes[-1][1] if run.modes else None,
-        'fault': run.supervisor.get('fault') or None,
-        'safe_point_m': run.safe_point_m.tolist() if run.safe_point_m is not None else None,
-        'recovery': {
-            'reached_safe_point': final_error <= run.reached_tolerance_m
-            if final_error is not None and run.reached_tolerance_m is not None else None,
-            'final_error_m': final_error,
-            'min_tension_n': float(np.min(tensions[:, run.attached])) if tensions.size else None,
-            'min_height_m': float(np.min(position[:, 2])),
-            'duration_s': hold - detection if hold is not None and detection is not None else None,
-            'phase_times_s': phase_times,
-            'settle_timed_out': run.supervisor.get('settle_timed_out'),
-        },
-        'kpi': twin_kpis(run.robot, run.recording, nominal),
-        'tracking_error_m': tracking_error_m(run.recording, nominal) if run.has_ground_truth else None,
-        'cycles': int(run.time_s.size),
-        'wall_time_s': run.wall_time_s,
-    }
-
-
 def write_report(bag_path: str | Path, out_dir: str | Path, config_path: str | Path | None = None,
                  namespace: str = contract.DEFAULT_NAMESPACE, epsilon_nm: float | None = None,
                  coulomb_friction_nm: float | None = None) -> dict:
@@ -299,7 +255,7 @@ def write_report(bag_path: str | Path, out_dir: str | Path, config_path: str | P
             run.notes.append(f'{name}.png left out: nothing to plot')
         else:
             figures.append((f'{name}.png', caption))
-    metrics = metrics_of(run)
+    metrics = metrics_json(run.known)
     (out / 'metrics.json').write_text(json.dumps(metrics, indent=2))
     (out / 'report.md').write_text(markdown(bag, run, metrics, figures))
     return metrics

@@ -19,8 +19,7 @@ from .bag_io import BagWriter, read_messages, recording_from_bag, write_recordin
 from .cli import command
 from .engine import run_inprocess
 from .graph import INTERRUPTED_EXIT_CODE, GraphError, graph_nodes, run_to_completion
-from .metrics import (PAPER_KPI, fdi_metrics, fdi_summary_from_diagnostics, ticks_before,
-                      tracking_error_m, twin_kpis)
+from .metrics import PAPER_KPI, KnownRun, fdi_summary_from_diagnostics, metrics_json
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
 from .report import write_report
 from .scenario_setup import ScenarioOptions, build_scenario
@@ -98,17 +97,20 @@ def metrics_of(scenario, recording, wall_time_s: float, interrupted: bool = Fals
     if recording is None or recording.time_s.size == 0:
         return dict(metrics, cycles=0, wall_time_s=wall_time_s)
     failures = [(at, cable) for at, cable in scenario.failures if at <= recording.time_s[-1]]
-    failure_time = failures[0][0] if failures else None
-    true_broken = sorted({cable + 1 for _, cable in failures})
-    before_failure = slice(0, ticks_before(recording, failure_time))
-    metrics.update(fdi_metrics(scenario.robot, scenario.period_s, failure_time,
-                               true_broken, recording, scenario.recovery.reached_tolerance_m))
-    metrics.update({
-        'kpi': twin_kpis(scenario.robot, recording, before_failure),
-        'tracking_error_m': tracking_error_m(recording, before_failure),
-        'cycles': int(recording.time_s.size),
-        'wall_time_s': wall_time_s,
-    })
+    supervisor = recording.fdi or {}
+    identified_tick = supervisor.get('identified_tick')
+    metrics.update(metrics_json(KnownRun(
+        robot=scenario.robot, recording=recording, position_m=recording.true_position_m,
+        tension_n=recording.true_tension_n, epsilon_nm=scenario.fdi.epsilon_nm,
+        failure_time_s=failures[0][0] if failures else None,
+        true_broken_cables=sorted({cable + 1 for _, cable in failures}),
+        detection_time_s=None if identified_tick is None else identified_tick * scenario.period_s,
+        identified_cables=supervisor.get('broken_cables') or [], mode=supervisor.get('mode'),
+        phase_times_s={mode: tick * scenario.period_s
+                       for mode, tick in (supervisor.get('phase_ticks') or {}).items()},
+        safe_point_m=supervisor.get('safe_point_m'),
+        reached_tolerance_m=scenario.recovery.reached_tolerance_m, supervisor=supervisor,
+        wall_time_s=wall_time_s)))
     return metrics
 
 

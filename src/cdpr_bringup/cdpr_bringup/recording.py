@@ -1,0 +1,35 @@
+"""What a run produced, one row per control tick: the in-process engine's output, and
+what a bag of the graph reads back as."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Recording:
+    """What a run produced, one row per control cycle (SI units)."""
+
+    time_s: np.ndarray
+    angle_rad: np.ndarray
+    angular_velocity_rad_s: np.ndarray
+    command_nm: np.ndarray
+    twin_angle_rad: np.ndarray
+    twin_angular_velocity_rad_s: np.ndarray
+    twin_torque_nm: np.ndarray
+    twin_position_m: np.ndarray
+    reference_position_m: np.ndarray
+    reference_angle_rad: np.ndarray
+    true_position_m: np.ndarray
+    true_tension_n: np.ndarray
+    residual_nm: np.ndarray | None = None
+    fdi: dict = field(default_factory=dict)
+    # Ctrl-C ended the run early: the rows are the cycles that ran.
+    interrupted: bool = False
+
+    @property
+    def has_ground_truth(self) -> bool:
+        """Whether the plant's true pose was recorded on every tick (only a simulated run
+        has it: a bag of the real robot reads back NaN there)."""
+        return bool(np.isfinite(self.true_position_m).all())
