@@ -10,6 +10,7 @@ import shutil
 import matplotlib.image
 import numpy as np
 import pytest
+import yaml
 
 from cdpr_control.robot import load_robot
 
@@ -19,7 +20,7 @@ from cdpr_bringup.bag_io import BagWriter, recording_from_bag, write_recording
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.graph import graph_nodes, run_to_completion
 from cdpr_bringup.metrics import tracking_error_m, twin_kpis
-from cdpr_bringup.report import main, write_report
+from cdpr_bringup.report import SETTLED_RUN, main, run_settings, write_report
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 
 from conftest import MOTIONS, PAPER_ROBOT, settled_parameters
@@ -47,8 +48,8 @@ def failure_run(tmp_path_factory):
     folder = tmp_path_factory.mktemp('failure')
     bag = write_bag(recording, folder / 'bag')
     # the rigid plant has no Coulomb friction, so the tension estimate must assume none
-    return scenario, recording, folder, write_report(bag, folder / 'plots', PAPER_ROBOT,
-                                                     coulomb_friction_nm=0.0)
+    return scenario, recording, folder, write_report(bag, folder / 'plots', run_settings(
+        bag, PAPER_ROBOT, coulomb_friction_nm=0.0))
 
 
 def assert_figure(path):
@@ -113,8 +114,8 @@ def test_scenario_and_report_compute_the_same_metrics_of_one_run(failure_run, tm
     run = tmp_path / 'run'
     shutil.copytree(folder / 'bag', run / 'bag')
     (run / 'metrics.json').write_text(json.dumps(own))
-    recomputed = write_report(run / 'bag', run / 'plots', PAPER_ROBOT, epsilon_nm=scenario.fdi.epsilon_nm,
-                              coulomb_friction_nm=scenario.fdi.friction.coulomb_nm)
+    (run / SETTLED_RUN).write_text(yaml.safe_dump(scenario.settings.data))
+    recomputed = write_report(run / 'bag', run / 'plots', run_settings(run / 'bag'))
     own, recomputed = flat(own), flat(recomputed)
     assert set(own) - set(recomputed) == {'motion', 'fidelity', 'detector'}
     assert set(recomputed) <= set(own)
@@ -139,7 +140,7 @@ def test_metrics_json_beside_the_bag_gives_the_failure_time(failure_run, tmp_pat
     shutil.copytree(folder / 'bag', run / 'bag')
     (run / 'metrics.json').write_text(json.dumps(
         {'failure_time_s': scenario.failure_time_s, 'true_broken_cables': [4]}))
-    metrics = write_report(run / 'bag', run / 'plots', PAPER_ROBOT)
+    metrics = write_report(run / 'bag', run / 'plots', run_settings(run / 'bag', PAPER_ROBOT))
     assert metrics['failure_time_s'] == scenario.failure_time_s
     assert metrics['detection_delay_ms'] == pytest.approx(
         (metrics['detection_time_s'] - scenario.failure_time_s) * 1000.0)
@@ -178,14 +179,14 @@ def test_bag_of_a_killed_recorder_gives_a_report_of_its_prefix(failure_run, tmp_
     data = next((folder / 'bag').glob('*.mcap')).read_bytes()
     (tmp_path / 'bag').mkdir()
     (tmp_path / 'bag' / 'bag.mcap').write_bytes(data[:len(data) // 2])
-    metrics = write_report(tmp_path / 'bag', tmp_path / 'plots', PAPER_ROBOT)
+    metrics = write_report(tmp_path / 'bag', tmp_path / 'plots', run_settings(tmp_path / 'bag', PAPER_ROBOT))
     assert 0.3 * recording.time_s.size < metrics['cycles'] < 0.7 * recording.time_s.size
 
 
 def test_report_refuses_to_overwrite_the_runs_own_metrics(failure_run):
     _, _, folder, _ = failure_run
     with pytest.raises(ValueError, match='metrics.json'):
-        write_report(folder / 'bag', folder, PAPER_ROBOT)
+        write_report(folder / 'bag', folder, run_settings(folder / 'bag', PAPER_ROBOT))
 
 
 @pytest.mark.graph
@@ -197,7 +198,7 @@ def test_report_of_a_graph_bag(tmp_path):
     bag = tmp_path / 'bag'
     run_to_completion(graph_nodes(parameters, str(bag)), '/cdpr', timeout_s=60.0,
                       log=lambda line: None)
-    metrics = write_report(bag, tmp_path / 'plots', PAPER_ROBOT)
+    metrics = write_report(bag, tmp_path / 'plots', run_settings(bag, PAPER_ROBOT))
     recording = recording_from_bag(bag)
     assert metrics['true_broken_cables'] == [4]
     assert metrics['failure_time_s'] == pytest.approx(1.502)

@@ -5,6 +5,9 @@ element whose topic is missing (ground truth on the real robot, FDI topics witho
 supervisor) is left out with a note. Writes into DIR one PNG per figure, metrics.json
 recomputed from the bag, and report.md, which shows them.
 
+The run's settings (robot, thresholds, friction, recovery) are those cdpr-scenario settled
+and wrote beside the bag (run.yaml); for another bag, those of the robot file given.
+
 Times are the control ticks' stamps (sim time in lockstep, s). The verdict and the mode
 carry no stamp: their receive time in the bag places them on the tick the supervisor
 judged (see tick_time).
@@ -20,11 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-from cdpr_control.config import ConfigError
+from cdpr_control.config import Section, load_yaml
 from cdpr_control.friction import FrictionModel
 from cdpr_control.kinematics import forward_kinematics
-from cdpr_control.robot import Robot, load_robot
-from cdpr_fdi.config import load_fdi_config, load_recovery_config
+from cdpr_control.robot import Robot, load_robot, robot_from_section
+from cdpr_fdi.config import (FdiConfig, RecoveryConfig, load_fdi_config, load_recovery_config,
+                             settled_fdi)
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_fdi.residual import sensorless_tensions
 from cdpr_msgs_py import contract
@@ -37,6 +41,41 @@ from .cli import command
 from .metrics import KnownRun, fdi_summary_from_diagnostics, metrics_json
 from .paths import DEFAULT_ROBOT, config_file
 from .recording import Recording
+
+
+# The settled run cdpr-scenario writes beside its bag.
+SETTLED_RUN = 'run.yaml'
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """Of a run's settings, what its report needs."""
+
+    robot: Robot
+    fdi: FdiConfig
+    recovery: RecoveryConfig
+    source: str
+
+
+def run_settings(bag: str | Path, config_path: str | Path | None = None,
+                 epsilon_nm: float | None = None, coulomb_friction_nm: float | None = None) -> RunSettings:
+    """The settled run beside `bag` (SETTLED_RUN) unless a robot file is given; else the
+    robot file `config_path` (default the paper's). `epsilon_nm` and `coulomb_friction_nm`
+    replace the FDI's (0 friction for the rigid plant, which has none)."""
+    settled = Path(bag).parent / SETTLED_RUN
+    if config_path is None and settled.exists():
+        settings = Section(load_yaml(settled), settled)
+        robot = robot_from_section(settings.section('robot'))
+        fdi, recovery = settled_fdi(settings, robot)
+        source = f'settings: the run\'s own, {settled}'
+    else:
+        path = config_file(config_path or DEFAULT_ROBOT)
+        robot = load_robot(path)
+        fdi, recovery = load_fdi_config(path, robot), load_recovery_config(path, robot)
+        source = f'settings: {path}'
+    return RunSettings(robot, fdi.with_overrides(epsilon_nm=epsilon_nm,
+                                                 coulomb_friction_nm=coulomb_friction_nm),
+                       recovery, source)
 
 
 @dataclass
@@ -135,24 +174,21 @@ class Run:
             supervisor=self.supervisor, wall_time_s=self.wall_time_s)
 
 
-def load_run(bag: str | Path, config_path: str | Path = DEFAULT_ROBOT,
-             namespace: str = contract.DEFAULT_NAMESPACE, epsilon_nm: float | None = None,
-             coulomb_friction_nm: float | None = None) -> Run:
-    """The run in `bag`; ε and the Coulomb friction default to the config's `fdi` ones."""
+def load_run(bag: str | Path, settings: RunSettings,
+             namespace: str = contract.DEFAULT_NAMESPACE) -> Run:
+    """The run in `bag`, recorded with `settings`."""
     bag = Path(bag)
-    config_path = config_file(config_path)
-    robot = load_robot(config_path)
-    fdi = load_fdi_config(config_path, robot).with_overrides(
-        epsilon_nm=epsilon_nm, coulomb_friction_nm=coulomb_friction_nm)
+    robot, fdi = settings.robot, settings.fdi
     recording = recording_from_bag(bag, namespace)
     if recording.angle_rad.shape[1] != robot.cable_count:
-        raise ValueError(f'{bag} has {recording.angle_rad.shape[1]} motors, '
-                         f'{config_path} {robot.cable_count}: pass the robot the bag was recorded with')
+        raise ValueError(f'{bag} has {recording.angle_rad.shape[1]} motors, robot {robot.name} '
+                         f'{robot.cable_count} ({settings.source}): pass the robot the bag was '
+                         f'recorded with')
     topics = {key: f'{namespace}/{key}' for key in (
         contract.JOINT_STATES, contract.FDI_RESIDUAL, contract.FDI_BROKEN_CABLE, contract.MODE)}
     topics[contract.DIAGNOSTICS] = contract.DIAGNOSTICS
     found = read_messages(bag, list(topics.values()))
-    notes = []
+    notes = [settings.source]
     residual = recording.residual_nm
     if residual is None or np.isnan(residual).all():
         residual = recording.command_nm - recording.twin_torque_nm
@@ -184,13 +220,12 @@ def load_run(bag: str | Path, config_path: str | Path = DEFAULT_ROBOT,
     if run.supervisor.get('safe_point_m') is not None:
         run.safe_point_m = np.array(run.supervisor['safe_point_m'])
     if run.broken_cables:
-        try:
-            recovery = load_recovery_config(config_path, robot)
-            run.reached_tolerance_m = recovery.reached_tolerance_m
-            if run.safe_point_m is None:
-                run.safe_point_m = safe_point_for(robot, recovery, run.attached)
-        except (ConfigError, RecoveryInfeasible) as err:
-            notes.append(f'no safe point: {err}')
+        run.reached_tolerance_m = settings.recovery.reached_tolerance_m
+        if run.safe_point_m is None:
+            try:
+                run.safe_point_m = safe_point_for(robot, settings.recovery, run.attached)
+            except RecoveryInfeasible as err:
+                notes.append(f'no safe point: {err}')
     return run
 
 
@@ -235,18 +270,14 @@ def failure_of(bag: Path, recording: Recording) -> tuple[float | None, list[int]
             'failure time: first tick from which a true cable tension stays 0 (ground truth)')
 
 
-def write_report(bag_path: str | Path, out_dir: str | Path, config_path: str | Path | None = None,
-                 namespace: str = contract.DEFAULT_NAMESPACE, epsilon_nm: float | None = None,
-                 coulomb_friction_nm: float | None = None) -> dict:
-    """Plots (out_dir/*.png), metrics.json and report.md of the run in `bag_path`; the metrics.
-
-    `epsilon_nm` and `coulomb_friction_nm` (0 for the rigid plant, which has none)
-    replace the robot config's `fdi` values.
-    """
+def write_report(bag_path: str | Path, out_dir: str | Path, settings: RunSettings,
+                 namespace: str = contract.DEFAULT_NAMESPACE) -> dict:
+    """Plots (out_dir/*.png), metrics.json and report.md of the run in `bag_path`, recorded
+    with `settings`; the metrics."""
     bag, out = Path(bag_path), Path(out_dir)
     if out.resolve() == bag.parent.resolve():
         raise ValueError(f'{out}: the run\'s own metrics.json is there; choose another folder')
-    run = load_run(bag, config_path or DEFAULT_ROBOT, namespace, epsilon_nm, coulomb_friction_nm)
+    run = load_run(bag, settings, namespace)
     out.mkdir(parents=True, exist_ok=True)
     figures = []
     for name, draw in plots.FIGURES.items():
@@ -293,17 +324,18 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('bag', help='rosbag2 folder (or a killed recorder\'s folder)')
     parser.add_argument('--out', required=True, help='output folder')
-    parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML the bag was recorded with')
+    parser.add_argument('--config', help=f'robot YAML the bag was recorded with (default: the '
+                                         f'settled run beside the bag, {SETTLED_RUN}, else {DEFAULT_ROBOT})')
     parser.add_argument('--epsilon', type=float, metavar='NM',
-                        help='detection threshold ε to draw (N·m; default: fdi.epsilon_nm of --config)')
+                        help='detection threshold ε to draw (N·m; default: the run\'s)')
     parser.add_argument('--coulomb-friction', type=float, metavar='NM',
                         help='Coulomb friction of the motors for the tension estimate (N·m; '
-                             'default: fdi.coulomb_friction_nm of --config; 0 for the rigid plant)')
+                             'default: the run\'s; 0 for the rigid plant)')
     parser.add_argument('--namespace', default=contract.DEFAULT_NAMESPACE)
     args = parser.parse_args(argv)
     try:
-        metrics = write_report(args.bag, args.out, args.config, args.namespace, args.epsilon,
-                               args.coulomb_friction)
+        settings = run_settings(args.bag, args.config, args.epsilon, args.coulomb_friction)
+        metrics = write_report(args.bag, args.out, settings, args.namespace)
     except (OSError, ValueError) as err:
         print(f'cdpr-report: {err}', file=sys.stderr)
         return 1

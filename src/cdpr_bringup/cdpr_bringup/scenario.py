@@ -1,7 +1,7 @@
 """cdpr-scenario: one run of a named motion, through the node graph or in-process.
 
-Writes into --out: bag/ (graph engine: every /cdpr topic), metrics.json (docs/design.md §7) and
-plots/, and prints the detection, identification and recovery figures and the
+Writes into --out: run.yaml (the run as settled: every setting it used), bag/ (graph engine:
+every /cdpr topic), metrics.json (docs/design.md §7) and plots/, and prints the detection, identification and recovery figures and the
 twin-vs-robot KPIs next to the paper's.
 """
 from __future__ import annotations
@@ -13,6 +13,8 @@ import sys
 import time
 from pathlib import Path
 
+import yaml
+
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 
 from .bag_io import BagWriter, read_messages, recording_from_bag, write_recording
@@ -21,7 +23,7 @@ from .engine import run_inprocess
 from .graph import INTERRUPTED_EXIT_CODE, GraphError, graph_nodes, run_to_completion
 from .metrics import PAPER_KPI, KnownRun, fdi_summary_from_diagnostics, metrics_json
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
-from .report import write_report
+from .report import SETTLED_RUN, RunSettings, write_report
 from .scenario_setup import ScenarioOptions, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
@@ -162,6 +164,7 @@ def run_scenario(args) -> int:
     if (out / 'bag').exists():
         shutil.rmtree(out / 'bag')
     out.mkdir(parents=True, exist_ok=True)
+    (out / SETTLED_RUN).write_text(yaml.safe_dump(scenario.settings.data, sort_keys=False))
     start = time.monotonic()
     try:
         if args.engine == 'graph':
@@ -183,8 +186,9 @@ def run_scenario(args) -> int:
     if not args.no_plots:
         if args.engine == 'inprocess':
             record(recording, out / 'bag', args.namespace)
-        write_report(out / 'bag', out / 'plots', scenario.config_path, args.namespace,
-                     scenario.fdi.epsilon_nm, scenario.fdi.friction.coulomb_nm)
+        write_report(out / 'bag', out / 'plots', RunSettings(
+            scenario.robot, scenario.fdi, scenario.recovery, f'settings: the run\'s own, {out / SETTLED_RUN}'),
+            args.namespace)
         print(f'bag: {out / "bag"}, plots and report: {out / "plots" / "report.md"}')
     return 0
 

@@ -12,14 +12,13 @@ from pathlib import Path
 
 from cdpr_control.config import Section, load_config
 from cdpr_control.controller import PdGains
-from cdpr_control.friction import FrictionModel
 from cdpr_control.motions import Motion, motion_from_settled, settled_motion
 from cdpr_control.reference import ReferenceTable, tabulate_reference
 from cdpr_control.robot import Robot, robot_from_section
 from cdpr_control.settings import ROBOT_DESCRIPTION, flatten, robot_description
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_control.tension_distribution import TensionDistribution
-from cdpr_fdi.config import FdiConfig, RecoveryConfig, calibrated_fdi
+from cdpr_fdi.config import FdiConfig, RecoveryConfig, calibrated_fdi, settled_fdi
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 from cdpr_twin.plant import FIDELITIES, PlantConfig
@@ -193,6 +192,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
     motion = motion_from_settled(settings.section('motion'))
     run = settings.section('run')
     failures = list(zip(run.raw('failure_times_s'), run.raw('failure_cable_indices')))
+    fdi, recovery = settled_fdi(settings, robot)
     scenario = Scenario(
         options=options,
         settings=settings,
@@ -207,9 +207,8 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         failures=failures,
         calibration_path=calibration,
         distribution=distribution,
-        fdi=FdiConfig.from_section(settings.section('fdi'), robot,
-                                   FrictionModel.of_robot(robot, control)),
-        recovery=RecoveryConfig.from_section(settings.section('recovery'), robot),
+        fdi=fdi,
+        recovery=recovery,
     )
     settings.data['run']['last_tick'] = scenario.cycles - 1
     if options.duration_s is None:

@@ -189,3 +189,12 @@ class RecoveryConfig:
 
 def load_recovery_config(config_path: str | Path, robot: Robot) -> RecoveryConfig:
     return RecoveryConfig.from_section(load_section(config_path, 'recovery'), robot)
+
+
+def settled_fdi(settings, robot: Robot) -> tuple[FdiConfig, RecoveryConfig]:
+    """The FDI and recovery settings of a settled run (`settings`: its document, with a
+    `section(name)` as cdpr_control.config.Section's): its `fdi` and `recovery` sections,
+    the friction its `control` section settled."""
+    friction = FrictionModel.of_robot(robot, settings.section('control'))
+    return (FdiConfig.from_section(settings.section('fdi'), robot, friction),
+            RecoveryConfig.from_section(settings.section('recovery'), robot))

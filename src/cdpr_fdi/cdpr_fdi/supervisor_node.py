@@ -17,7 +17,6 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
 from cdpr_control.controller import JointReference
-from cdpr_control.friction import FrictionModel
 from cdpr_control.settings import node_settings
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_msgs_py import contract, qos
@@ -27,7 +26,7 @@ from cdpr_msgs_py.health import unjudged_problem, verdict_problems
 from cdpr_msgs_py.runtime import CdprNode, run
 from cdpr_msgs_py.stamps import seconds_to_ns
 
-from .config import FdiConfig, RecoveryConfig
+from .config import settled_fdi
 from .supervisor import Supervisor
 
 INPUTS = ('state', 'command', 'twin', 'reference')
@@ -46,9 +45,7 @@ class SupervisorNode(CdprNode):
         self.configure(settings, self.period_s)
         self.period_ns = seconds_to_ns(self.period_s)
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
-        fdi = FdiConfig.from_section(settings.section('fdi'), self.robot,
-                                     FrictionModel.of_robot(self.robot, control))
-        recovery = RecoveryConfig.from_section(settings.section('recovery'), self.robot)
+        fdi, recovery = settled_fdi(settings, self.robot)
         distribution = configured_tension_distribution(control, self.robot)
         self.supervisor = Supervisor(self.robot, fdi, recovery, distribution, self.period_s)
         self.names = contract.joint_names(self.robot.cable_count)
