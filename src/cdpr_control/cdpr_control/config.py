@@ -191,22 +191,13 @@ def load_section(path: str | Path, name: str) -> Section:
     return load_config(path).section(name)
 
 
-def resolve_config(name_or_path: str | Path) -> Path:
-    """An existing path as given, else the config of that name shipped with cdpr_bringup.
-
-    Looked up beside the sources of a checkout, then in the ament index (an install
-    space, or a venv whose AMENT_PREFIX_PATH names it).
-    """
+def resolve_config(name_or_path: str | Path, folders: list[Path]) -> Path:
+    """An existing path as given, else the file of that name in the first of `folders`
+    (the caller's shipped configs) that holds one."""
     path = Path(name_or_path)
     if path.exists():
         return path
-    folders = [Path(__file__).resolve().parents[2] / 'cdpr_bringup' / 'config']
-    try:
-        from ament_index_python.packages import get_package_share_directory
-        folders.append(Path(get_package_share_directory('cdpr_bringup')) / 'config')
-    except (ImportError, LookupError, OSError):
-        pass
     for folder in folders:
         if (folder / path.name).exists():
             return folder / path.name
-    raise FileNotFoundError(f'no config {name_or_path!s} (looked in {", ".join(map(str, folders))})')
+    raise FileNotFoundError(f'no config {name_or_path!s} (looked in {", ".join(map(str, folders)) or "no folder"})')

@@ -7,8 +7,8 @@ Each node gets the sections it reads as dotted parameters (`fdi.epsilon_nm`,
 `recovery.safe_points_m.4`, ...) and the robot as `robot_description`, a YAML text as
 ROS passes a URDF; it builds its core from those values and opens no file.
 
-A node started without them (`ros2 run` with only `config_file`) reads the robot file
-named there, with the paper's settings for what it leaves out.
+A node started without them (`ros2 run` with only `config_file:=PATH`) reads that robot
+file, with the paper's settings for what it leaves out.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from typing import Any, Mapping
 
 import yaml
 
-from .config import Section, load_config, resolve_config
+from .config import Section, load_config
 from .robot import Robot, robot_from_section
 
 ROBOT_DESCRIPTION = 'robot_description'
@@ -78,11 +78,15 @@ class Settings:
 def node_settings(node) -> Settings:
     """The settings `node` (an rclpy Node whose parameters were declared from its
     overrides) was started with: the launcher's settled values, else those of the robot
-    file its `config_file` parameter names."""
+    file its `config_file` parameter names (a path)."""
     given = node.get_parameters_by_prefix('')
     source = f'parameters of {node.get_fully_qualified_name()}'
     if ROBOT_DESCRIPTION not in given:
-        path = resolve_config(node.parameter('config_file', 'paper_robot.yaml'))
+        path = node.parameter('config_file', '')
+        if not path:
+            raise Section({}, source).error(ROBOT_DESCRIPTION, (
+                'is not given: start the node with a run\'s settled parameters (cdpr-graph, '
+                'cdpr-scenario) or with config_file:=PATH of a robot file'))
         return Settings(load_config(path))
     try:
         described = yaml.safe_load(given[ROBOT_DESCRIPTION].value)

@@ -27,7 +27,6 @@ from cdpr_msgs_py.conversions import (InvalidMessage, joint_state, point_from_me
 from cdpr_msgs_py.runtime import CdprNode, run
 from cdpr_msgs_py.stamps import seconds_to_ns
 
-from .config import resolve_config
 from .motions import motion_from_settled, settled_motion
 from .reference import IncrementalTabulation, ReferenceTable, tabulate_reference
 from .settings import node_settings
@@ -47,10 +46,10 @@ class TrajectoryGeneratorNode(CdprNode):
         self.period_ns = seconds_to_ns(self.period_s)
         self.lead = control.integer('reference_lead_cycles', minimum=1)
         self.distribution = configured_tension_distribution(control, self.robot)
-        # started alone, without a settled motion: the named one of a motions file
+        # started alone, without a settled motion: the named one of a motions file (a path)
         motion = (settings.section('motion') if settings.has('motion') else settled_motion(
-            resolve_config(self.parameter('motions_file', 'motions.yaml')),
-            self.parameter('motion', 'circle'), self.parameter('reverse', False)))
+            self.parameter('motions_file', ''), self.parameter('motion', 'circle'),
+            self.parameter('reverse', False)))
         self.goal_speed_m_s = motion.number('goal_peak_speed_m_s', positive=True)
         self.segments: list[tuple[int, ReferenceTable]] = [
             (0, tabulate_reference(self.robot, self.distribution, motion_from_settled(motion).trajectory,

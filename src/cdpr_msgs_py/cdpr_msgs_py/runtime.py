@@ -347,7 +347,6 @@ class CdprNode(Node):
     def __init__(self, name: str):
         super().__init__(name, automatically_declare_parameters_from_overrides=True)
         self.sole_writers: list[SoleWriterSubscription] = []
-        self.parameter('config_file', 'paper_robot.yaml')
         self.clock_mode = self.parameter('clock_mode', 'lockstep')
         if self.clock_mode not in ('lockstep', 'realtime'):
             raise ValueError(f"parameter clock_mode must be lockstep or realtime, got {self.clock_mode!r}")
