@@ -597,7 +597,7 @@ def trajectory_generator(clock_mode):
 
 def plan_ids(node):
     """The planned segments, by identity: a goal appends one and never edits any."""
-    return [(start, id(table)) for start, table in node.segments]
+    return [(start, id(table)) for start, table in node.schedule.segments]
 
 
 @settings(FUZZ, max_examples=25)
@@ -606,18 +606,18 @@ def plan_ids(node):
 def test_trajectory_generator_plans_finite_goals_in_the_workspace_only(
         clock_mode, trajectory_generator, goal):
     node, published = trajectory_generator
-    segments = len(node.segments)
+    segments = len(node.schedule.segments)
     valid = inside_workspace(goal)
     deliver(node, published, 'on_goal', point_stamped(0, goal), contract.GOAL, valid, plan_ids)
     if valid:
-        assert len(node.segments) == segments + 1
-        table = node.segments[-1][1]
+        assert len(node.schedule.segments) == segments + 1
+        table = node.schedule.segments[-1][1]
         for column in (table.position_m, table.angle_rad, table.angular_velocity_rad_s,
                        table.feedforward_nm):
             assert np.all(np.isfinite(column))
         np.testing.assert_allclose(table.position_m[-1], goal, atol=1e-9)
         node.on_goal(point_stamped(0, GOAL_HOME))
-        assert len(node.segments) == segments + 2
+        assert len(node.schedule.segments) == segments + 2
 
 
 # After a state stamped far ahead the generator goes on from that tick; jumps here stay
@@ -638,7 +638,7 @@ def test_trajectory_generator_publishes_each_reference_once_in_order(
     references, poses = published[contract.REFERENCE], published[contract.REFERENCE_POSE]
     rejected = Counter(node.diagnostics.rejected)
     for jump, offset, message in jumps:
-        count, first = len(references), node.next_index
+        count, first = len(references), node.schedule.next_tick
         latest_tick = first - LEAD_CYCLES - 1
         stamp = (latest_tick + jump) * PERIOD_NS + offset + (node.origin_ns or 0)
         message.header.stamp = ns_to_stamp(stamp)
