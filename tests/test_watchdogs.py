@@ -9,7 +9,6 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_control.controller import JointReference
-from cdpr_control.statics import static_tensions
 from cdpr_fdi.supervisor import Supervisor
 from cdpr_twin.plant import PlantSimulator
 from cdpr_twin.watchdog import BRAKING, HOLDING, OK, CommandWatchdog
@@ -44,8 +43,7 @@ def test_braked_drums_hold_the_load_where_zero_torque_drops_it(fidelity):
     assert start[2] - dropped.position_m[2] > 0.1
     # released, the drive holds the load again with its holding torques
     braked.lock_drums(False)
-    hold = -robot.motor.drum_radius_m * static_tensions(robot, braked.position_m, robot.cable_mask())
-    braked.step(hold, scenario.period_s)
+    braked.step(braked.holding_torque_nm(), scenario.period_s)
     assert not braked.drums_locked
 
 
