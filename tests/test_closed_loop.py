@@ -1,4 +1,5 @@
-"""The closed loop in one process: twin, plant fidelities and failure injection."""
+"""The closed loop in one process: twin, plant fidelities and failure injection; the
+plant's holding torque and torque limit."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,6 +8,8 @@ import pytest
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.metrics import tracking_error_m, twin_kpis
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_control.kinematics import structure_matrix
+from cdpr_twin.plant import PlantSimulator
 
 
 @pytest.fixture(scope='module')
@@ -54,3 +57,40 @@ def test_injected_failure_frees_the_motor_but_not_the_twin(rigid_run):
     predicted = speed[k] + period * (broken.command_nm[k, 3] - motor.viscous_friction_nm_s_rad * speed[k]) / motor.inertia_kg_m2
     assert speed[k + 1] == pytest.approx(predicted, rel=1e-9)
     assert np.max(np.abs(broken.command_nm[:n][after] - healthy.command_nm[after])) > 0.1
+
+
+@pytest.fixture(scope='module')
+def circle_scenario():
+    return build_scenario(ScenarioOptions(motion='circle', fidelity='rigid'))
+
+
+def test_holding_torque_keeps_the_plant_where_it_starts_on_the_cables_left(circle_scenario):
+    robot, start = circle_scenario.robot, circle_scenario.reference.position_m[0]
+    plant = PlantSimulator(robot, circle_scenario.plant, start)
+    holding = plant.holding_torque_nm()
+    # the drum turns the rigid plant's static tensions into torque: c = −ρ t
+    np.testing.assert_allclose(holding, -robot.motor.drum_radius_m * plant.tension_n, rtol=1e-12)
+    for _ in range(250):   # half a second
+        plant.step(holding, circle_scenario.period_s)
+    np.testing.assert_array_equal(plant.position_m, start)
+    # without cable 4 the other three balance the weight alone: S t = −m_e g
+    plant.inject_failure(3)
+    tensions = -plant.holding_torque_nm() / robot.motor.drum_radius_m
+    structure, _ = structure_matrix(robot, plant.position_m)
+    assert tensions[3] == 0.0 and np.all(tensions[:3] > 0.0)
+    np.testing.assert_allclose(structure @ tensions, -robot.weight_wrench_n, atol=1e-9)
+
+
+def test_the_motors_apply_a_command_within_their_torque_limit(circle_scenario):
+    robot, start = circle_scenario.robot, circle_scenario.reference.position_m[0]
+    limit = robot.motor.torque_limit_nm
+    plant = PlantSimulator(robot, circle_scenario.plant, start)
+    command = np.array([-3.0 * limit, -0.5, 0.25, 2.0 * limit])
+    np.testing.assert_array_equal(plant.applied_torque_nm(command), [-limit, -0.5, 0.25, limit])
+    # and a step applies just that
+    within = PlantSimulator(robot, circle_scenario.plant, start)
+    plant.step(command, circle_scenario.period_s)
+    within.step(np.array([-limit, -0.5, 0.25, limit]), circle_scenario.period_s)
+    np.testing.assert_array_equal(plant.model.angle_rad, within.model.angle_rad)
+    np.testing.assert_array_equal(plant.position_m, within.position_m)
+    assert np.any(plant.position_m != start)

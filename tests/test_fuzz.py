@@ -48,7 +48,7 @@ from cdpr_msgs_py.health import HealthLimits
 from cdpr_twin.digital_twin_node import DigitalTwinNode
 from cdpr_twin.plant import PlantConfig
 from cdpr_twin.plant_simulator_node import PlantSimulatorNode
-from conftest import PAPER_ROBOT
+from conftest import MOTIONS, PAPER_ROBOT
 
 ROBOT = load_robot(PAPER_ROBOT)
 CABLES = ROBOT.cable_count
@@ -161,8 +161,10 @@ def well_formed(message, fields=ALL_FIELDS) -> bool:
 
 @pytest.fixture(scope='module', params=['lockstep', 'realtime'])
 def clock_mode(request):
-    """rclpy in this process; every node made in it runs in `clock_mode`."""
-    rclpy.init(args=['--ros-args', '-p', f'clock_mode:={request.param}'])
+    """rclpy in this process; every node made in it runs in `clock_mode`, on the paper
+    robot's file as a node started by hand does."""
+    rclpy.init(args=['--ros-args', '-p', f'clock_mode:={request.param}', '-p', f'config_file:={PAPER_ROBOT}',
+                     '-p', f'motions_file:={MOTIONS}'])
     yield request.param
     rclpy.shutdown()
 
@@ -291,8 +293,8 @@ def controller_state(node):
     """What a message may change: mode, broken cables, setpoints and pending work."""
     core = node.controller
     return frozen((core.mode, core.broken, core.tension_setpoint_n, core.hold, core.tracked,
-                   dict(node.references), dict(node.recovery_references),
-                   dict(node.recovery_tensions), node.verdict_ns, node.first_state_ns,
+                   dict(node.setpoints.references), dict(node.setpoints.recovery_references),
+                   dict(node.setpoints.recovery_tensions), node.verdict_ns, node.first_state_ns,
                    node.pending, list(node.answered)))
 
 
@@ -597,7 +599,7 @@ def trajectory_generator(clock_mode):
 
 def plan_ids(node):
     """The planned segments, by identity: a goal appends one and never edits any."""
-    return [(start, id(table)) for start, table in node.segments]
+    return [(start, id(table)) for start, table in node.schedule.segments]
 
 
 @settings(FUZZ, max_examples=25)
@@ -606,18 +608,18 @@ def plan_ids(node):
 def test_trajectory_generator_plans_finite_goals_in_the_workspace_only(
         clock_mode, trajectory_generator, goal):
     node, published = trajectory_generator
-    segments = len(node.segments)
+    segments = len(node.schedule.segments)
     valid = inside_workspace(goal)
     deliver(node, published, 'on_goal', point_stamped(0, goal), contract.GOAL, valid, plan_ids)
     if valid:
-        assert len(node.segments) == segments + 1
-        table = node.segments[-1][1]
+        assert len(node.schedule.segments) == segments + 1
+        table = node.schedule.segments[-1][1]
         for column in (table.position_m, table.angle_rad, table.angular_velocity_rad_s,
                        table.feedforward_nm):
             assert np.all(np.isfinite(column))
         np.testing.assert_allclose(table.position_m[-1], goal, atol=1e-9)
         node.on_goal(point_stamped(0, GOAL_HOME))
-        assert len(node.segments) == segments + 2
+        assert len(node.schedule.segments) == segments + 2
 
 
 # After a state stamped far ahead the generator goes on from that tick; jumps here stay
@@ -638,7 +640,7 @@ def test_trajectory_generator_publishes_each_reference_once_in_order(
     references, poses = published[contract.REFERENCE], published[contract.REFERENCE_POSE]
     rejected = Counter(node.diagnostics.rejected)
     for jump, offset, message in jumps:
-        count, first = len(references), node.next_index
+        count, first = len(references), node.schedule.next_tick
         latest_tick = first - LEAD_CYCLES - 1
         stamp = (latest_tick + jump) * PERIOD_NS + offset + (node.origin_ns or 0)
         message.header.stamp = ns_to_stamp(stamp)

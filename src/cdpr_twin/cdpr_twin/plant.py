@@ -13,6 +13,7 @@ import numpy as np
 
 from cdpr_control.config import Section
 from cdpr_control.robot import Robot
+from cdpr_control.statics import static_tensions
 
 from .elastic_model import ElasticCableRobot
 from .rigid_model import RigidCableRobot
@@ -125,13 +126,24 @@ class PlantSimulator:
                           for theta, n in zip(angle.tolist(), angle_noise)]),
                 np.array([w + speed_sigma * n for w, n in zip(speed.tolist(), speed_noise)]))
 
-    def step(self, torque_nm: np.ndarray, period_s: float) -> None:
-        """Apply `torque_nm` for one period; a failure due within it happens at its
-        scheduled instant: the period is integrated up to it, then on without the cable,
-        so a delay measured from that instant is the true one."""
-        # ndarray.clip: np.clip's dispatch costs twice as much on a few entries
+    def holding_torque_nm(self) -> np.ndarray:
+        """c = −ρ t (N·m), t the static tensions of the cables still attached where the
+        end-effector is: what the drive holds the load with before its first command."""
+        return -self.robot.motor.drum_radius_m * static_tensions(
+            self.robot, self.position_m, self.robot.cable_mask(self.broken))
+
+    def applied_torque_nm(self, command_nm) -> np.ndarray:
+        """The torque (N·m) the motors apply, and the drive reports as applied, for
+        `command_nm`: never beyond their limit."""
         limit = self.robot.motor.torque_limit_nm
-        torque = np.asarray(torque_nm, dtype=float).clip(-limit, limit)
+        # ndarray.clip: np.clip's dispatch costs twice as much on a few entries
+        return np.asarray(command_nm, dtype=float).clip(-limit, limit)
+
+    def step(self, torque_nm: np.ndarray, period_s: float) -> None:
+        """Apply `torque_nm` (as the motors can) for one period; a failure due within it
+        happens at its scheduled instant: the period is integrated up to it, then on
+        without the cable, so a delay measured from that instant is the true one."""
+        torque = self.applied_torque_nm(torque_nm)
         done_s = 0.0
         for time_s, cable in self.failures:
             if self.time_s - TICK_GRID_S <= time_s < self.time_s + period_s - TICK_GRID_S:

@@ -14,14 +14,12 @@ from __future__ import annotations
 import math
 import time
 
-import numpy as np
 from geometry_msgs.msg import PointStamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
 from cdpr_control.settings import node_settings
-from cdpr_control.statics import static_tensions
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
 from cdpr_msgs_py.health import loop_problem
@@ -61,9 +59,8 @@ class PlantSimulatorNode(CdprNode):
         self.timing = TickTiming(self.period_s, deadlines=self.clock_mode == 'realtime')
         self.started = False
         self.sent_at = 0.0
-        # Until the first command arrives, hold the load with its static torques.
-        self.command = -self.robot.motor.drum_radius_m * static_tensions(
-            self.robot, self.plant.position_m, self.robot.cable_mask())
+        # Until the first command arrives, hold the load.
+        self.command = self.plant.holding_torque_nm()
         self.state = self.create_stream_publisher(JointState, contract.JOINT_STATES)
         self.truth_pose = self.create_stream_publisher(PointStamped, contract.GROUND_TRUTH_POSE)
         self.truth_tensions = self.create_stream_publisher(JointState, contract.GROUND_TRUTH_TENSIONS)
@@ -137,9 +134,7 @@ class PlantSimulatorNode(CdprNode):
         if joints is None:
             return
         self.timing.command_received(joints.stamp_ns)
-        # what the motors get, and report as applied: never beyond their limit
-        limit = self.robot.motor.torque_limit_nm
-        joints.effort = np.clip(joints.effort, -limit, limit)
+        joints.effort = self.plant.applied_torque_nm(joints.effort)
         if self.clock_mode == 'realtime':
             self.command = joints.effort
             self.watchdog.command_arrived()
