@@ -20,11 +20,10 @@ from mcap_ros2.decoder import DecoderFactory
 from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import Reader
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
 from cdpr_bringup.bag_io import BagWriter, is_complete, mcap_prefix, read_messages
-from cdpr_bringup.bag_recorder_node import RECORDED, type_name
+from cdpr_bringup.bag_recorder_node import RECORDED
 from cdpr_bringup.graph import executable_command, node_environment
 from cdpr_control.config import load_section
 from cdpr_msgs_py import contract, qos
@@ -102,7 +101,7 @@ def test_bag_embeds_the_kilted_definitions_and_reads_back_in_both_readers(tmp_pa
     writer.open()
     samples = sample_messages()
     for topic, message in samples.items():
-        connection = writer.add_topic(topic, type_name(type(message)))
+        connection = writer.add_topic(topic, contract.TOPICS[topic].type)
         writer.write(connection, 1_000, serialize_message(message))
     writer.close()
 
@@ -125,7 +124,7 @@ def test_a_bag_cut_anywhere_reads_as_its_whole_chunks(tmp_path):
     bag = tmp_path / 'bag'
     writer = BagWriter(bag)
     writer.open()
-    connection = writer.add_topic('/cdpr/joint_states', type_name(JointState))
+    connection = writer.add_topic('/cdpr/joint_states', contract.TOPICS[contract.JOINT_STATES].type)
     for k in range(3000):
         writer.write(connection, k, serialize_message(STREAMS[contract.JOINT_STATES](k)))
     writer.close()
@@ -147,7 +146,7 @@ def test_flush_makes_everything_written_so_far_survive_a_kill(tmp_path):
     bag = tmp_path / 'bag'
     writer = BagWriter(bag)
     writer.open()
-    connection = writer.add_topic('/cdpr/fdi/broken_cable', type_name(Int32))
+    connection = writer.add_topic('/cdpr/fdi/broken_cable', contract.TOPICS[contract.FDI_BROKEN_CABLE].type)
     writer.write(connection, 5, serialize_message(Int32(data=2)))
     writer.flush()
     # what a kill leaves: the file as it is on disk now, no metadata.yaml

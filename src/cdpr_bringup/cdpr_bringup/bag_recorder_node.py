@@ -13,13 +13,8 @@ from __future__ import annotations
 
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PointStamped
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
                                 QosTime)
-from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Int32, String
 
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
@@ -28,40 +23,11 @@ from cdpr_msgs_py.stamps import ns_parts
 
 from .bag_io import BagWriter
 
-# topic (relative to the namespace unless absolute) → message class
-RECORDED = {
-    contract.JOINT_STATES: JointState,
-    contract.REFERENCE: JointState,
-    contract.REFERENCE_POSE: PointStamped,
-    contract.GOAL: PointStamped,
-    contract.EFFORT_COMMAND: JointState,
-    contract.TWIN_JOINT_STATES: JointState,
-    contract.TWIN_POSE: PointStamped,
-    contract.FDI_RESIDUAL: JointState,
-    contract.FDI_BROKEN_CABLE: Int32,
-    contract.MODE: String,
-    contract.RECOVERY_TENSIONS: JointState,
-    contract.RECOVERY_REFERENCE: JointState,
-    contract.GROUND_TRUTH_POSE: PointStamped,
-    contract.GROUND_TRUTH_TENSIONS: JointState,
-    contract.INJECT_FAILURE: Int32,
-    contract.CLOCK: Clock,
-    contract.DIAGNOSTICS: DiagnosticArray,
-}
+# topic (relative to the namespace unless absolute) → message class: every topic of the
+# contract (contract.TOPICS)
+RECORDED = {topic.name: contract.message_class(topic.type)
+            for topic in contract.topics_read_by(contract.BAG_RECORDER)}
 FLUSH_PERIOD_S = 0.5
-
-
-def type_name(message_class) -> str:
-    module = message_class.__module__.split('.')[0]
-    return f'{module}/msg/{message_class.__name__}'
-
-
-def contract_qos(topic: str):
-    """The QoS the graph's readers of `topic` ask for (docs/design.md §3): what the recorder
-    subscribes with, and what `ros2 bag play` offers again."""
-    if topic in contract.LATCHED_TOPICS:
-        return qos.LATCHED
-    return qos.DIAGNOSTICS if topic == contract.DIAGNOSTICS else qos.STREAM
 
 
 def bag_qos(profile) -> Qos:
@@ -97,8 +63,8 @@ class BagRecorderNode(CdprNode):
         subscriptions = []
         for topic in topics:
             name = topic if topic.startswith('/') else f'{namespace}/{topic}'
-            profile = contract_qos(topic)
-            connection = self.writer.add_topic(name, type_name(RECORDED[topic]), [bag_qos(profile)])
+            profile = qos.of_readers(topic)
+            connection = self.writer.add_topic(name, contract.TOPICS[topic].type, [bag_qos(profile)])
             subscriptions.append((topic, lambda t=topic, n=name, c=connection, p=profile:
                                   self.create_subscription(RECORDED[t], n, self.writer_for(c), p,
                                                            raw=True)))

@@ -75,7 +75,7 @@ class DiagnosticsListener:
         self.node = rclpy.create_node('cdpr_bench_listener', context=self.context)
         self.latest: dict[str, dict[str, str]] = {}
         self.node.create_subscription(DiagnosticArray, DIAGNOSTICS, self.on_diagnostics,
-                                      qos.DIAGNOSTICS)
+                                      qos.of_readers(DIAGNOSTICS))
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.stopping = threading.Event()

@@ -50,7 +50,7 @@ def bench_soak(config: str, minutes: float, log=lambda line: None) -> dict:
     duration_s = minutes * 60.0
     parameters = graph_parameters(config, 'realtime', duration_s + 60.0)
     listener = DiagnosticsListener()
-    goal = listener.node.create_publisher(PointStamped, f'{NAMESPACE}/{GOAL}', qos.STREAM)
+    goal = listener.node.create_publisher(PointStamped, f'{NAMESPACE}/{GOAL}', qos.of_readers(GOAL))
     graph = Graph(graph_nodes(parameters), NAMESPACE, log=log)
     try:
         graph.start()

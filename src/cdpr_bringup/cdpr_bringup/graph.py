@@ -234,50 +234,43 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
     to its tick (CdprNode.start_when_matched); the plant starts when all have. Without
     the plant, a hardware bridge takes its place on the same topics.
     """
-    c = contract
-    listeners = {c.JOINT_STATES: ['trajectory_generator', 'controller'],
-                 c.REFERENCE: ['controller', 'digital_twin'],
-                 c.EFFORT_COMMAND: ['plant_simulator'],
-                 c.TWIN_JOINT_STATES: [], c.TWIN_POSE: [], c.FDI_RESIDUAL: [],
-                 c.GROUND_TRUTH_POSE: [], c.GROUND_TRUTH_TENSIONS: [], c.REFERENCE_POSE: [],
-                 c.CLOCK: []}
-    heard = {'trajectory_generator': [], 'controller': [c.REFERENCE], 'digital_twin': [],
-             'plant_simulator': [c.EFFORT_COMMAND]}
     specs = [('cdpr_control', 'trajectory_generator', {}),
              ('cdpr_control', 'controller', {'wait_for_supervisor': supervised}),
              ('cdpr_twin', 'digital_twin', {})]
-    realtime = parameters['controller']['clock_mode'] == 'realtime'
     if supervised:
         specs.append(('cdpr_fdi', 'supervisor', {}))
-        for topic in (c.JOINT_STATES, c.REFERENCE, c.EFFORT_COMMAND, c.TWIN_JOINT_STATES):
-            listeners[topic].append('supervisor')
-        if not realtime:
-            listeners[c.FDI_RESIDUAL].append('controller')
-            heard['controller'].append(c.FDI_RESIDUAL)
-        heard['supervisor'] = [c.EFFORT_COMMAND, c.TWIN_JOINT_STATES, c.REFERENCE]
     if bag_path is not None:
         specs.append(('cdpr_bringup', 'bag_recorder', {'bag_path': bag_path}))
-        heard['bag_recorder'] = []
-        for topic, names in listeners.items():
-            if topic != c.CLOCK or not realtime:
-                names.append('bag_recorder')
-                heard['bag_recorder'].append(topic)
-        heard['bag_recorder'].remove(c.JOINT_STATES)
     if plant:
         specs.append(('cdpr_twin', 'plant_simulator', {}))
-    publishes = {c.JOINT_STATES: 'plant_simulator', c.REFERENCE: 'trajectory_generator',
-                 c.REFERENCE_POSE: 'trajectory_generator', c.EFFORT_COMMAND: 'controller',
-                 c.TWIN_JOINT_STATES: 'digital_twin', c.TWIN_POSE: 'digital_twin',
-                 c.FDI_RESIDUAL: 'supervisor', c.GROUND_TRUTH_POSE: 'plant_simulator',
-                 c.GROUND_TRUTH_TENSIONS: 'plant_simulator', c.CLOCK: 'plant_simulator'}
-    nodes = []
-    for package, executable, extra in specs:
-        matches = [f'publisher:{topic}={len(names)}' for topic, names in listeners.items()
-                   if names and publishes[topic] == executable]
-        matches += [f'subscription:{topic}=1' for topic in heard[executable]]
-        nodes.append(NodeSpec(package, executable, dict(parameters[executable], **extra,
-                                                        matches=matches)))
-    return nodes
+    realtime = parameters['controller']['clock_mode'] == 'realtime'
+    # Without the plant a hardware bridge keeps its end of the handshake: it reads the
+    # commands and its topics' readers wait for them all the same.
+    started = {executable for _, executable, _ in specs}
+    handshake = start_handshake(started | {contract.PLANT_SIMULATOR}, lockstep=not realtime)
+    return [NodeSpec(package, executable, dict(parameters[executable], **extra,
+                                               matches=handshake[executable]))
+            for package, executable, extra in specs]
+
+
+def start_handshake(nodes: set[str], lockstep: bool) -> dict[str, list[str]]:
+    """Per node of `nodes`, the `matches` of its start (CdprNode.start_when_matched), from
+    the topics written at every tick (contract.TOPICS): their writer waits until it has
+    all their readers in `nodes`; each reader, except on its tick (which it subscribes to
+    only once started), waits until it has the writer, whether `nodes` has it or not."""
+    publishers = {node: [] for node in nodes}
+    subscriptions = {node: [] for node in nodes}
+    for topic in contract.TOPICS.values():
+        if not topic.every_tick or (topic.lockstep and not lockstep):
+            continue
+        readers = [reader for reader in topic.readers if reader.node in nodes
+                   and (not reader.pacing or (lockstep and topic.writer in nodes))]
+        if readers and topic.writer in nodes:
+            publishers[topic.writer].append(f'publisher:{topic.name}={len(readers)}')
+        for reader in readers:
+            if not reader.tick:
+                subscriptions[reader.node].append(f'subscription:{topic.name}=1')
+    return {node: publishers[node] + subscriptions[node] for node in nodes}
 
 
 @command('cdpr-graph')

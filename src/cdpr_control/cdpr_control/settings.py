@@ -8,7 +8,8 @@ Each node gets the sections it reads as dotted parameters (`fdi.epsilon_nm`,
 ROS passes a URDF; it builds its core from those values and opens no file.
 
 A node started without them (`ros2 run` with only `config_file:=PATH`) reads that robot
-file, with the paper's settings for what it leaves out.
+file, with the paper's settings for what it leaves out; with neither, it has the paper's
+settings and no robot (enough for the bag recorder).
 """
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from typing import Any, Mapping
 
 import yaml
 
-from .config import Section, load_config
+from .config import Section, load_config, paper_defaults
 from .robot import Robot, robot_from_section
 
 ROBOT_DESCRIPTION = 'robot_description'
@@ -66,6 +67,10 @@ class Settings:
 
     @property
     def robot(self) -> Robot:
+        if not self.document.has('robot'):
+            raise self.document.error(ROBOT_DESCRIPTION, (
+                'is not given: start the node with a run\'s settled parameters (cdpr-graph, '
+                'cdpr-scenario) or with config_file:=PATH of a robot file'))
         return robot_from_section(self.document.section('robot'))
 
     def section(self, name: str, default: Any = ...) -> Section:
@@ -83,11 +88,7 @@ def node_settings(node) -> Settings:
     source = f'parameters of {node.get_fully_qualified_name()}'
     if ROBOT_DESCRIPTION not in given:
         path = node.parameter('config_file', '')
-        if not path:
-            raise Section({}, source).error(ROBOT_DESCRIPTION, (
-                'is not given: start the node with a run\'s settled parameters (cdpr-graph, '
-                'cdpr-scenario) or with config_file:=PATH of a robot file'))
-        return Settings(load_config(path))
+        return Settings(load_config(path) if path else Section(paper_defaults(), source))
     try:
         described = yaml.safe_load(given[ROBOT_DESCRIPTION].value)
     except yaml.YAMLError as err:

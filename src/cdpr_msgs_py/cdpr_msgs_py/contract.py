@@ -1,5 +1,14 @@
-"""The topic contract of docs/design.md §3: names (relative to the namespace) and modes."""
+"""The topic contract of docs/design.md §3: names (relative to the namespace), the one
+table of topics — type, QoS, writer and readers of each — and the modes.
+
+Imported by the core, which runs without ROS: message types are 'package/msg/Name'
+strings here, resolved by message_class() only where a node needs the class.
+"""
 from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from enum import Enum
 
 DEFAULT_NAMESPACE = '/cdpr'
 
@@ -21,8 +30,110 @@ INJECT_FAILURE = 'inject_failure'
 CLOCK = '/clock'
 DIAGNOSTICS = '/diagnostics'
 
-# Topics that late joiners must still see: reliable + transient-local.
-LATCHED_TOPICS = (FDI_BROKEN_CABLE, MODE)
+# The nodes of the graph, by executable. A hardware bridge takes the plant simulator's
+# place on its topics (README, "Hardware bridge").
+TRAJECTORY_GENERATOR = 'trajectory_generator'
+CONTROLLER = 'controller'
+DIGITAL_TWIN = 'digital_twin'
+SUPERVISOR = 'supervisor'
+PLANT_SIMULATOR = 'plant_simulator'
+BAG_RECORDER = 'bag_recorder'
+
+
+class Delivery(Enum):
+    """The QoS kind of a topic; cdpr_msgs_py.qos holds the profile of each."""
+    STREAM = 'per-cycle stream'
+    # Verdicts and modes: a reader that joins late still gets the last value.
+    LATCHED = 'latched'
+    DIAGNOSTICS = 'diagnostics'
+
+
+@dataclass(frozen=True)
+class Reader:
+    """A node that subscribes to a topic.
+
+    `tick`: the message that drives the node, subscribed to only once its other endpoints
+    have matched (CdprNode.start_when_matched), so its start cannot wait for that one.
+    `pacing`: the node waits for this topic before each answer, which it does only in
+    lockstep and only when told the writer is there (the controller's
+    `wait_for_supervisor`); in realtime the wait would cost a third of the loop.
+    """
+    node: str
+    tick: bool = False
+    pacing: bool = False
+
+
+@dataclass(frozen=True)
+class Topic:
+    """One topic of the contract. `writer` is None for a topic no node of the graph owns:
+    anyone may write it, or every node does (/diagnostics). `every_tick`: written from the
+    first tick on, so the start handshake has its readers matched before the plant starts
+    (graph.graph_nodes); the rest need none: a latched topic reaches late readers, and the
+    others are written on demand or only in a recovery, long after every reader matched.
+    `lockstep`: written in lockstep only."""
+    name: str
+    type: str
+    delivery: Delivery
+    writer: str | None
+    readers: tuple[Reader, ...]
+    every_tick: bool = False
+    lockstep: bool = False
+
+
+# The recorder reads every topic; like the loop's nodes it is driven by joint_states.
+_RECORDER = Reader(BAG_RECORDER)
+_STREAM, _LATCHED = Delivery.STREAM, Delivery.LATCHED
+
+TOPICS = {topic.name: topic for topic in (
+    Topic(JOINT_STATES, 'sensor_msgs/msg/JointState', _STREAM, PLANT_SIMULATOR,
+          (Reader(TRAJECTORY_GENERATOR, tick=True), Reader(CONTROLLER, tick=True),
+           Reader(SUPERVISOR, tick=True), Reader(BAG_RECORDER, tick=True)), every_tick=True),
+    Topic(REFERENCE, 'sensor_msgs/msg/JointState', _STREAM, TRAJECTORY_GENERATOR,
+          (Reader(CONTROLLER), Reader(DIGITAL_TWIN, tick=True), Reader(SUPERVISOR), _RECORDER),
+          every_tick=True),
+    Topic(REFERENCE_POSE, 'geometry_msgs/msg/PointStamped', _STREAM, TRAJECTORY_GENERATOR,
+          (_RECORDER,), every_tick=True),
+    Topic(GOAL, 'geometry_msgs/msg/PointStamped', _STREAM, None,
+          (Reader(TRAJECTORY_GENERATOR), _RECORDER)),
+    Topic(EFFORT_COMMAND, 'sensor_msgs/msg/JointState', _STREAM, CONTROLLER,
+          (Reader(PLANT_SIMULATOR), Reader(SUPERVISOR), _RECORDER), every_tick=True),
+    Topic(TWIN_JOINT_STATES, 'sensor_msgs/msg/JointState', _STREAM, DIGITAL_TWIN,
+          (Reader(SUPERVISOR), _RECORDER), every_tick=True),
+    Topic(TWIN_POSE, 'geometry_msgs/msg/PointStamped', _STREAM, DIGITAL_TWIN,
+          (_RECORDER,), every_tick=True),
+    Topic(FDI_RESIDUAL, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
+          (Reader(CONTROLLER, pacing=True), _RECORDER), every_tick=True),
+    Topic(FDI_BROKEN_CABLE, 'std_msgs/msg/Int32', _LATCHED, SUPERVISOR,
+          (Reader(CONTROLLER), _RECORDER)),
+    Topic(MODE, 'std_msgs/msg/String', _LATCHED, SUPERVISOR,
+          (Reader(CONTROLLER), Reader(PLANT_SIMULATOR), _RECORDER)),
+    Topic(RECOVERY_TENSIONS, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
+          (Reader(CONTROLLER), _RECORDER)),
+    Topic(RECOVERY_REFERENCE, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
+          (Reader(CONTROLLER), _RECORDER)),
+    # The truth, for evaluation: never read by control or FDI.
+    Topic(GROUND_TRUTH_POSE, 'geometry_msgs/msg/PointStamped', _STREAM, PLANT_SIMULATOR,
+          (_RECORDER,), every_tick=True),
+    Topic(GROUND_TRUTH_TENSIONS, 'sensor_msgs/msg/JointState', _STREAM, PLANT_SIMULATOR,
+          (_RECORDER,), every_tick=True),
+    Topic(INJECT_FAILURE, 'std_msgs/msg/Int32', _STREAM, None,
+          (Reader(PLANT_SIMULATOR), _RECORDER)),
+    Topic(CLOCK, 'rosgraph_msgs/msg/Clock', _STREAM, PLANT_SIMULATOR,
+          (_RECORDER,), every_tick=True, lockstep=True),
+    Topic(DIAGNOSTICS, 'diagnostic_msgs/msg/DiagnosticArray', Delivery.DIAGNOSTICS, None,
+          (_RECORDER,)),
+)}
+
+
+def topics_read_by(node: str) -> list[Topic]:
+    """The topics `node` subscribes to, in the table's order."""
+    return [topic for topic in TOPICS.values() if any(reader.node == node for reader in topic.readers)]
+
+
+def message_class(type_name: str):
+    """The message class of a 'package/msg/Name' type (this imports its package)."""
+    package, kind, name = type_name.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), name)
 
 
 # What the controller is doing, published on `mode` by the supervisor: the one

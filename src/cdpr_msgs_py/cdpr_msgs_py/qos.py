@@ -3,6 +3,8 @@ import math
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from . import contract
+
 # Per-cycle streams, as their readers ask for them: reliable and keep-all, so a node
 # that falls behind for a moment (two cores, many processes) catches up instead of
 # losing ticks.
@@ -41,3 +43,13 @@ LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
 DIAGNOSTICS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
+
+# What the graph's readers ask for, per kind of topic (contract.Delivery).
+FOR_READERS = {contract.Delivery.STREAM: STREAM, contract.Delivery.LATCHED: LATCHED,
+               contract.Delivery.DIAGNOSTICS: DIAGNOSTICS}
+
+
+def of_readers(topic: str) -> QoSProfile:
+    """The QoS the graph's readers of `topic` (as contract.TOPICS names it) ask for: what
+    the recorder subscribes with, and what `ros2 bag play` offers again."""
+    return FOR_READERS[contract.TOPICS[topic].delivery]

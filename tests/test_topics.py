@@ -1,0 +1,273 @@
+"""The topic table of cdpr_msgs_py.contract and what is derived from it: the graph's
+start handshake, the recorder's topics, and the table of docs/design.md §3."""
+from __future__ import annotations
+
+import itertools
+import re
+
+import pytest
+import rclpy
+
+from cdpr_bringup.bag_recorder_node import BagRecorderNode
+from cdpr_bringup.graph import graph_nodes
+from cdpr_control.controller_node import ControllerNode
+from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
+from cdpr_fdi.supervisor_node import SupervisorNode
+from cdpr_msgs_py import contract, qos
+from cdpr_twin.digital_twin_node import DigitalTwinNode
+from cdpr_twin.plant_simulator_node import PlantSimulatorNode
+
+from conftest import MOTIONS, PAPER_ROBOT, REPO, settled_parameters
+
+# The `matches` of each node (package/executable, in start order), as graph_nodes()
+# computed them when the handshake was still written out by hand, per
+# (supervised, plant, bag, clock_mode). Sorted and space-joined: a node waits for all its
+# entries, so their order means nothing.
+PINNED = {
+    (True, True, False, 'lockstep'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference=3',
+        'cdpr_control/controller': (
+            'publisher:effort_command=2 subscription:fdi/residual=1 subscription:reference=1'),
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=1',
+        'cdpr_fdi/supervisor': (
+            'publisher:fdi/residual=1 subscription:effort_command=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1'),
+        'cdpr_twin/plant_simulator': 'publisher:joint_states=3 subscription:effort_command=1',
+    },
+    (True, True, False, 'realtime'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference=3',
+        'cdpr_control/controller': 'publisher:effort_command=2 subscription:reference=1',
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=1',
+        'cdpr_fdi/supervisor': (
+            'subscription:effort_command=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1'),
+        'cdpr_twin/plant_simulator': 'publisher:joint_states=3 subscription:effort_command=1',
+    },
+    (True, True, True, 'lockstep'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference/pose=1 publisher:reference=4',
+        'cdpr_control/controller': (
+            'publisher:effort_command=3 subscription:fdi/residual=1 subscription:reference=1'),
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=2 publisher:twin/pose=1',
+        'cdpr_fdi/supervisor': (
+            'publisher:fdi/residual=2 subscription:effort_command=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1'),
+        'cdpr_bringup/bag_recorder': (
+            'subscription:/clock=1 subscription:effort_command=1 subscription:fdi/residual=1 '
+            'subscription:ground_truth/pose=1 subscription:ground_truth/tensions=1 '
+            'subscription:reference/pose=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1 subscription:twin/pose=1'),
+        'cdpr_twin/plant_simulator': (
+            'publisher:/clock=1 publisher:ground_truth/pose=1 publisher:ground_truth/tensions=1 '
+            'publisher:joint_states=4 subscription:effort_command=1'),
+    },
+    (True, True, True, 'realtime'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference/pose=1 publisher:reference=4',
+        'cdpr_control/controller': 'publisher:effort_command=3 subscription:reference=1',
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=2 publisher:twin/pose=1',
+        'cdpr_fdi/supervisor': (
+            'publisher:fdi/residual=1 subscription:effort_command=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1'),
+        'cdpr_bringup/bag_recorder': (
+            'subscription:effort_command=1 subscription:fdi/residual=1 '
+            'subscription:ground_truth/pose=1 subscription:ground_truth/tensions=1 '
+            'subscription:reference/pose=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1 subscription:twin/pose=1'),
+        'cdpr_twin/plant_simulator': (
+            'publisher:ground_truth/pose=1 publisher:ground_truth/tensions=1 '
+            'publisher:joint_states=4 subscription:effort_command=1'),
+    },
+    (True, False, False, 'lockstep'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference=3',
+        'cdpr_control/controller': (
+            'publisher:effort_command=2 subscription:fdi/residual=1 subscription:reference=1'),
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=1',
+        'cdpr_fdi/supervisor': (
+            'publisher:fdi/residual=1 subscription:effort_command=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1'),
+    },
+    (True, False, False, 'realtime'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference=3',
+        'cdpr_control/controller': 'publisher:effort_command=2 subscription:reference=1',
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=1',
+        'cdpr_fdi/supervisor': (
+            'subscription:effort_command=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1'),
+    },
+    (True, False, True, 'lockstep'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference/pose=1 publisher:reference=4',
+        'cdpr_control/controller': (
+            'publisher:effort_command=3 subscription:fdi/residual=1 subscription:reference=1'),
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=2 publisher:twin/pose=1',
+        'cdpr_fdi/supervisor': (
+            'publisher:fdi/residual=2 subscription:effort_command=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1'),
+        'cdpr_bringup/bag_recorder': (
+            'subscription:/clock=1 subscription:effort_command=1 subscription:fdi/residual=1 '
+            'subscription:ground_truth/pose=1 subscription:ground_truth/tensions=1 '
+            'subscription:reference/pose=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1 subscription:twin/pose=1'),
+    },
+    (True, False, True, 'realtime'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference/pose=1 publisher:reference=4',
+        'cdpr_control/controller': 'publisher:effort_command=3 subscription:reference=1',
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=2 publisher:twin/pose=1',
+        'cdpr_fdi/supervisor': (
+            'publisher:fdi/residual=1 subscription:effort_command=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1'),
+        'cdpr_bringup/bag_recorder': (
+            'subscription:effort_command=1 subscription:fdi/residual=1 '
+            'subscription:ground_truth/pose=1 subscription:ground_truth/tensions=1 '
+            'subscription:reference/pose=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1 subscription:twin/pose=1'),
+    },
+    (False, True, False, 'lockstep'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference=2',
+        'cdpr_control/controller': 'publisher:effort_command=1 subscription:reference=1',
+        'cdpr_twin/digital_twin': '',
+        'cdpr_twin/plant_simulator': 'publisher:joint_states=2 subscription:effort_command=1',
+    },
+    (False, True, False, 'realtime'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference=2',
+        'cdpr_control/controller': 'publisher:effort_command=1 subscription:reference=1',
+        'cdpr_twin/digital_twin': '',
+        'cdpr_twin/plant_simulator': 'publisher:joint_states=2 subscription:effort_command=1',
+    },
+    (False, True, True, 'lockstep'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference/pose=1 publisher:reference=3',
+        'cdpr_control/controller': 'publisher:effort_command=2 subscription:reference=1',
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=1 publisher:twin/pose=1',
+        'cdpr_bringup/bag_recorder': (
+            'subscription:/clock=1 subscription:effort_command=1 subscription:fdi/residual=1 '
+            'subscription:ground_truth/pose=1 subscription:ground_truth/tensions=1 '
+            'subscription:reference/pose=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1 subscription:twin/pose=1'),
+        'cdpr_twin/plant_simulator': (
+            'publisher:/clock=1 publisher:ground_truth/pose=1 publisher:ground_truth/tensions=1 '
+            'publisher:joint_states=3 subscription:effort_command=1'),
+    },
+    (False, True, True, 'realtime'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference/pose=1 publisher:reference=3',
+        'cdpr_control/controller': 'publisher:effort_command=2 subscription:reference=1',
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=1 publisher:twin/pose=1',
+        'cdpr_bringup/bag_recorder': (
+            'subscription:effort_command=1 subscription:fdi/residual=1 '
+            'subscription:ground_truth/pose=1 subscription:ground_truth/tensions=1 '
+            'subscription:reference/pose=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1 subscription:twin/pose=1'),
+        'cdpr_twin/plant_simulator': (
+            'publisher:ground_truth/pose=1 publisher:ground_truth/tensions=1 '
+            'publisher:joint_states=3 subscription:effort_command=1'),
+    },
+    (False, False, False, 'lockstep'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference=2',
+        'cdpr_control/controller': 'publisher:effort_command=1 subscription:reference=1',
+        'cdpr_twin/digital_twin': '',
+    },
+    (False, False, False, 'realtime'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference=2',
+        'cdpr_control/controller': 'publisher:effort_command=1 subscription:reference=1',
+        'cdpr_twin/digital_twin': '',
+    },
+    (False, False, True, 'lockstep'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference/pose=1 publisher:reference=3',
+        'cdpr_control/controller': 'publisher:effort_command=2 subscription:reference=1',
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=1 publisher:twin/pose=1',
+        'cdpr_bringup/bag_recorder': (
+            'subscription:/clock=1 subscription:effort_command=1 subscription:fdi/residual=1 '
+            'subscription:ground_truth/pose=1 subscription:ground_truth/tensions=1 '
+            'subscription:reference/pose=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1 subscription:twin/pose=1'),
+    },
+    (False, False, True, 'realtime'): {
+        'cdpr_control/trajectory_generator': 'publisher:reference/pose=1 publisher:reference=3',
+        'cdpr_control/controller': 'publisher:effort_command=2 subscription:reference=1',
+        'cdpr_twin/digital_twin': 'publisher:twin/joint_states=1 publisher:twin/pose=1',
+        'cdpr_bringup/bag_recorder': (
+            'subscription:effort_command=1 subscription:fdi/residual=1 '
+            'subscription:ground_truth/pose=1 subscription:ground_truth/tensions=1 '
+            'subscription:reference/pose=1 subscription:reference=1 '
+            'subscription:twin/joint_states=1 subscription:twin/pose=1'),
+    },
+}
+
+
+@pytest.mark.parametrize('supervised, plant, bag, clock_mode',
+                         list(itertools.product((True, False), (True, False), (False, True),
+                                                ('lockstep', 'realtime'))))
+def test_the_start_handshake_is_the_one_written_by_hand(supervised, plant, bag, clock_mode):
+    nodes = graph_nodes(settled_parameters(clock_mode), 'bag' if bag else None,
+                        supervised=supervised, plant=plant)
+    matches = {f'{node.package}/{node.executable}': ' '.join(sorted(node.parameters['matches']))
+               for node in nodes}
+    assert matches == PINNED[supervised, plant, bag, clock_mode]
+    assert list(matches) == list(PINNED[supervised, plant, bag, clock_mode])
+
+
+# ---- the nodes keep the table ----------------------------------------------------------
+
+NODES = {contract.TRAJECTORY_GENERATOR: TrajectoryGeneratorNode,
+         contract.CONTROLLER: ControllerNode, contract.DIGITAL_TWIN: DigitalTwinNode,
+         contract.SUPERVISOR: SupervisorNode, contract.PLANT_SIMULATOR: PlantSimulatorNode,
+         contract.BAG_RECORDER: BagRecorderNode}
+# What rclpy gives every node, besides the contract.
+RCLPY_TOPICS = {'/rosout', '/parameter_events'}
+
+
+@pytest.fixture(scope='module', params=['lockstep', 'realtime'])
+def clock_mode(request, tmp_path_factory):
+    """rclpy in this process, every node made in it in `clock_mode`, as graph_nodes() sets
+    them up with a supervisor and a bag, and waiting for an endpoint that never matches:
+    the test starts it, to tell its tick from its other subscriptions."""
+    bag = tmp_path_factory.mktemp('bag') / 'bag'
+    rclpy.init(args=['--ros-args', '-p', f'clock_mode:={request.param}',
+                     '-p', f'config_file:={PAPER_ROBOT}', '-p', f'motions_file:={MOTIONS}',
+                     '-p', 'wait_for_supervisor:=true', '-p', f'bag_path:={bag}',
+                     '-p', 'matches:=["subscription:/never=1"]'])
+    yield request.param
+    rclpy.shutdown()
+
+
+def endpoints(entities) -> dict[str, tuple[str, object]]:
+    """Topic → (message type as the contract spells it, QoS profile)."""
+    def type_name(message_class) -> str:
+        return f'{message_class.__module__.split(".")[0]}/msg/{message_class.__name__}'
+    return {entity.topic_name: (type_name(entity.msg_type), entity.qos_profile)
+            for entity in entities if entity.topic_name not in RCLPY_TOPICS}
+
+
+@pytest.mark.parametrize('name', NODES)
+def test_each_node_writes_and_reads_what_the_table_says(clock_mode, name):
+    node = NODES[name]()
+    try:
+        before = set(endpoints(node.subscriptions))
+        if node.pending_start is not None:  # the plant has no tick: it makes it
+            node.pending_start()
+        written, read = endpoints(node.publishers), endpoints(node.subscriptions)
+        # /diagnostics: every node
+        writes = [topic for topic in contract.TOPICS.values()
+                  if topic.writer == name or topic.name == contract.DIAGNOSTICS]
+        reads = {topic: reader for topic in contract.TOPICS.values() for reader in topic.readers
+                 if reader.node == name and (clock_mode == 'lockstep' or not reader.pacing)}
+        resolve = node.resolve_topic_name
+        # a stream's writer keeps the config's history (qos.stream_writer)
+        assert written == {resolve(topic.name): (
+            topic.type, node.stream_qos if topic.delivery is contract.Delivery.STREAM
+            else qos.of_readers(topic.name)) for topic in writes}
+        assert read == {resolve(topic.name): (topic.type, qos.of_readers(topic.name))
+                        for topic in reads}
+        assert set(read) - before == {resolve(topic.name) for topic, reader in reads.items()
+                                      if reader.tick}
+    finally:
+        node.destroy_node()
+
+
+# ---- the doc keeps the table -------------------------------------------------------------
+
+def test_design_doc_lists_the_topics_of_the_table_with_their_types():
+    """docs/design.md §3: one row per topic, `name` | package/Type."""
+    text = (REPO / 'docs' / 'design.md').read_text()
+    section = text[text.index('## 3. Topic contract'):text.index('## 4.')]
+    rows = re.findall(r'^\| `([^`|]+)` \| (\w+)/(\w+) \|', section, flags=re.MULTILINE)
+    assert len(rows) == len(set(name for name, _, _ in rows)), 'a topic listed twice'
+    assert {name: f'{package}/msg/{kind}' for name, package, kind in rows} == {
+        topic.name: topic.type for topic in contract.TOPICS.values()}
