@@ -16,8 +16,8 @@ from cdpr_msgs_py.dds import use_shipped_setup
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPO / 'src' / 'cdpr_bringup' / 'config'
-PAPER_ROBOT = CONFIG_DIR / 'paper_robot.yaml'
-EIGHT_CABLE_ROBOT = CONFIG_DIR / 'eight_cable_robot.yaml'
+PAPER_ROBOT = CONFIG_DIR / 'robots' / 'paper_robot.yaml'
+EIGHT_CABLE_ROBOT = CONFIG_DIR / 'robots' / 'eight_cable_robot.yaml'
 MOTIONS = CONFIG_DIR / 'motions.yaml'
 
 

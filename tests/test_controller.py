@@ -13,7 +13,7 @@ from cdpr_msgs_py.contract import FAULT, NOMINAL, RECOVERY_MOVE, RECOVERY_TENSIO
 
 from conftest import CONFIG_DIR, PAPER_ROBOT
 
-EIGHT_CABLE_ROBOT = CONFIG_DIR / 'eight_cable_robot.yaml'
+EIGHT_CABLE_ROBOT = CONFIG_DIR / 'robots' / 'eight_cable_robot.yaml'
 
 
 @pytest.fixture
@@ -143,7 +143,7 @@ def test_gains_that_a_motor_alone_cannot_keep_stable_are_refused_naming_the_limi
     K_d·T/J ≈ 3.5: the motor alone, which the elastic plant's cable spring leaves to
     itself at high frequency, diverges between samples. The limit named is stable."""
     config = tmp_path / 'robot.yaml'
-    config.write_text(EIGHT_CABLE_ROBOT.read_text() + '  pd_natural_frequency_hz: 12.0\n')
+    config.write_text(EIGHT_CABLE_ROBOT.read_text() + 'control:\n  pd_natural_frequency_hz: 12.0\n')
     control = load_section(config, 'control')    # set by the file: the paper's 12 Hz, 0.7, 2 ms
     with pytest.raises(ConfigError, match=r"'control.pd_natural_frequency_hz' 12 Hz is not stable") as error:
         PdGains.from_section(eight_cable_robot, control)

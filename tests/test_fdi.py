@@ -109,9 +109,8 @@ def test_cusum_alarms_at_once_on_a_jump_in_z_or_in_the_raw_residual():
 
 
 def test_config_names_the_wrong_key_and_the_file(tmp_path, paper_robot):
-    # the robot file ends in its fdi section
     broken = tmp_path / 'robot.yaml'
-    broken.write_text(PAPER_ROBOT.read_text() + '  identification_delta_n: -1.0\n')
+    broken.write_text(PAPER_ROBOT.read_text() + 'fdi:\n  identification_delta_n: -1.0\n')
     with pytest.raises(ConfigError, match=r"fdi\.identification_delta_n.*must be positive") as error:
         load_fdi_config(broken, paper_robot)
     assert str(broken) in str(error.value)

@@ -146,7 +146,7 @@ def test_the_run_length_rule():
 @pytest.fixture
 def robot_only_file(tmp_path):
     """The 6-cable robot's `robot:` section alone: every other setting is the paper's."""
-    robot = yaml.safe_load((CONFIG_DIR / 'six_cable_robot.yaml').read_text())['robot']
+    robot = yaml.safe_load((CONFIG_DIR / 'robots' / 'six_cable_robot.yaml').read_text())['robot']
     path = tmp_path / 'robot_only.yaml'
     path.write_text(yaml.safe_dump({'robot': robot}))
     return path
@@ -164,21 +164,31 @@ def test_a_robot_file_with_only_its_robot_runs_on_the_papers_settings(robot_only
     assert_recovered(scenario, metrics)
 
 
-def test_a_robot_only_file_says_what_it_resolves_to_and_what_the_elastic_plant_lacks(
-        robot_only_file, tmp_path, capsys):
+def test_a_robot_only_file_says_what_it_resolves_to_and_finds_its_calibration(robot_only_file, capsys):
     assert robot_summary.main(['--config', str(robot_only_file),
                                '--motions', str(CONFIG_DIR / 'six_cable_motions.yaml')]) in (0, None)
     said = capsys.readouterr().out
     assert 'control period 2 ms (default)' in said
     assert 'Hz (derived: the default 12 Hz is not stable on these motors)' in said
-    assert 'elastic plant calibration none (cdpr-calibrate makes one' in said
-    code = scenario_cli.main(['--config', str(robot_only_file), '--motions',
+    # made on this very robot: found by its fingerprint, wherever the robot file is
+    assert 'elastic plant calibration six_cable_calibration_elastic.yaml: ε =' in said
+
+
+def test_a_robot_without_a_calibration_is_told_how_to_make_one(robot_only_file, tmp_path, capsys):
+    robot = yaml.safe_load(robot_only_file.read_text())
+    robot['robot']['end_effector']['mass_kg'] += 1.0   # another robot: no calibration fits
+    other = tmp_path / 'heavier.yaml'
+    other.write_text(yaml.safe_dump(robot))
+    assert robot_summary.main(['--config', str(other), '--motions',
+                               str(CONFIG_DIR / 'six_cable_motions.yaml')]) in (0, None)
+    assert 'elastic plant calibration none (cdpr-calibrate makes one' in capsys.readouterr().out
+    code = scenario_cli.main(['--config', str(other), '--motions',
                               str(CONFIG_DIR / 'six_cable_motions.yaml'), '--engine', 'inprocess',
                               '--out', str(tmp_path / 'run')])
     err = capsys.readouterr().err
     assert code == 2 and err.count('\n') == 1
-    assert f"{robot_only_file}: 'fdi.elastic_calibration_file' is missing" in err
-    assert f'cdpr-calibrate --config {robot_only_file}' in err
+    assert f"{other}: 'fdi.elastic_calibration_file' is missing, and no shipped calibration" in err
+    assert f'cdpr-calibrate --config {other}' in err
 
 
 def test_cdpr_robot_warns_where_a_loaded_cable_carries_less_than_the_identification_delta(capsys):

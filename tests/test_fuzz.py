@@ -657,7 +657,7 @@ def test_trajectory_generator_publishes_each_reference_once_in_order(
 # ---- config loaders -------------------------------------------------------------------
 
 # The paper robot's file as the loaders see it, every default filled in, is what is
-# mutated and written whole; a key deleted from it then falls back on defaults.yaml.
+# mutated and written whole; a key deleted from it then falls back on defaults/
 SHIPPED = copy.deepcopy(dict(load_config(PAPER_ROBOT).data))
 
 
@@ -768,7 +768,7 @@ def value_type(value) -> str:
 
 def must_reject(path, kind, value) -> set[str]:
     """The loaders that must refuse this mutation: they read the key, and it is gone
-    while neither they nor defaults.yaml have a default for it (a list that lost an
+    while neither they nor defaults/ have a default for it (a list that lost an
     element has the wrong length), or its value is NaN, a list of the wrong length, or
     of another type."""
     key = dotted_key(SHIPPED, path)

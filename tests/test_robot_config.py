@@ -8,10 +8,12 @@ import numpy as np
 import pytest
 import yaml
 
-from cdpr_control.config import ConfigError, load_section
+from cdpr_bringup.paths import shipped_calibration
+from cdpr_control.config import ConfigError, load_config, load_section
 from cdpr_control.robot import load_robot
 from cdpr_fdi.config import load_fdi_config
 from cdpr_msgs_py import contract
+
 from conftest import CONFIG_DIR, PAPER_ROBOT
 
 # DESIGN §6: frame a x b x h, exit points at the upper vertices.
@@ -43,8 +45,10 @@ def test_paper_control_period_and_threshold():
     assert load_section(PAPER_ROBOT, 'control').number('period_s') == pytest.approx(0.002)
     fdi = load_section(PAPER_ROBOT, 'fdi')
     assert fdi.number('epsilon_nm') == pytest.approx(0.03)
-    # the shipped calibration of the elastic plant loads and raises ε above the noise-free one
-    calibration = CONFIG_DIR / fdi.string('elastic_calibration_file')
+    # the shipped calibration of the elastic plant, made on this robot, loads and raises ε
+    # above the noise-free one
+    calibration = shipped_calibration(load_robot(PAPER_ROBOT).fingerprint(), 'elastic')
+    assert calibration == CONFIG_DIR / 'fdi_calibration_elastic.yaml'
     calibrated = load_fdi_config(PAPER_ROBOT, load_robot(PAPER_ROBOT), calibration)
     assert calibrated.epsilon_nm > 0.03
 
@@ -212,3 +216,46 @@ def test_eight_cable_robot_loads(eight_cable_robot):
     assert eight_cable_robot.cable_count == 8
     assert eight_cable_robot.mass_kg == pytest.approx(5.0)
     assert len(set(eight_cable_robot.exit_points_m[:, 2])) > 1   # irregular heights
+
+
+# ---- robot files and set-ups ------------------------------------------------------------
+
+def test_shipped_robot_files_hold_the_robot_alone():
+    files = sorted((CONFIG_DIR / 'robots').glob('*.yaml'))
+    assert len(files) == 4
+    for path in files:
+        assert list(yaml.safe_load(path.read_text())) == ['robot'], path
+
+
+def test_a_set_up_takes_its_robot_from_the_robot_file_and_its_options_from_itself():
+    setup = load_config(CONFIG_DIR / 'tall_frame_robot.yaml')
+    robot = load_config(CONFIG_DIR / 'robots' / 'tall_frame_robot.yaml')
+    assert setup.data['robot'] == robot.data['robot']
+    assert setup.section('control').string('tension_distribution') == 'bounded_minimum_norm'
+    assert robot.section('control').string('tension_distribution') == 'pseudo_inverse'
+    assert not setup.section('fdi').is_default('identification_delta_n')
+    assert setup.section('fdi').is_default('epsilon_nm')
+
+
+def test_a_bad_robot_in_a_set_up_names_the_robot_file(tmp_path):
+    robot = _paper_config()
+    robot['robot']['end_effector']['mass_kg'] = -1.0
+    (tmp_path / 'robots').mkdir()
+    robot_path = _write(tmp_path / 'robots', robot, 'mine.yaml')
+    setup = _write(tmp_path, {'robot_file': 'robots/mine.yaml', 'control': {'stale_cycles': 40}}, 'setup.yaml')
+    with pytest.raises(ConfigError) as error:
+        load_robot(setup)
+    assert str(robot_path) in str(error.value) and 'robot.' in str(error.value)
+    assert load_config(setup).section('control').integer('stale_cycles') == 40
+
+
+@pytest.mark.parametrize('setup, problem', [
+    ({'robot_file': 'robots/absent.yaml'}, 'which is not a file'),
+    ({'robot_file': 'robot.yaml', 'robot': {}}, 'not both'),
+])
+def test_a_set_up_that_names_no_robot_file_is_one_error_naming_the_key(tmp_path, setup, problem):
+    _write(tmp_path, _paper_config(), 'robot.yaml')
+    path = _write(tmp_path, setup, 'setup.yaml')
+    with pytest.raises(ConfigError, match=problem) as error:
+        load_config(path)
+    assert f"{path}: 'robot_file'" in str(error.value)

@@ -45,7 +45,6 @@ def scenario(tmp_path):
     line, a safe point set per cable in the robot file, two cables failing."""
     robot_file = yaml.safe_load(PAPER_ROBOT.read_text())
     robot_file['recovery'] = {'safe_points_m': {4: [0.6, 1.2, 1.25]}}
-    robot_file['fdi']['elastic_calibration_file'] = str(PAPER_ROBOT.parent / 'fdi_calibration_elastic.yaml')
     path = tmp_path / 'robot.yaml'
     path.write_text(yaml.safe_dump(robot_file))
     return build_scenario(ScenarioOptions(config=str(path), motions=str(MOTIONS), motion='along-3',

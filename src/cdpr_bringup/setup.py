@@ -12,6 +12,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/config/robots', glob('config/robots/*.yaml')),
     ],
     install_requires=['setuptools', 'numpy', 'PyYAML', 'matplotlib', 'rosbags'],
     zip_safe=True,

@@ -7,7 +7,7 @@ setup(
     version='0.1.0',
     packages=find_packages(exclude=['test']),
     # the paper's settings every robot file falls back on (config.py)
-    package_data={package_name: ['defaults.yaml']},
+    package_data={package_name: ['defaults/*.yaml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),

@@ -1,11 +1,12 @@
-"""Where the shipped configs are: cdpr_bringup's config folder, beside the sources of a
-checkout or in the package's share directory of an install space (the ament index)."""
+"""Where the shipped configs are: cdpr_bringup's config folder (robots' set-ups, motions,
+calibrations) and its robots/ (robot files), beside the sources of a checkout or in the
+package's share directory of an install space (the ament index)."""
 from __future__ import annotations
 
 from functools import lru_cache
 from pathlib import Path
 
-from cdpr_control.config import resolve_config
+from cdpr_control.config import load_yaml, resolve_config
 
 DEFAULT_ROBOT = 'paper_robot.yaml'
 DEFAULT_MOTIONS = 'motions.yaml'
@@ -13,13 +14,24 @@ DEFAULT_MOTIONS = 'motions.yaml'
 
 @lru_cache(maxsize=1)
 def shipped_folders() -> tuple[Path, ...]:
-    folders = [Path(__file__).resolve().parents[1] / 'config']
+    roots = [Path(__file__).resolve().parents[1] / 'config']
     try:
         from ament_index_python.packages import get_package_share_directory
-        folders.append(Path(get_package_share_directory('cdpr_bringup')) / 'config')
+        roots.append(Path(get_package_share_directory('cdpr_bringup')) / 'config')
     except (ImportError, LookupError, OSError):
         pass
-    return tuple(folders)
+    return tuple(folder for root in roots for folder in (root, root / 'robots'))
+
+
+def shipped_calibration(fingerprint: str, fidelity: str) -> Path | None:
+    """The shipped calibration made on the robot of this fingerprint for this plant."""
+    for folder in shipped_folders():
+        for path in sorted(folder.glob('*.yaml')):
+            made_on = load_yaml(path).get('calibration')
+            if (isinstance(made_on, dict) and made_on.get('robot_fingerprint') == fingerprint
+                    and made_on.get('fidelity') == fidelity):
+                return path
+    return None
 
 
 def config_file(name_or_path: str | Path) -> Path:

@@ -17,10 +17,11 @@ from cdpr_fdi.config import load_fdi_config, load_recovery_config
 
 from .cli import command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
+from .scenario_setup import calibration_for
 
 
 def setting(section, name: str, text: str) -> str:
-    """`text` for the value of `name`, marked where defaults.yaml gave it."""
+    """`text` for the value of `name`, marked where the defaults gave it."""
     return f'{text} (default)' if section.is_default(name) else text
 
 
@@ -38,15 +39,15 @@ def print_settings(config, robot):
     fdi = load_fdi_config(config, robot)
     recovery = load_recovery_config(config, robot)
     recovery_section = settings.section('recovery')
-    if fdi_section.has('elastic_calibration_file'):
-        calibration = fdi_section.string('elastic_calibration_file')
-        try:
-            elastic = load_fdi_config(config, robot, config_file(calibration))
-            elastic_text = f'{calibration}: ε = {elastic.epsilon_nm:g} N·m'
-        except (ConfigError, FileNotFoundError) as err:
-            elastic_text = f'{calibration} cannot be used: {err}'
-    else:
-        elastic_text = 'none (cdpr-calibrate makes one; until then --fidelity rigid)'
+    try:
+        calibration = calibration_for(config, fdi_section, robot, 'elastic', None)
+        elastic = load_fdi_config(config, robot, calibration)
+        elastic_text = f'{calibration.name}: ε = {elastic.epsilon_nm:g} N·m'
+    except ConfigError as err:
+        elastic_text = (f'cannot be used: {err}' if err.key != 'fdi.elastic_calibration_file'
+                        else 'none (cdpr-calibrate makes one; until then --fidelity rigid)')
+    except FileNotFoundError as err:
+        elastic_text = f'cannot be used: {err}'
     period = setting(control, 'period_s', f"{control.number('period_s') * 1e3:g} ms")
     damping = setting(control, 'pd_damping_ratio', f"{control.number('pd_damping_ratio'):g}")
     distribution = setting(control, 'tension_distribution', control.string('tension_distribution'))
@@ -55,7 +56,7 @@ def print_settings(config, robot):
     heights = [setting(recovery_section, name, f'{value:g} m') for name, value in
                (('safe_height_m', recovery.safe_height_m), ('table_height_m', recovery.table_height_m))]
     move = setting(recovery_section, 'move_peak_speed_m_s', f'{recovery.move_peak_speed_m_s:g} m/s')
-    print("settings (the robot file's, else the paper's defaults):")
+    print("settings (the set-up's, else the paper's defaults):")
     print(f'  control period {period}, PD {pd}, damping ratio {damping}, '
           f'tension distribution {distribution}')
     delta_n = fdi_section.number('identification_delta_n')

@@ -24,7 +24,7 @@ from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 from cdpr_twin.plant import FIDELITIES, PlantConfig
 
 from .cli import UsageError
-from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
+from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file, shipped_calibration
 
 
 # ScenarioOptions.calibration for a run that needs no thresholds (cdpr-calibrate's).
@@ -160,7 +160,8 @@ def settle(options: ScenarioOptions) -> tuple[Section, Path | None]:
     if options.seed is not None:
         document['plant']['seed'] = options.seed
     fidelity = Section(document, config_path).section('plant').string('fidelity', choices=FIDELITIES)
-    calibration = calibration_for(config_path, settings.section('fdi'), fidelity, options.calibration)
+    calibration = calibration_for(config_path, settings.section('fdi'), robot, fidelity,
+                                  options.calibration)
     fdi = dict(calibrated_fdi(settings.section('fdi'), robot, calibration).data)
     fdi.pop('elastic_calibration_file', None)
     friction = fdi.pop('coulomb_friction_nm', robot.motor.static_friction_nm)
@@ -178,7 +179,8 @@ def settle(options: ScenarioOptions) -> tuple[Section, Path | None]:
                             for _ in options.fail_cables],
         'failure_cable_indices': [cable - 1 for cable in options.fail_cables],
     }
-    return Section(document, config_path, defaulted=settings.defaulted), calibration
+    return Section(document, config_path, defaulted=settings.defaulted,
+                   sources=settings.sources), calibration
 
 
 def build_scenario(options: ScenarioOptions) -> Scenario:
@@ -247,19 +249,24 @@ def check_options(options: ScenarioOptions, robot: Robot, motion: Motion) -> Non
         raise UsageError(f'--seed {options.seed}: must be 0 or more')
 
 
-def calibration_for(config_path: Path, fdi: Section, fidelity: str, calibration: str | None) -> Path | None:
-    """The given calibration file; else, on the elastic plant, the robot file's
-    `fdi.elastic_calibration_file`; the rigid plant keeps the paper's noise-free values.
-    NO_CALIBRATION: the robot file's own thresholds (a run without a supervisor)."""
-    if calibration == NO_CALIBRATION:
+def calibration_for(config_path: Path, fdi: Section, robot: Robot, fidelity: str,
+                    calibration: str | None) -> Path | None:
+    """The given calibration file; else, on the elastic plant, the set-up's
+    `fdi.elastic_calibration_file`, else the shipped calibration made on this robot; the
+    rigid plant keeps the paper's noise-free values. NO_CALIBRATION: the set-up's own
+    thresholds (a run without a supervisor)."""
+    if calibration == NO_CALIBRATION or (not calibration and fidelity != 'elastic'):
         return None
     if calibration:
         return config_file(calibration)
-    if fidelity == 'elastic':
-        if not fdi.has('elastic_calibration_file'):
-            raise fdi.error('elastic_calibration_file', (
-                'is missing: the elastic plant needs thresholds measured on this robot; make '
-                f'them with cdpr-calibrate --config {config_path} --motions MOTIONS.yaml --out '
-                'FILE and name FILE here (or run --fidelity rigid, on the noise-free defaults)'))
+    if fdi.has('elastic_calibration_file'):
         return config_file(fdi.string('elastic_calibration_file'))
-    return None
+    shipped = shipped_calibration(robot.fingerprint(), fidelity)
+    if shipped is None:
+        raise fdi.error('elastic_calibration_file', (
+            f'is missing, and no shipped calibration was made on this robot ({robot.name}, '
+            f'{robot.fingerprint()}): the elastic plant needs thresholds measured on it; make '
+            f'them with cdpr-calibrate --config {config_path} --motions MOTIONS.yaml --out FILE '
+            'and name FILE here, or pass --calibration FILE (or run --fidelity rigid, on the '
+            'noise-free defaults)'))
+    return shipped

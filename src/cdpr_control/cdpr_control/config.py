@@ -1,8 +1,11 @@
 """Loading YAML configuration with errors that name the key and the file.
 
-A robot file (one with a `robot:` section) holds the robot and what it sets differently
-from the paper's settings; load_config fills in the rest from defaults.yaml beside this
-module, key by key, and remembers which keys it filled in (Section.is_default).
+A robot file holds the robot alone (`robot:`); a robot's set-up names its robot file
+(`robot_file:`, relative to the set-up) and holds the options it runs with that differ
+from the paper's. load_config fills in every option left out from the files of
+defaults/ beside this module (one per section: control, twin, plant, fdi, recovery,
+scheduling, streams, health), key by key, and remembers which keys it filled in
+(Section.is_default). A file with both a robot and options still loads.
 """
 from __future__ import annotations
 
@@ -57,14 +60,16 @@ class Section:
     """A view on one mapping of a config file that reports dotted key paths."""
 
     def __init__(self, data: Mapping[str, Any], path: str | Path, prefix: str = '',
-                 defaulted: frozenset[str] = frozenset()):
+                 defaulted: frozenset[str] = frozenset(), sources: Mapping[str, str] | None = None):
         if not isinstance(data, Mapping):
             raise ConfigError(path, prefix or '<root>', 'must be a mapping')
         self.data = data
         self.path = str(path)
         self.prefix = prefix
-        # dotted keys whose values come from defaults.yaml, not from the file
+        # dotted keys whose values come from defaults/, not from the file
         self.defaulted = defaulted
+        # top-level sections read from another file than `path` (a set-up's robot file)
+        self.sources = dict(sources or {})
 
     def key(self, name: str) -> str:
         return f'{self.prefix}.{name}' if self.prefix else name
@@ -76,7 +81,7 @@ class Section:
         return name in self.data
 
     def is_default(self, name: str) -> bool:
-        """The value of `name` is defaults.yaml's: the file does not set it."""
+        """The value of `name` is the default's: the file does not set it."""
         return self.key(name) in self.defaulted
 
     def raw(self, name: str, default: Any = ...) -> Any:
@@ -87,7 +92,8 @@ class Section:
         return self.data[name]
 
     def section(self, name: str, default: Any = ...) -> 'Section':
-        return Section(self.raw(name, default), self.path, self.key(name), self.defaulted)
+        path = self.path if self.prefix else self.sources.get(name, self.path)
+        return Section(self.raw(name, default), path, self.key(name), self.defaulted)
 
     def number(self, name: str, default: Any = ..., *, positive: bool = False,
                non_negative: bool = False) -> float:
@@ -144,13 +150,16 @@ class Section:
         return np.array(value, dtype=float)
 
 
-DEFAULTS_PATH = Path(__file__).with_name('defaults.yaml')
+DEFAULTS_FOLDER = Path(__file__).with_name('defaults')
 
 
 @lru_cache(maxsize=1)
 def paper_defaults() -> dict:
-    """defaults.yaml: every section of a robot file but `robot`, with the paper's values."""
-    return load_yaml(DEFAULTS_PATH)
+    """Every option section, with the paper's values: the files of defaults/ together."""
+    sections = {}
+    for path in sorted(DEFAULTS_FOLDER.glob('*.yaml')):
+        sections.update(load_yaml(path))
+    return sections
 
 
 def with_defaults(data: dict, defaults: Mapping, prefix: str = '') -> tuple[dict, set[str]]:
@@ -178,12 +187,25 @@ def _dotted_keys(value: Any) -> list[str]:
 
 
 def load_config(path: str | Path) -> Section:
-    """The whole YAML file at `path`; a robot file with the paper's settings it leaves out."""
+    """The whole YAML file at `path`; a robot file, or a robot's set-up with the robot
+    file it names, with the paper's settings for every option left out."""
     data = load_yaml(path)
+    sources = {}
+    if 'robot_file' in data:
+        setup = Section(data, path)
+        if 'robot' in data:
+            raise setup.error('robot_file', 'and robot: a set-up names its robot file or holds the robot, not both')
+        robot_path = Path(path).parent / setup.string('robot_file')
+        if not robot_path.is_file():
+            raise setup.error('robot_file', f'names {robot_path}, which is not a file')
+        robot = Section(load_yaml(robot_path), robot_path)
+        data = {key: value for key, value in data.items() if key != 'robot_file'}
+        data['robot'] = robot.raw('robot')
+        sources['robot'] = str(robot_path)
     if 'robot' not in data:
         return Section(data, path)
     merged, filled = with_defaults(data, paper_defaults())
-    return Section(merged, path, defaulted=frozenset(filled))
+    return Section(merged, path, defaulted=frozenset(filled), sources=sources)
 
 
 def load_section(path: str | Path, name: str) -> Section:
@@ -192,12 +214,12 @@ def load_section(path: str | Path, name: str) -> Section:
 
 
 def resolve_config(name_or_path: str | Path, folders: list[Path]) -> Path:
-    """An existing path as given, else the file of that name in the first of `folders`
-    (the caller's shipped configs) that holds one."""
+    """An existing path as given, else that path (or, failing that, its file name) in the
+    first of `folders` (the caller's shipped configs) that holds it."""
     path = Path(name_or_path)
     if path.exists():
         return path
-    for folder in folders:
-        if (folder / path.name).exists():
-            return folder / path.name
+    for candidate in [folder / path for folder in folders] + [folder / path.name for folder in folders]:
+        if candidate.is_file():
+            return candidate
     raise FileNotFoundError(f'no config {name_or_path!s} (looked in {", ".join(map(str, folders)) or "no folder"})')

@@ -1,6 +1,6 @@
 """The robot model: geometry, end-effector and motors of a cable-suspended robot.
 
-Described in YAML (section `robot`, see config/paper_robot.yaml of cdpr_bringup),
+Described in YAML (section `robot`, see config/robots/paper_robot.yaml of cdpr_bringup),
 separate from the analyses and controllers that use it.
 """
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """A settled run as ROS parameters, and back: values, never recipes.
 
 The launcher settles a run once (cdpr_bringup.scenario_setup): every section of the robot
-file filled in from defaults.yaml, the calibration's thresholds merged, the command line
+file (or set-up) filled in from the defaults, the calibration's thresholds merged, the command line
 applied, the motion resolved and the failures placed at absolute times on 0-based cables.
 Each node gets the sections it reads as dotted parameters (`fdi.epsilon_nm`,
 `recovery.safe_points_m.4`, ...) and the robot as `robot_description`, a YAML text as
