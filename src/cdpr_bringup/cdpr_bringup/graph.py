@@ -245,23 +245,26 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
         specs.append(('cdpr_twin', 'plant_simulator', {}))
     realtime = parameters['controller']['clock_mode'] == 'realtime'
     # Without the plant a hardware bridge keeps its end of the handshake: it reads the
-    # commands and its topics' readers wait for them all the same.
+    # commands and writes the states, but not what only a simulation has.
     started = {executable for _, executable, _ in specs}
-    handshake = start_handshake(started | {contract.PLANT_SIMULATOR}, lockstep=not realtime)
+    handshake = start_handshake(started | {contract.PLANT_SIMULATOR}, lockstep=not realtime,
+                                simulated=plant)
     return [NodeSpec(package, executable, dict(parameters[executable], **extra,
                                                matches=handshake[executable]))
             for package, executable, extra in specs]
 
 
-def start_handshake(nodes: set[str], lockstep: bool) -> dict[str, list[str]]:
+def start_handshake(nodes: set[str], lockstep: bool, simulated: bool = True) -> dict[str, list[str]]:
     """Per node of `nodes`, the `matches` of its start (CdprNode.start_when_matched), from
-    the topics written at every tick (contract.TOPICS): their writer waits until it has
-    all their readers in `nodes`; each reader, except on its tick (which it subscribes to
-    only once started), waits until it has the writer, whether `nodes` has it or not."""
+    the topics written at every tick (contract.TOPICS) by a node of `nodes` (the plant
+    simulator's simulated topics only when it is one, not a bridge in its place): their
+    writer waits until it has all their readers in `nodes`; each reader, except on its
+    tick (which it subscribes to only once started), waits until it has the writer."""
     publishers = {node: [] for node in nodes}
     subscriptions = {node: [] for node in nodes}
     for topic in contract.TOPICS.values():
-        if not topic.every_tick or (topic.lockstep and not lockstep):
+        if (not topic.every_tick or topic.writer not in nodes or (topic.lockstep and not lockstep)
+                or (topic.simulated and not simulated)):
             continue
         readers = [reader for reader in topic.readers if reader.node in nodes
                    and (not reader.pacing or (lockstep and topic.writer in nodes))]

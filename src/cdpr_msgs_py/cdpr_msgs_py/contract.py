@@ -70,7 +70,8 @@ class Topic:
     first tick on, so the start handshake has its readers matched before the plant starts
     (graph.graph_nodes); the rest need none: a latched topic reaches late readers, and the
     others are written on demand or only in a recovery, long after every reader matched.
-    `lockstep`: written in lockstep only."""
+    `lockstep`: written in lockstep only. `simulated`: written by the plant simulator
+    only, never by a hardware bridge in its place (the truth, the simulated clock)."""
     name: str
     type: str
     delivery: Delivery
@@ -78,6 +79,7 @@ class Topic:
     readers: tuple[Reader, ...]
     every_tick: bool = False
     lockstep: bool = False
+    simulated: bool = False
 
 
 # The recorder reads every topic; like the loop's nodes it is driven by joint_states.
@@ -113,13 +115,13 @@ TOPICS = {topic.name: topic for topic in (
           (Reader(CONTROLLER), _RECORDER)),
     # The truth, for evaluation: never read by control or FDI.
     Topic(GROUND_TRUTH_POSE, 'geometry_msgs/msg/PointStamped', _STREAM, PLANT_SIMULATOR,
-          (_RECORDER,), every_tick=True),
+          (_RECORDER,), every_tick=True, simulated=True),
     Topic(GROUND_TRUTH_TENSIONS, 'sensor_msgs/msg/JointState', _STREAM, PLANT_SIMULATOR,
-          (_RECORDER,), every_tick=True),
+          (_RECORDER,), every_tick=True, simulated=True),
     Topic(INJECT_FAILURE, 'std_msgs/msg/Int32', _STREAM, None,
           (Reader(PLANT_SIMULATOR), _RECORDER)),
     Topic(CLOCK, 'rosgraph_msgs/msg/Clock', _STREAM, PLANT_SIMULATOR,
-          (_RECORDER,), every_tick=True, lockstep=True),
+          (_RECORDER,), every_tick=True, lockstep=True, simulated=True),
     Topic(DIAGNOSTICS, 'diagnostic_msgs/msg/DiagnosticArray', Delivery.DIAGNOSTICS, None,
           (_RECORDER,)),
 )}
