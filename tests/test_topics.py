@@ -191,10 +191,11 @@ PINNED = {
 }
 
 
-# Two mends since: a reader waits only for a writer the graph starts (without a
+# Three changes since: a reader waits only for a writer the graph starts (without a
 # supervisor the recorder waited for fdi/residual, which nobody wrote, and the plant never
-# started), and a hardware bridge writes nothing only a simulation has (the recorder
-# waited for the ground truth, and never subscribed to the states).
+# started); a hardware bridge writes nothing only a simulation has (the recorder waited
+# for the ground truth, and never subscribed to the states); the plant simulator reads
+# fdi/residual (the tick a mode it learns was decided on).
 NEVER_WRITTEN = {
     'no supervisor': {'subscription:fdi/residual=1'},
     'hardware': {'subscription:ground_truth/pose=1', 'subscription:ground_truth/tensions=1',
@@ -209,8 +210,16 @@ def expected_handshake(supervised, plant, bag, clock_mode) -> dict[str, str]:
     if not plant:
         stale |= NEVER_WRITTEN['hardware']
     recorder = 'cdpr_bringup/bag_recorder'
-    return {node: ' '.join(entry for entry in matches.split() if node != recorder or entry not in stale)
-            for node, matches in PINNED[supervised, plant, bag, clock_mode].items()}
+    expected = {node: [entry for entry in matches.split() if node != recorder or entry not in stale]
+                for node, matches in PINNED[supervised, plant, bag, clock_mode].items()}
+    if supervised and plant:
+        expected['cdpr_twin/plant_simulator'].append('subscription:fdi/residual=1')
+        supervisor = expected['cdpr_fdi/supervisor']
+        written = [entry for entry in supervisor if entry.startswith('publisher:fdi/residual=')]
+        readers = int(written[0].split('=')[1]) if written else 0
+        supervisor[:] = [entry for entry in supervisor if entry not in written]
+        supervisor.append(f'publisher:fdi/residual={readers + 1}')
+    return {node: ' '.join(sorted(entries)) for node, entries in expected.items()}
 
 
 @pytest.mark.parametrize('supervised, plant, bag, clock_mode',

@@ -267,7 +267,8 @@ def start_handshake(nodes: set[str], lockstep: bool, simulated: bool = True) -> 
                 or (topic.simulated and not simulated)):
             continue
         readers = [reader for reader in topic.readers if reader.node in nodes
-                   and (not reader.pacing or (lockstep and topic.writer in nodes))]
+                   and (not reader.pacing or (lockstep and topic.writer in nodes))
+                   and (simulated or not reader.simulated)]
         if readers and topic.writer in nodes:
             publishers[topic.writer].append(f'publisher:{topic.name}={len(readers)}')
         for reader in readers:

@@ -57,10 +57,12 @@ class Reader:
     `pacing`: the node waits for this topic before each answer, which it does only in
     lockstep and only when told the writer is there (the controller's
     `wait_for_supervisor`); in realtime the wait would cost a third of the loop.
+    `simulated`: read by the plant simulator only, not by a hardware bridge in its place.
     """
     node: str
     tick: bool = False
     pacing: bool = False
+    simulated: bool = False
 
 
 @dataclass(frozen=True)
@@ -104,7 +106,8 @@ TOPICS = {topic.name: topic for topic in (
     Topic(TWIN_POSE, 'geometry_msgs/msg/PointStamped', _STREAM, DIGITAL_TWIN,
           (_RECORDER,), every_tick=True),
     Topic(FDI_RESIDUAL, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
-          (Reader(CONTROLLER, pacing=True), _RECORDER), every_tick=True),
+          (Reader(CONTROLLER, pacing=True), Reader(PLANT_SIMULATOR, simulated=True), _RECORDER),
+          every_tick=True),
     Topic(FDI_BROKEN_CABLE, 'std_msgs/msg/Int32', _LATCHED, SUPERVISOR,
           (Reader(CONTROLLER), _RECORDER)),
     Topic(MODE, 'std_msgs/msg/String', _LATCHED, SUPERVISOR,

@@ -65,9 +65,12 @@ class PlantSimulatorNode(CdprNode):
         self.truth_pose = self.create_stream_publisher(PointStamped, contract.GROUND_TRUTH_POSE)
         self.truth_tensions = self.create_stream_publisher(JointState, contract.GROUND_TRUTH_TENSIONS)
         self.clock = self.create_stream_publisher(Clock, contract.CLOCK)
-        # Before the commands: in lockstep a mode change then takes effect at a known tick
-        # (the supervisor has it acknowledged before the next command can come).
+        # A mode carries no stamp, and may come before or after the command of the tick it
+        # judged: the supervisor's residual of that tick, which follows the mode, says
+        # which tick it was (so that a run ends at the same tick as in the engine).
+        self.learnt_mode: str | None = None
         self.create_subscription(String, contract.MODE, self.on_mode, qos.LATCHED)
+        self.create_subscription(JointState, contract.FDI_RESIDUAL, self.on_residual, qos.STREAM)
         self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.on_command,
                                              qos.STREAM, self.parameter('command_writer', 'controller'))
         self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
@@ -181,7 +184,16 @@ class PlantSimulatorNode(CdprNode):
             self.publish_state()
 
     def on_mode(self, message: String) -> None:
-        self.run_length.mode(message.data, self.tick)
+        self.learnt_mode = message.data
+
+    def on_residual(self, message: JointState) -> None:
+        if self.learnt_mode is None:
+            return
+        joints = self.joints_or_reject(message, contract.FDI_RESIDUAL, ('effort',))
+        if joints is not None:
+            # the verdict on tick k steers the loop from tick k + 1
+            self.run_length.mode(self.learnt_mode, joints.stamp_ns // self.period_ns + 1)
+            self.learnt_mode = None
 
     def on_inject(self, message: Int32) -> None:
         if not 1 <= message.data <= self.robot.cable_count:
