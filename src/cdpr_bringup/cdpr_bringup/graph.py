@@ -277,37 +277,54 @@ def start_handshake(nodes: set[str], lockstep: bool, simulated: bool = True) -> 
     return {node: publishers[node] + subscriptions[node] for node in nodes}
 
 
+def parser() -> argparse.ArgumentParser:
+    """cdpr-graph's options, which are also the launch files' arguments (launching.py)."""
+    options = argparse.ArgumentParser(description=__doc__)
+    options.add_argument('--config', default=DEFAULT_ROBOT, help='robot file or set-up (YAML)')
+    options.add_argument('--motions', default=DEFAULT_MOTIONS, help='motions YAML')
+    options.add_argument('--motion', default='circle', help='named motion')
+    options.add_argument('--fidelity', choices=['rigid', 'elastic'],
+                         help="plant model (default: the config's plant.fidelity); the supervisor "
+                              "gets the thresholds calibrated for it")
+    options.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')
+    options.add_argument('--detector', choices=['threshold', 'cusum'],
+                         help="failure detector (default: the config's fdi.detector)")
+    options.add_argument('--calibration', help='detector thresholds (cdpr-calibrate) for the supervisor')
+    options.add_argument('--fail-cable', type=int, action='append', default=[], metavar='K',
+                         help='break cable K (1-based) during the motion; repeat for several')
+    options.add_argument('--fail-at-fraction', type=float, metavar='F',
+                         help='when, as a fraction of the move (default 0.5, the midpoint)')
+    options.add_argument('--namespace', default=DEFAULT_NAMESPACE)
+    options.add_argument('--bag', help='record every topic into this bag folder')
+    options.add_argument('--hardware', action='store_true',
+                         help='no plant simulator: a hardware bridge publishes joint_states and '
+                              'applies effort_command (see README, hardware bridge); realtime; runs '
+                              'until Ctrl-C')
+    return options
+
+
+def requested_graph(args: argparse.Namespace) -> list[NodeSpec]:
+    """The nodes `args` (parser()'s) ask for, each with the parameters of the run settled
+    as cdpr-scenario settles it: thresholds that match the plant, among the rest."""
+    scenario = build_scenario(ScenarioOptions(
+        config=args.config, motions=args.motions, motion=args.motion, fidelity=args.fidelity,
+        detector=args.detector, calibration=args.calibration, fail_cables=args.fail_cable,
+        fail_at_fraction=args.fail_at_fraction))
+    parameters = scenario.node_parameters('realtime' if args.hardware else args.clock)
+    return graph_nodes(parameters, args.bag, plant=not args.hardware)
+
+
 @command('cdpr-graph')
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
-    parser.add_argument('--motions', default=DEFAULT_MOTIONS, help='motions YAML')
-    parser.add_argument('--motion', default='circle', help='named motion')
-    parser.add_argument('--fidelity', choices=['rigid', 'elastic'],
-                        help="plant model (default: the config's plant.fidelity); the supervisor "
-                             "gets the thresholds calibrated for it")
-    parser.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')
-    parser.add_argument('--namespace', default=DEFAULT_NAMESPACE)
-    parser.add_argument('--bag', help='record every topic into this bag folder')
-    parser.add_argument('--calibration', help='detector thresholds (cdpr-calibrate) for the supervisor')
-    parser.add_argument('--hardware', action='store_true',
-                        help='no plant simulator: a hardware bridge publishes joint_states and '
-                             'applies effort_command (see README, hardware bridge); realtime; runs '
-                             'until Ctrl-C')
-    args = parser.parse_args(argv)
-    # The same settling as cdpr-scenario: thresholds that match the plant, among the rest.
-    scenario = build_scenario(ScenarioOptions(config=args.config, motions=args.motions,
-                                              motion=args.motion, fidelity=args.fidelity,
-                                              calibration=args.calibration))
-    parameters = scenario.node_parameters('realtime' if args.hardware else args.clock)
+    args = parser().parse_args(argv)
+    nodes = requested_graph(args)
     signal.signal(signal.SIGTERM, stop_on_sigterm)
     log = lambda line: print(line, flush=True)  # noqa: E731
     try:
         if args.hardware:
-            run_until_stopped(graph_nodes(parameters, args.bag, plant=False), args.namespace, log)
+            run_until_stopped(nodes, args.namespace, log)
         else:
-            run_to_completion(graph_nodes(parameters, args.bag), args.namespace, timeout_s=None,
-                              log=log)
+            run_to_completion(nodes, args.namespace, timeout_s=None, log=log)
     except KeyboardInterrupt:
         print('[cdpr-graph] stopped on request', flush=True)
         return INTERRUPTED_EXIT_CODE

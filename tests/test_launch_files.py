@@ -1,0 +1,108 @@
+"""The launch files start what cdpr-graph starts, name only what exists, and — where the
+`launch` package is importable (it is not on PyPI) — run the paper's failure demo."""
+from __future__ import annotations
+
+import ast
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+from importlib.metadata import distribution
+from pathlib import Path
+
+import pytest
+
+from cdpr_bringup.bag_io import read_messages
+from cdpr_bringup.graph import parser, requested_graph
+from cdpr_bringup.launching import command_line, graph_from_launch, launch_arguments
+
+from conftest import REPO
+
+LAUNCH_FOLDER = REPO / 'src' / 'cdpr_bringup' / 'launch'
+LAUNCH_FILES = sorted(LAUNCH_FOLDER.glob('*.launch.py'))
+DEFAULTS = {argument.name: argument.default for argument in launch_arguments()}
+LAUNCH_MISSING = next((name for name in ('launch', 'launch_ros') if importlib.util.find_spec(name) is None), None)
+
+
+def demo_arguments() -> dict[str, str]:
+    """The arguments cdpr_demo.launch.py gives cdpr.launch.py (read from its source)."""
+    tree = ast.parse((LAUNCH_FOLDER / 'cdpr_demo.launch.py').read_text())
+    assignment = next(node for node in tree.body if isinstance(node, ast.Assign)
+                      and node.targets[0].id == 'DEMO')
+    return ast.literal_eval(assignment.value)
+
+
+def test_every_launch_argument_is_a_cdpr_graph_option_with_its_default():
+    options = {action.dest: action for action in parser()._actions if action.option_strings}
+    assert {argument.name for argument in launch_arguments()} == set(options) - {'help'}
+    assert DEFAULTS['config'] == 'paper_robot.yaml' and DEFAULTS['hardware'] == 'false'
+    assert command_line(DEFAULTS) == ['--config', 'paper_robot.yaml', '--motions', 'motions.yaml',
+                                      '--motion', 'circle', '--clock', 'lockstep',
+                                      '--namespace', '/cdpr']
+
+
+def test_the_launch_file_starts_the_nodes_cdpr_graph_starts_with_the_same_parameters():
+    for values, argv in (({}, []),
+                         ({'hardware': 'true', 'bag': '/tmp/b', 'detector': 'cusum'},
+                          ['--hardware', '--bag', '/tmp/b', '--detector', 'cusum'])):
+        launched, namespace, simulated = graph_from_launch(dict(DEFAULTS, **values))
+        started = requested_graph(parser().parse_args(argv))
+        assert [(s.package, s.executable, s.parameters) for s in launched] == \
+               [(s.package, s.executable, s.parameters) for s in started]
+        assert namespace == '/cdpr' and simulated == ('hardware' not in values)
+    assert 'plant_simulator' not in {spec.name for spec in graph_from_launch(dict(DEFAULTS, hardware='true'))[0]}
+
+
+def test_every_package_and_executable_the_launch_files_start_exists():
+    arguments = demo_arguments()
+    assert set(arguments) <= set(DEFAULTS)
+    specs, _, _ = graph_from_launch(dict(DEFAULTS, **arguments))
+    for spec in specs:
+        scripts = {entry.name for entry in distribution(spec.package).entry_points
+                   if entry.group == 'console_scripts'}
+        assert spec.executable in scripts, spec
+    plant = next(spec for spec in specs if spec.name == 'plant_simulator')
+    # the paper's failure: cable 4 (index 3) at 3/8 of the circle
+    assert plant.parameters['run.failure_cable_indices'] == [3]
+
+
+def test_the_launch_files_are_installed_with_the_package():
+    setup = (REPO / 'src' / 'cdpr_bringup' / 'setup.py').read_text()
+    assert "glob('launch/*.launch.py')" in setup
+    assert [path.name for path in LAUNCH_FILES] == ['cdpr.launch.py', 'cdpr_demo.launch.py']
+
+
+@pytest.mark.workspace
+@pytest.mark.skipif(LAUNCH_MISSING is not None,
+                    reason=f'the `{LAUNCH_MISSING}` package is not importable (it is not on PyPI; '
+                           'README, "ROS 2 workspace", says how to put it on PYTHONPATH)')
+def test_the_demo_launch_file_runs_the_papers_failure_with_real_launch(tmp_path):
+    """Built with colcon, started as `ros2 launch cdpr_bringup cdpr_demo.launch.py` would:
+    the run completes, names cable 4 and ends at the safe point."""
+    workspace = tmp_path / 'ws'
+    shutil.copytree(REPO / 'src', workspace / 'src', ignore=shutil.ignore_patterns('*.egg-info', '__pycache__'))
+    built = subprocess.run([str(Path(sys.executable).parent / 'colcon'), '--log-base', 'log', 'build',
+                            '--base-paths', 'src'], cwd=workspace, capture_output=True, text=True,
+                           timeout=300)
+    assert built.returncode == 0, built.stdout + built.stderr
+    install = workspace / 'install'
+    site = [str(path) for path in install.glob('*/lib/python3*/site-packages')]
+    environment = dict(os.environ, PYTHONPATH=os.pathsep.join(site + [os.environ.get('PYTHONPATH', '')]),
+                       AMENT_PREFIX_PATH=os.pathsep.join(
+                           [str(path) for path in install.glob('cdpr_*')] + [sys.prefix]))
+    bag = tmp_path / 'bag'
+    launch_file = install / 'cdpr_bringup' / 'share' / 'cdpr_bringup' / 'launch' / 'cdpr_demo.launch.py'
+    process = subprocess.Popen([sys.executable, str(REPO / 'tests' / 'tools' / 'run_launch_file.py'),
+                                str(launch_file), f'bag:={bag}'], env=environment, text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+    try:
+        output, _ = process.communicate(timeout=240)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, 9)
+            process.wait(timeout=10)
+    assert process.returncode == 0, output[-3000:]
+    assert 'SAFE_HOLD from tick' in output and 'process has finished cleanly' in output
+    verdicts = read_messages(bag, ['/cdpr/fdi/broken_cable'])['/cdpr/fdi/broken_cable']
+    assert [message.data for _, message in verdicts][-1] == 4
