@@ -4,14 +4,17 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from contextlib import contextmanager
 
 import numpy as np
 import pytest
 import yaml
+from rclpy.parameter import Parameter
 
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
-from cdpr_control.settings import flatten, node_settings, unflatten
-from cdpr_fdi.config import settled_fdi
+from cdpr_control.settings import flatten, unflatten
+from cdpr_fdi.supervisor_node import SupervisorNode
+from cdpr_twin.plant_simulator_node import PlantSimulatorNode
 
 from conftest import MOTIONS, PAPER_ROBOT
 
@@ -27,16 +30,19 @@ def test_flatten_gives_ros_names_and_unflatten_undoes_it():
         'safe_points_m': {'4': [0.5, 1.3, 1.2]}, 'hold_after_s': 1.0}}
 
 
-def node_given(parameters: dict, name: str, tmp_path):
-    """An rclpy node started as the launcher starts ours: its parameters from a file."""
+@contextmanager
+def node_given(parameters: dict, node_class, tmp_path):
+    """Our node, built in this process as the launcher starts it: its parameters from a file."""
     import rclpy
-    from rclpy.node import Node
-    path = tmp_path / f'{name}.yaml'
+    path = tmp_path / 'parameters.yaml'
     path.write_text(yaml.safe_dump({'/**': {'ros__parameters': parameters}}))
-    context = rclpy.Context()
-    rclpy.init(args=['--ros-args', '--params-file', str(path)], context=context)
-    node = Node(name, context=context, automatically_declare_parameters_from_overrides=True)
-    return node, context
+    rclpy.init(args=['--ros-args', '--params-file', str(path)])
+    node = node_class()
+    try:
+        yield node
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
 
 
 @pytest.fixture
@@ -54,15 +60,13 @@ def scenario(tmp_path):
 
 def test_the_supervisor_node_gets_the_launchers_fdi_and_recovery_settings(scenario, tmp_path):
     parameters = scenario.node_parameters('lockstep')['supervisor']
-    node, context = node_given(dict(parameters, config_file=str(tmp_path / 'absent.yaml')),
-                               'supervisor', tmp_path)
-    try:
-        settings = node_settings(node)
-        fdi, recovery = settled_fdi(settings, settings.robot)
-    finally:
-        node.destroy_node()
-        context.try_shutdown()
-    assert settings.robot.fingerprint() == scenario.robot.fingerprint()
+    with node_given(dict(parameters, config_file=str(tmp_path / 'absent.yaml')), SupervisorNode,
+                    tmp_path) as node:
+        robot, fdi, recovery = node.robot, node.supervisor.fdi, node.supervisor.recovery_config
+        # a settled value is read-only: the run it belongs to is under way
+        refused = node.set_parameters([Parameter('fdi.epsilon_nm', value=1.0)])[0]
+    assert not refused.successful and 'read-only' in refused.reason
+    assert robot.fingerprint() == scenario.robot.fingerprint()
     assert fdi == scenario.fdi
     assert (fdi.detector, fdi.epsilon_nm) == ('cusum', 0.4)
     assert fdi.friction.coulomb_nm == scenario.fdi.friction.coulomb_nm > 0.0   # as calibrated
@@ -76,18 +80,14 @@ def test_the_supervisor_node_gets_the_launchers_fdi_and_recovery_settings(scenar
 def test_the_plant_gets_the_failures_as_times_and_0_based_cables(scenario, tmp_path):
     parameters = scenario.node_parameters('lockstep')['plant_simulator']
     assert not any(key.startswith(('motion', 'fdi')) for key in parameters)
-    node, context = node_given(parameters, 'plant_simulator', tmp_path)
-    try:
-        run = node_settings(node).section('run')
-    finally:
-        node.destroy_node()
-        context.try_shutdown()
+    with node_given(parameters, PlantSimulatorNode, tmp_path) as node:
+        failures, position = node.plant.failures, node.plant.position_m
+        run_length = node.run_length
     failure_time = scenario.motion.time_at_fraction(0.3)
-    assert list(zip(run.raw('failure_times_s'), run.raw('failure_cable_indices'))) == [
-        (failure_time, 3), (failure_time, 1)] == scenario.failures
-    np.testing.assert_array_equal(run.vector('start_position_m', 3), scenario.reference.position_m[0])
-    assert run.integer('last_tick') == scenario.cycles - 1
-    assert run.integer('hold_after_ticks') == scenario.hold_after_cycles
+    assert failures == sorted([(failure_time, 3), (failure_time, 1)]) == sorted(scenario.failures)
+    np.testing.assert_allclose(position, scenario.reference.position_m[0], rtol=0, atol=1e-9)
+    assert run_length.last_tick == scenario.cycles - 1
+    assert run_length.hold_cycles == scenario.hold_after_cycles
 
 
 def test_the_plant_node_does_not_know_the_motion_catalogue():

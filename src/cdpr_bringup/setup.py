@@ -31,6 +31,7 @@ setup(
             'cdpr-fdi-offline = cdpr_bringup.fdi_offline:main',
             'cdpr-campaign = cdpr_bringup.campaign:main',
             'cdpr-report = cdpr_bringup.report:main',
+            'cdpr-params = cdpr_bringup.params:main',
             'bag_recorder = cdpr_bringup.bag_recorder_node:main',
         ],
     },

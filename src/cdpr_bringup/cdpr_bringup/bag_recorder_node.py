@@ -45,15 +45,16 @@ def bag_qos(profile) -> Qos:
 class BagRecorderNode(CdprNode):
 
     def __init__(self):
-        super().__init__('bag_recorder')
-        settings = node_settings(self)
+        super().__init__(contract.BAG_RECORDER)
+        settings = node_settings(self, contract.BAG_RECORDER)
         self.configure(settings, settings.section('control').number('period_s', positive=True))
-        path = self.parameter('bag_path', 'bag')
-        storage = self.parameter('storage', 'mcap')
-        self.flush_period_s = self.parameter('flush_period_s', FLUSH_PERIOD_S)
+        path = self.parameter('bag_path', 'bag', 'the bag folder to write')
+        storage = self.parameter('storage', 'mcap', 'mcap or sqlite3')
+        self.flush_period_s = self.parameter('flush_period_s', FLUSH_PERIOD_S,
+                                             'the bag is written out this often (s)')
         namespace = self.get_namespace().rstrip('/')
         topics = [self.contract_name(name, namespace)
-                  for name in self.parameter('topics', list(RECORDED))]
+                  for name in self.parameter('topics', list(RECORDED), 'the topics to record')]
         unknown = [name for name in topics if name not in RECORDED]
         if unknown:
             raise ValueError(f'parameter topics: cannot record {unknown}; known: {list(RECORDED)}')

@@ -20,6 +20,7 @@ from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_fdi.config import FdiConfig, RecoveryConfig, calibrated_fdi, settled_fdi
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
+from cdpr_msgs_py.contract import SETTINGS_OF, SETTINGS_OF_EVERY_NODE
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 from cdpr_twin.plant import FIDELITIES, PlantConfig
 
@@ -29,16 +30,6 @@ from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file, shipped_calibrat
 
 # ScenarioOptions.calibration for a run that needs no thresholds (cdpr-calibrate's).
 NO_CALIBRATION = 'none'
-# The settled sections each node reads, besides the robot and COMMON_SECTIONS.
-NODE_SECTIONS = {
-    'trajectory_generator': ('control', 'motion'),
-    'controller': ('control',),
-    'digital_twin': ('control', 'twin'),
-    'supervisor': ('control', 'fdi', 'recovery'),
-    'plant_simulator': ('control', 'plant', 'run'),
-    'bag_recorder': ('control',),
-}
-COMMON_SECTIONS = ('streams', 'health')
 # Realtime: the nodes a command waits on; the FDI, whose recovery setpoints a command
 # waits on after a failure; and what may lag without harm.
 CONTROL_LOOP = ('plant_simulator', 'controller', 'trajectory_generator')
@@ -135,10 +126,10 @@ class Scenario:
         scheduling = (realtime_scheduling(self.settings.section('scheduling'))
                       if clock_mode == 'realtime' and scheduling else {})
         common = {ROBOT_DESCRIPTION: robot_description(document['robot']), 'clock_mode': clock_mode,
-                  **flatten({name: document[name] for name in COMMON_SECTIONS})}
+                  **flatten({name: document[name] for name in SETTINGS_OF_EVERY_NODE})}
         return {node: dict(common, **scheduling.get(node, {}),
                            **flatten({name: document[name] for name in sections}))
-                for node, sections in NODE_SECTIONS.items()}
+                for node, sections in SETTINGS_OF.items()}
 
 
 def settle(options: ScenarioOptions) -> tuple[Section, Path | None]:

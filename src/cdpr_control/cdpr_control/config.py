@@ -162,6 +162,31 @@ def paper_defaults() -> dict:
     return sections
 
 
+@lru_cache(maxsize=1)
+def default_descriptions() -> dict[str, str]:
+    """Dotted key → what the defaults files' comments say of it (the comment lines just
+    above the key and the one beside it), for ROS parameter descriptions."""
+    descriptions = {}
+    for path in sorted(DEFAULTS_FOLDER.glob('*.yaml')):
+        keys: list[tuple[int, str]] = []   # (indent, key) of the mappings the line is in
+        above: list[str] = []
+        for line in path.read_text().splitlines():
+            text = line.strip()
+            if text.startswith('#'):
+                above.append(text.lstrip('# '))
+                continue
+            if not text or ':' not in text:
+                above = []
+                continue
+            indent = len(line) - len(line.lstrip())
+            key, _, rest = text.partition(':')
+            keys = [(level, name) for level, name in keys if level < indent] + [(indent, key)]
+            beside = rest.partition('#')[2].strip()
+            descriptions['.'.join(name for _, name in keys)] = ' '.join(above + [beside]).strip()
+            above = []
+    return descriptions
+
+
 def with_defaults(data: dict, defaults: Mapping, prefix: str = '') -> tuple[dict, set[str]]:
     """`data` with every key of `defaults` it lacks, mappings merged key by key; and the
     dotted keys so filled in. A value the file gives (even of another type) is kept,

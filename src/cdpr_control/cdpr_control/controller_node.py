@@ -28,8 +28,8 @@ from .setpoints import Setpoints
 class ControllerNode(CdprNode):
 
     def __init__(self):
-        super().__init__('controller')
-        settings = node_settings(self)
+        super().__init__(contract.CONTROLLER)
+        settings = node_settings(self, contract.CONTROLLER)
         self.robot = settings.robot
         control = settings.section('control')
         period_s = control.number('period_s', positive=True)
@@ -41,7 +41,9 @@ class ControllerNode(CdprNode):
                                           FrictionModel.of_robot(self.robot, control))
         self.setpoints = Setpoints(self.controller, exact=self.clock_mode == 'lockstep',
                                    stale_ns=self.stale_ns)
-        self.wait_for_supervisor = self.parameter('wait_for_supervisor', False)
+        self.wait_for_supervisor = self.parameter(
+            'wait_for_supervisor', False,
+            "lockstep: answer a state only after the supervisor's residual of the tick before")
         self.names = contract.joint_names(self.robot.cable_count)
         self.verdict_ns: int | None = None
         self.first_state_ns: int | None = None

@@ -17,13 +17,16 @@ from typing import Any, Mapping
 
 import yaml
 
-from .config import Section, load_config, paper_defaults
+from cdpr_msgs_py.contract import SETTINGS_OF, SETTINGS_OF_EVERY_NODE
+
+from .config import Section, default_descriptions, load_config, paper_defaults
 from .robot import Robot, robot_from_section
 
 ROBOT_DESCRIPTION = 'robot_description'
-# The sections a settled run has besides `robot`, in the order docs/design.md §6 lists them.
-SECTIONS = ('control', 'twin', 'plant', 'fdi', 'recovery', 'scheduling', 'streams', 'health',
-            'motion', 'run')
+# Settled keys the defaults cannot list (a run's own, a motion's by its type, a safe point
+# per cable); any other name a node is given that its defaults lack is a misspelling,
+# which the node reports as ignored.
+OPEN_KEYS = ('run.', 'motion.', 'recovery.safe_points_m.')
 
 
 def flatten(mapping: Mapping, prefix: str = '') -> dict[str, Any]:
@@ -35,6 +38,10 @@ def flatten(mapping: Mapping, prefix: str = '') -> dict[str, Any]:
         if isinstance(value, Mapping):
             values.update(flatten(value, name))
         elif isinstance(value, (list, tuple)):
+            # a ROS array has one type: numbers written 1 and 1.5 in YAML are all floats
+            if any(isinstance(item, float) for item in value):
+                value = [float(item) if isinstance(item, int) and not isinstance(item, bool) else item
+                         for item in value]
             if value:
                 values[name] = list(value)
         else:
@@ -56,7 +63,7 @@ def unflatten(values: Mapping[str, Any]) -> dict:
 
 def robot_description(robot: Mapping) -> str:
     """The `robot` section as the robot_description parameter's YAML text."""
-    return yaml.safe_dump({'robot': dict(robot)}, sort_keys=False)
+    return yaml.safe_dump({'robot': dict(robot)}, sort_keys=False, default_flow_style=None)
 
 
 class Settings:
@@ -80,22 +87,46 @@ class Settings:
         return self.document.has(name)
 
 
-def node_settings(node) -> Settings:
-    """The settings `node` (an rclpy Node whose parameters were declared from its
-    overrides) was started with: the launcher's settled values, else those of the robot
-    file its `config_file` parameter names (a path)."""
-    given = node.get_parameters_by_prefix('')
+def node_settings(node, name: str) -> Settings:
+    """The settings `node` (a cdpr_msgs_py.runtime.CdprNode, the contract's node `name`)
+    runs with, each key of its sections (contract.SETTINGS_OF) declared as a read-only ROS parameter described as the defaults file
+    describes it: the values it was given (a launcher's settled run), else those of the
+    robot file its `config_file` parameter names, else the paper's."""
+    sections = SETTINGS_OF[name] + SETTINGS_OF_EVERY_NODE
     source = f'parameters of {node.get_fully_qualified_name()}'
-    if ROBOT_DESCRIPTION not in given:
-        path = node.parameter('config_file', '')
-        return Settings(load_config(path) if path else Section(paper_defaults(), source))
+    text = node.parameter(ROBOT_DESCRIPTION, '', "the robot, as a robot file's YAML text (as ROS "
+                          "passes a URDF); empty: config_file's")
+    path = node.parameter('config_file', '', 'a robot file or set-up (path), read when no '
+                          'robot_description is given')
+    if text:
+        base = Section(dict(paper_defaults(), robot=described_robot(text, source)), source)
+    else:
+        base = load_config(path) if path else Section(paper_defaults(), source)
+    given = [name for name in node.given_parameters()
+             if name.split('.')[0] in sections and name.startswith(OPEN_KEYS)]
+    defaults = flatten({name: base.data[name] for name in sections if base.has(name)})
+    descriptions = default_descriptions()
+    values = {}
+    for key in list(defaults) + [key for key in given if key not in defaults]:
+        description = descriptions.get(key) or f'see cdpr_control/defaults/{key.split(".")[0]}.yaml'
+        # a key the defaults do not have (a safe point per cable, the run's failures) is
+        # typed as given
+        default = defaults[key] if key in defaults else node.given_parameters()[key]
+        values[key] = node.parameter(key, default, description,
+                                     read_only=key not in node.CHANGEABLE_SETTINGS)
+    document = unflatten(values)
+    if base.has('robot'):
+        document['robot'] = base.data['robot']
+    return Settings(Section(document, source if text or not path else f'{path} (and the {source})',
+                            defaulted=base.defaulted, sources=base.sources))
+
+
+def described_robot(text: str, source: str) -> dict:
+    """The `robot` mapping of a robot_description parameter's YAML text."""
     try:
-        described = yaml.safe_load(given[ROBOT_DESCRIPTION].value)
+        described = yaml.safe_load(text)
     except yaml.YAMLError as err:
         raise Section({}, source).error(ROBOT_DESCRIPTION, f'is not valid YAML: {err}') from err
     if not isinstance(described, dict) or 'robot' not in described:
         raise Section({}, source).error(ROBOT_DESCRIPTION, 'must hold a YAML mapping with `robot:`')
-    document = unflatten({name: parameter.value for name, parameter in given.items()
-                          if name.split('.')[0] in SECTIONS})
-    document['robot'] = described['robot']
-    return Settings(Section(document, source))
+    return described['robot']

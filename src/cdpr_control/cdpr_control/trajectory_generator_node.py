@@ -34,8 +34,8 @@ from .tension_distribution import configured_tension_distribution
 class TrajectoryGeneratorNode(CdprNode):
 
     def __init__(self):
-        super().__init__('trajectory_generator')
-        settings = node_settings(self)
+        super().__init__(contract.TRAJECTORY_GENERATOR)
+        settings = node_settings(self, contract.TRAJECTORY_GENERATOR)
         self.robot = settings.robot
         control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
@@ -45,8 +45,9 @@ class TrajectoryGeneratorNode(CdprNode):
         self.distribution = configured_tension_distribution(control, self.robot)
         # started alone, without a settled motion: the named one of a motions file (a path)
         motion = (settings.section('motion') if settings.has('motion') else settled_motion(
-            self.parameter('motions_file', ''), self.parameter('motion', 'circle'),
-            self.parameter('reverse', False)))
+            self.parameter('motions_file', '', 'started without a settled motion: a motions YAML'),
+            self.parameter('motion', 'circle', 'started without a settled motion: its name there'),
+            self.parameter('reverse', False, 'started without a settled motion: run it backward')))
         self.goal_speed_m_s = motion.number('goal_peak_speed_m_s', positive=True)
         self.schedule = ReferenceSchedule(
             self.robot, self.distribution, self.period_s, self.goal_speed_m_s,

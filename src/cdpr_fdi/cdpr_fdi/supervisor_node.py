@@ -37,8 +37,8 @@ BUFFER_LENGTH = 512
 class SupervisorNode(CdprNode):
 
     def __init__(self):
-        super().__init__('supervisor')
-        settings = node_settings(self)
+        super().__init__(contract.SUPERVISOR)
+        settings = node_settings(self, contract.SUPERVISOR)
         self.robot = settings.robot
         control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)
@@ -64,7 +64,10 @@ class SupervisorNode(CdprNode):
         self.tensions = self.create_stream_publisher(JointState, contract.RECOVERY_TENSIONS)
         self.recovery_reference = self.create_stream_publisher(JointState, contract.RECOVERY_REFERENCE)
         self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.on_command,
-                                             qos.STREAM, self.parameter('command_writer', 'controller'))
+                                             qos.STREAM, self.parameter(
+                                                 'command_writer', 'controller',
+                                                 'the node whose effort_command the motors obey, '
+                                                 'the only one judged'))
         self.create_subscription(JointState, contract.TWIN_JOINT_STATES, self.on_twin, qos.STREAM)
         self.create_subscription(JointState, contract.REFERENCE, self.on_reference, qos.STREAM)
         self.start_when_matched(lambda: self.create_subscription(

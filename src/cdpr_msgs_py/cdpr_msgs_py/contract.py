@@ -39,6 +39,18 @@ SUPERVISOR = 'supervisor'
 PLANT_SIMULATOR = 'plant_simulator'
 BAG_RECORDER = 'bag_recorder'
 
+# The sections of a settled run (cdpr_control.settings) each node reads as its ROS
+# parameters, besides those every node reads.
+SETTINGS_OF = {
+    TRAJECTORY_GENERATOR: ('control', 'motion'),
+    CONTROLLER: ('control',),
+    DIGITAL_TWIN: ('control', 'twin'),
+    SUPERVISOR: ('control', 'fdi', 'recovery'),
+    PLANT_SIMULATOR: ('control', 'plant', 'run'),
+    BAG_RECORDER: ('control',),
+}
+SETTINGS_OF_EVERY_NODE = ('streams', 'health')
+
 
 class Delivery(Enum):
     """The QoS kind of a topic; cdpr_msgs_py.qos holds the profile of each."""

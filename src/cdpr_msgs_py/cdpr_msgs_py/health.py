@@ -17,12 +17,15 @@ sees them; the counts in the status's values keep the whole history.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 from .contract import FAULT
 
 # diagnostic_msgs/DiagnosticStatus levels
 OK, WARN, ERROR = 0, 1, 2
+
+# The limits that are fractions of a window's ticks or periods.
+FRACTIONS = ('unjudged_limit', 'tick_rate_min', 'deadline_miss_limit')
 
 
 @dataclass(frozen=True)
@@ -47,12 +50,25 @@ class HealthLimits:
     @classmethod
     def from_section(cls, health) -> 'HealthLimits':
         """From a config section (cdpr_control.config.Section: this package reads no file)."""
-        values = {field.name: health.number(field.name, field.default, non_negative=True)
-                  for field in fields(cls)}
-        for name in ('unjudged_limit', 'tick_rate_min', 'deadline_miss_limit'):
-            if values[name] > 1.0:
-                raise health.error(name, f'must be a fraction (0 to 1), got {values[name]!r}')
-        return cls(**values)
+        limits = cls()
+        for field in fields(cls):
+            value = health.number(field.name, field.default, non_negative=True)
+            try:
+                limits = limits.with_value(field.name, value)
+            except ValueError as err:
+                raise health.error(field.name, str(err)) from err
+        return limits
+
+    def with_value(self, name: str, value) -> 'HealthLimits':
+        """These limits with `name` set to `value` (a ROS parameter changed while the node
+        runs); ValueError saying why for a value it cannot be."""
+        if name not in {field.name for field in fields(self)}:
+            raise ValueError(f'is not a health limit (one of {", ".join(f.name for f in fields(self))})')
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0.0:
+            raise ValueError(f'must be a number, not negative, got {value!r}')
+        if name in FRACTIONS and value > 1.0:
+            raise ValueError(f'must be a fraction (0 to 1), got {value!r}')
+        return replace(self, **{name: float(value)})
 
 
 class Health:

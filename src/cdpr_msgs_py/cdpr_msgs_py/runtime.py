@@ -9,13 +9,17 @@ import threading
 import time
 from collections import Counter
 from contextlib import contextmanager
+from dataclasses import fields
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.duration import Duration
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 
@@ -23,7 +27,7 @@ from . import contract, qos
 from .dds import bounded_initialisation, follow_launcher
 from .conversions import InvalidMessage, joints_from_message
 from .health import ERROR, OK, WARN, AcknowledgementWatch, Health, HealthLimits
-from .scheduling import apply_scheduling
+from .scheduling import NICE_RANGE, PRIORITY_RANGE, apply_scheduling
 from .sole_writer import Endpoint, SoleWriter, qualified_name
 from .stamps import seconds_to_ns
 
@@ -54,8 +58,16 @@ def make_executor():
     return EventsExecutor()
 
 
+# A node that cannot be built from what it was given (a parameter's value, a config
+# file): the user's mistake, said in one FATAL line.
+SET_UP_ERRORS = (ValueError, OSError, ParameterException)
+SET_UP_EXIT_CODE = 1
+
+
 def run(node_class, args=None) -> int:
-    """Create `node_class`, spin it until a stop request or until it sets `finished`."""
+    """Create `node_class`, spin it until a stop request or until it sets `finished`.
+    A node that cannot be built from its parameters logs why in one FATAL line and
+    returns SET_UP_EXIT_CODE."""
     stopping = []
 
     def request_stop(signum, _frame):
@@ -67,7 +79,15 @@ def run(node_class, args=None) -> int:
     with bounded_initialisation(node_class.__name__):
         # rclpy's own handlers would invalidate the context on SIGINT, before the drain
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-        node = node_class()
+        try:
+            node = node_class()
+        except SET_UP_ERRORS as err:
+            rclpy.logging.get_logger(node_class.__name__).fatal(str(err))
+            rclpy.shutdown()
+            return SET_UP_EXIT_CODE
+    ignored = node.ignored_parameters()
+    if ignored:
+        node.get_logger().warning(f'ignored, not parameters of this node: {", ".join(ignored)}')
     print(f'{READY_MARK} {node.get_name()}', flush=True)
     executor = make_executor()
     executor.add_node(node)
@@ -344,27 +364,38 @@ class CdprNode(Node):
     names: cdpr_control.settings reads them).
     """
 
+    # The settings a node takes while it runs: the /diagnostics limits. Every other one is
+    # read-only (read once; changing it would need the node, or the run, anew).
+    CHANGEABLE_SETTINGS = frozenset(f'health.{field.name}' for field in fields(HealthLimits))
+
     def __init__(self, name: str):
-        super().__init__(name, automatically_declare_parameters_from_overrides=True)
+        super().__init__(name)
         self.sole_writers: list[SoleWriterSubscription] = []
-        self.clock_mode = self.parameter('clock_mode', 'lockstep')
+        self.clock_mode = self.parameter('clock_mode', 'lockstep',
+                                         'lockstep: each tick waits for its command, repeatable; '
+                                         'realtime: on the wall clock, as hardware')
         if self.clock_mode not in ('lockstep', 'realtime'):
             raise ValueError(f"parameter clock_mode must be lockstep or realtime, got {self.clock_mode!r}")
         self.diagnostics = Diagnostics(self)
         # configure() sets these from the config file, which this package cannot read
         self.stream_qos = None
         self.acknowledgements = AcknowledgementWatch(HealthLimits().reader_lag_limit_s)
+        self.add_on_set_parameters_callback(self.on_parameter_changes)
         self.stream_publishers: list[GuardedPublisher] = []
         self.finished = False
-        self.match_requirements = parse_matches(self.parameter('matches', ['']))
+        self.match_requirements = parse_matches(self.parameter(
+            'matches', [''], "the endpoints to match before subscribing to the tick "
+            "('publisher:TOPIC=N', 'subscription:TOPIC=N'; cdpr-graph sets them)"))
         self.pending_start = None
         self.schedule()
 
     def schedule(self) -> None:
         """The OS scheduling the `realtime_priority` and `nice` parameters ask for
         (cdpr-graph sets them in realtime mode from the config's scheduling section)."""
-        applied, outcome = apply_scheduling(self.parameter('realtime_priority', 0),
-                                            self.parameter('nice', 0))
+        applied, outcome = apply_scheduling(
+            self.parameter('realtime_priority', 0, 'SCHED_FIFO priority of every thread; 0: normal',
+                           integer_range=PRIORITY_RANGE),
+            self.parameter('nice', 0, 'niceness of every thread; 0: normal', integer_range=NICE_RANGE))
         self.diagnostics.facts['scheduling'] = outcome
         if applied:
             self.get_logger().info(f'scheduling: {outcome}')
@@ -377,9 +408,24 @@ class CdprNode(Node):
         (`streams`), and the limits of the /diagnostics levels (`health`); a missing
         section or key takes its default. Before the first create_stream_publisher."""
         self.stream_qos = qos.stream_writer(config.section('streams', {}), period_s)
-        limits = HealthLimits.from_section(config.section('health', {}))
+        self.set_health_limits(HealthLimits.from_section(config.section('health', {})))
+
+    def set_health_limits(self, limits: HealthLimits) -> None:
         self.diagnostics.health.limits = limits
         self.acknowledgements.limit_s = limits.reader_lag_limit_s
+
+    def on_parameter_changes(self, parameters) -> SetParametersResult:
+        """health.* changed while the node runs: the /diagnostics levels follow at once; a
+        value they cannot take is refused, saying why. (rclpy refuses read-only ones.)"""
+        limits = self.diagnostics.health.limits
+        for parameter in parameters:
+            if parameter.name in self.CHANGEABLE_SETTINGS:
+                try:
+                    limits = limits.with_value(parameter.name.split('.', 1)[1], parameter.value)
+                except ValueError as err:
+                    return SetParametersResult(successful=False, reason=f'{parameter.name} {err}')
+        self.set_health_limits(limits)
+        return SetParametersResult(successful=True)
 
     def create_publisher(self, msg_type, topic, qos_profile, **options):
         """As rclpy's, with publishing never fatal (GuardedPublisher)."""
@@ -426,11 +472,31 @@ class CdprNode(Node):
         self.sole_writers.append(subscription)
         return subscription
 
-    def parameter(self, name: str, default):
-        """One parameter: as given, else declared with `default`."""
+    def parameter(self, name: str, default, description: str, read_only: bool = True,
+                  integer_range: tuple[int, int] | None = None):
+        """Declare one parameter, read-only unless told; its value. Typed as given (the
+        node's loaders judge the value, naming the parameter), an integer given for a
+        number taken as that number; typed as `default` when not given."""
         if self.has_parameter(name):
             return self.get_parameter(name).value
-        return self.declare_parameter(name, default).value
+        given = self._parameter_overrides.get(name)   # rclpy keeps what --ros-args gave here
+        if given is not None:
+            if isinstance(default, float) and given.type_ == Parameter.Type.INTEGER:
+                given = Parameter(name, Parameter.Type.DOUBLE, float(given.value))
+                self._parameter_overrides[name] = given
+            default = given.value
+        descriptor = ParameterDescriptor(description=description, read_only=read_only)
+        if integer_range is not None:
+            descriptor.integer_range = [IntegerRange(from_value=integer_range[0], to_value=integer_range[1], step=1)]
+        return self.declare_parameter(name, default, descriptor).value
+
+    def given_parameters(self) -> dict:
+        """Name → value of every parameter this node was started with (--ros-args)."""
+        return {name: parameter.value for name, parameter in self._parameter_overrides.items()}
+
+    def ignored_parameters(self) -> list[str]:
+        """The parameters the node was given but does not have (a misspelt name)."""
+        return sorted(name for name in self._parameter_overrides if not self.has_parameter(name))
 
     def joints_or_reject(self, message, topic: str,
                          fields: tuple[str, ...] = ('position', 'velocity', 'effort')):

@@ -19,8 +19,8 @@ from .twin import DigitalTwin
 class DigitalTwinNode(CdprNode):
 
     def __init__(self):
-        super().__init__('digital_twin')
-        settings = node_settings(self)
+        super().__init__(contract.DIGITAL_TWIN)
+        settings = node_settings(self, contract.DIGITAL_TWIN)
         self.robot = settings.robot
         control = settings.section('control')
         self.period_s = control.number('period_s', positive=True)

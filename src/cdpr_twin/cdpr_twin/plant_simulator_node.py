@@ -35,8 +35,8 @@ from .tick_timing import TickTiming
 class PlantSimulatorNode(CdprNode):
 
     def __init__(self):
-        super().__init__('plant_simulator')
-        settings = node_settings(self)
+        super().__init__(contract.PLANT_SIMULATOR)
+        settings = node_settings(self, contract.PLANT_SIMULATOR)
         self.robot = settings.robot
         self.period_s = settings.section('control').number('period_s', positive=True)
         self.period_ns = seconds_to_ns(self.period_s)
@@ -51,8 +51,10 @@ class PlantSimulatorNode(CdprNode):
         self.run_length = RunLength(
             run.integer('last_tick', minimum=0) if run.has('last_tick') else math.inf,
             run.integer('hold_after_ticks', minimum=0) if run.has('hold_after_ticks') else None)
-        self.resend_s = self.parameter('command_timeout_s', 0.5)
-        self.start_delay_s = self.parameter('start_delay_s', 0.5)
+        self.resend_s = self.parameter(
+            'command_timeout_s', 0.5, 'lockstep: a state not answered for this long (s) is sent again')
+        self.start_delay_s = self.parameter(
+            'start_delay_s', 0.5, 'the first tick waits this long (s) once every node listens')
         self.ready_since = None
         self.names = contract.joint_names(self.robot.cable_count)
         self.tick = 0
@@ -72,7 +74,9 @@ class PlantSimulatorNode(CdprNode):
         self.create_subscription(String, contract.MODE, self.on_mode, qos.LATCHED)
         self.create_subscription(JointState, contract.FDI_RESIDUAL, self.on_residual, qos.STREAM)
         self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.on_command,
-                                             qos.STREAM, self.parameter('command_writer', 'controller'))
+                                             qos.STREAM, self.parameter(
+                                                 'command_writer', 'controller',
+                                                 'the only node whose effort_command the motors obey'))
         self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
         self.timer = None
         self.watchdog = CommandWatchdog(plant_section.integer('command_timeout_cycles', minimum=1))

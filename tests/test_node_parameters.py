@@ -1,0 +1,98 @@
+"""Parameters the ROS way: declared with descriptions, read-only where a change is not
+supported, the /diagnostics limits changeable while a node runs, integers taken for
+numbers, shipped parameter files, and one FATAL line for a node that cannot start."""
+from __future__ import annotations
+
+import os
+import subprocess
+from contextlib import contextmanager
+
+import pytest
+import rclpy
+from rclpy.parameter import Parameter
+
+from cdpr_bringup.graph import executable_command, node_environment, parser
+from cdpr_bringup.params import parameter_files
+from cdpr_control.config import load_yaml
+from cdpr_fdi.supervisor_node import SupervisorNode
+
+from conftest import CONFIG_DIR, PAPER_ROBOT
+
+SHIPPED = CONFIG_DIR / 'params'
+
+
+@contextmanager
+def supervisor(*arguments: str):
+    rclpy.init(args=['--ros-args', *arguments])
+    node = SupervisorNode()
+    try:
+        yield node
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
+
+
+def test_the_shipped_parameter_files_are_the_default_runs():
+    """cdpr-params writes them again unchanged (else run it: they are stale)."""
+    written = parameter_files(parser().parse_args([]))
+    assert sorted(path.stem for path in SHIPPED.glob('*.yaml')) == sorted(written)
+    for name, text in written.items():
+        assert (SHIPPED / f'{name}.yaml').read_text() == text, name
+
+
+def test_a_node_started_with_its_shipped_file_has_described_read_only_settings():
+    calibrated = load_yaml(CONFIG_DIR / 'fdi_calibration_elastic.yaml')['fdi']['epsilon_nm']
+    with supervisor('--params-file', str(SHIPPED / 'supervisor.yaml')) as node:
+        assert node.supervisor.fdi.epsilon_nm == calibrated
+        descriptor = node.describe_parameter('fdi.epsilon_nm')
+        assert descriptor.read_only and 'threshold' in descriptor.description
+        assert node.describe_parameter('robot_description').read_only
+        refused = node.set_parameters([Parameter('fdi.epsilon_nm', value=1.0)])[0]
+        assert not refused.successful and 'read-only' in refused.reason
+        assert node.supervisor.fdi.epsilon_nm == calibrated
+
+
+def test_a_health_limit_changes_while_the_node_runs_and_a_bad_one_is_refused_saying_why():
+    with supervisor('-p', f'config_file:={PAPER_ROBOT}') as node:
+        assert not node.describe_parameter('health.warning_hold_s').read_only
+        changed = node.set_parameters([Parameter('health.warning_hold_s', value=5.0)])[0]
+        assert changed.successful and node.diagnostics.health.limits.warning_hold_s == 5.0
+        refused = node.set_parameters([Parameter('health.unjudged_limit', value=2.0)])[0]
+        assert not refused.successful and 'must be a fraction' in refused.reason
+        assert node.diagnostics.health.limits.unjudged_limit == 0.01
+
+
+def test_an_integer_is_taken_for_a_number():
+    with supervisor('-p', f'config_file:={PAPER_ROBOT}', '-p', 'fdi.epsilon_nm:=1',
+                    '-p', 'recovery.hold_after_s:=3') as node:
+        assert node.supervisor.fdi.epsilon_nm == 1.0
+        assert node.supervisor.recovery_config.hold_after_s == 3.0
+        assert node.get_parameter('fdi.epsilon_nm').type_ == Parameter.Type.DOUBLE
+
+
+def test_a_misspelt_parameter_is_reported_as_ignored():
+    with supervisor('-p', f'config_file:={PAPER_ROBOT}', '-p', 'fdi.epsilonn:=0.5') as node:
+        assert node.ignored_parameters() == ['fdi.epsilonn']
+
+
+def start(executable: str, *parameters: str) -> subprocess.CompletedProcess:
+    command = executable_command('cdpr_control', executable) + ['--ros-args']
+    for parameter in parameters:
+        command += ['-p', parameter]
+    return subprocess.run(command, capture_output=True, text=True, timeout=60,
+                          env=dict(node_environment(), CDPR_LAUNCHER_PID=str(os.getpid())))
+
+
+@pytest.mark.parametrize('parameters, named', [
+    ((f'config_file:={CONFIG_DIR / "absent.yaml"}',), 'absent.yaml'),
+    (('clock_mode:=banana',), 'clock_mode'),
+    ((f'config_file:={PAPER_ROBOT}', 'control.period_s:=-0.002'), 'control.period_s'),
+    (('realtime_priority:=120',), 'realtime_priority'),
+])
+def test_a_node_that_cannot_start_says_why_in_one_fatal_line_and_exits_1(parameters, named):
+    result = start('controller', *parameters)
+    output = result.stdout + result.stderr
+    fatal = [line for line in output.splitlines() if '[FATAL]' in line]
+    assert result.returncode == 1, output
+    assert len(fatal) == 1 and named in fatal[0], output
+    assert 'Traceback' not in output
