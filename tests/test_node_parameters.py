@@ -9,14 +9,19 @@ from contextlib import contextmanager
 
 import pytest
 import rclpy
+import yaml
 from rclpy.parameter import Parameter
 
 from cdpr_bringup.graph import executable_command, node_environment, parser
 from cdpr_bringup.params import parameter_files
 from cdpr_control.config import load_yaml
+from cdpr_control.controller_node import ControllerNode
+from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
 from cdpr_fdi.supervisor_node import SupervisorNode
+from cdpr_twin.digital_twin_node import DigitalTwinNode
+from cdpr_twin.plant_simulator_node import PlantSimulatorNode
 
-from conftest import CONFIG_DIR, PAPER_ROBOT
+from conftest import CONFIG_DIR, PAPER_ROBOT, settled_parameters
 
 SHIPPED = CONFIG_DIR / 'params'
 
@@ -38,6 +43,25 @@ def test_the_shipped_parameter_files_are_the_default_runs():
     assert sorted(path.stem for path in SHIPPED.glob('*.yaml')) == sorted(written)
     for name, text in written.items():
         assert (SHIPPED / f'{name}.yaml').read_text() == text, name
+
+
+@pytest.mark.parametrize('node_class', [TrajectoryGeneratorNode, ControllerNode, DigitalTwinNode,
+                                        SupervisorNode, PlantSimulatorNode])
+def test_every_parameter_of_a_settled_run_is_one_its_node_has(node_class, tmp_path):
+    """Nothing the launcher settles is dropped as unknown: a failure on the elastic plant."""
+    name = {TrajectoryGeneratorNode: 'trajectory_generator', ControllerNode: 'controller',
+            DigitalTwinNode: 'digital_twin', SupervisorNode: 'supervisor',
+            PlantSimulatorNode: 'plant_simulator'}[node_class]
+    parameters = settled_parameters('lockstep', motion='along-2', fail_cables=[4])[name]
+    path = tmp_path / 'parameters.yaml'
+    path.write_text(yaml.safe_dump({'/**': {'ros__parameters': parameters}}))
+    rclpy.init(args=['--ros-args', '--params-file', str(path)])
+    try:
+        node = node_class()
+        assert node.ignored_parameters() == []
+        node.destroy_node()
+    finally:
+        rclpy.shutdown()
 
 
 def test_a_node_started_with_its_shipped_file_has_described_read_only_settings():
