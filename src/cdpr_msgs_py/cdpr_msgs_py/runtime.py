@@ -345,7 +345,10 @@ class CdprNode(Node):
     """
 
     def __init__(self, name: str):
-        super().__init__(name, automatically_declare_parameters_from_overrides=True)
+        # /cdpr unless the command line says otherwise: a node started alone (ros2 run)
+        # joins the graph's topics, and `-r __ns:=…` (what launchers pass) overrides this
+        super().__init__(name, namespace=contract.DEFAULT_NAMESPACE,
+                         automatically_declare_parameters_from_overrides=True)
         self.sole_writers: list[SoleWriterSubscription] = []
         self.clock_mode = self.parameter('clock_mode', 'lockstep')
         if self.clock_mode not in ('lockstep', 'realtime'):
