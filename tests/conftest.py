@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cdpr_control.robot import load_robot
 from cdpr_msgs_py.dds import use_shipped_setup
 
 REPO = Path(__file__).resolve().parents[1]
@@ -82,6 +81,13 @@ def wait_until_the_plant_runs(lines: list[str], timeout_s: float) -> None:
     while not any(line.startswith('[plant_simulator]') and 'starting' in line for line in lines):
         assert time.monotonic() < deadline, 'the plant did not start its run'
         time.sleep(0.05)
+
+
+def load_robot(path):
+    # imported here: cdpr_msgs_py's tests share this file, and that package (colcon test)
+    # has no cdpr_control
+    from cdpr_control.robot import load_robot
+    return load_robot(path)
 
 
 @pytest.fixture(scope='session')

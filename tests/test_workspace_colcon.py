@@ -1,7 +1,9 @@
-"""The packages build with colcon as a ROS 2 workspace would, and `ros2 run` would find them."""
+"""The packages build with colcon as a ROS 2 workspace would, `ros2 run` would find them, and
+`colcon test` runs and passes the tests each package names (its setup.cfg)."""
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -20,17 +22,27 @@ def console_scripts(package: str) -> list[str]:
             if entry.group == 'console_scripts']
 
 
+COLCON = Path(sys.executable).parent / 'colcon'
+# The checkout as README's workspace section clones it: the packages' tests are in tests/.
+CHECKOUT = ['src', 'tests']
+
+
 @pytest.fixture(scope='module')
-def colcon_install(tmp_path_factory) -> Path:
+def colcon_workspace(tmp_path_factory) -> Path:
     workspace = tmp_path_factory.mktemp('ws')
-    shutil.copytree(REPO / 'src', workspace / 'src',
-                    ignore=shutil.ignore_patterns('*.egg-info', '__pycache__'))
-    colcon = Path(sys.executable).parent / 'colcon'
+    for folder in CHECKOUT:
+        shutil.copytree(REPO / folder, workspace / 'src' / 'cdpr' / folder,
+                        ignore=shutil.ignore_patterns('*.egg-info', '__pycache__'))
     result = subprocess.run(
-        [str(colcon), '--log-base', 'log', 'build', '--base-paths', 'src'],
+        [str(COLCON), '--log-base', 'log', 'build', '--base-paths', 'src/cdpr/src'],
         cwd=workspace, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr
-    return workspace / 'install'
+    return workspace
+
+
+@pytest.fixture(scope='module')
+def colcon_install(colcon_workspace) -> Path:
+    return colcon_workspace / 'install'
 
 
 @pytest.mark.workspace
@@ -61,3 +73,21 @@ def test_installed_executable_runs_from_the_workspace(colcon_install):
     assert result.returncode == 0, result.stderr
     assert 'cable 4 broken: SP = (0.5627, 1.2867' in result.stdout
     assert str(colcon_install) in result.stdout, 'config must come from the installed share dir'
+
+
+@pytest.mark.workspace
+def test_colcon_test_runs_each_packages_tests(colcon_workspace):
+    result = subprocess.run(
+        [str(COLCON), '--log-base', 'log', 'test', '--base-paths', 'src/cdpr/src',
+         '--event-handlers', 'console_direct-'],
+        cwd=colcon_workspace, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
+    summary = subprocess.run([str(COLCON), 'test-result', '--test-result-base', 'build', '--all', '--verbose'],
+                             cwd=colcon_workspace, capture_output=True, text=True, timeout=60)
+    assert summary.returncode == 0, summary.stdout + summary.stderr
+    # one result file per package (--all lists those without failures too), each with tests
+    for package in PACKAGES:
+        assert re.search(rf'build/{package}/pytest.xml: [1-9]\d* tests, 0 errors, 0 failures',
+                         summary.stdout), summary.stdout
+    total = re.search(r'Summary: (\d+) tests, 0 errors, 0 failures', summary.stdout)
+    assert total and int(total[1]) > 200, summary.stdout

@@ -15,7 +15,9 @@ setup(
         ('share/' + package_name + '/config/robots', glob('config/robots/*.yaml')),
         ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
     ],
-    install_requires=['setuptools', 'numpy', 'PyYAML', 'matplotlib', 'rosbags'],
+    install_requires=['setuptools', 'numpy', 'PyYAML', 'matplotlib', 'rosbags', 'mcap'],
+    # colcon test runs pytest for a package that names it here
+    extras_require={'test': ['pytest']},
     zip_safe=True,
     maintainer='cdpr maintainers',
     maintainer_email='cdpr-maintainers@example.org',

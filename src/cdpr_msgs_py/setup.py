@@ -12,6 +12,8 @@ setup(
         ('share/' + package_name, ['package.xml', package_name + '/fastdds_loopback.xml']),
     ],
     install_requires=['setuptools', 'numpy'],
+    # colcon test runs pytest for a package that names it here
+    extras_require={'test': ['pytest']},
     zip_safe=True,
     maintainer='cdpr maintainers',
     maintainer_email='cdpr-maintainers@example.org',

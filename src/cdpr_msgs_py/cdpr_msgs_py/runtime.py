@@ -369,7 +369,9 @@ class CdprNode(Node):
     CHANGEABLE_SETTINGS = frozenset(f'health.{field.name}' for field in fields(HealthLimits))
 
     def __init__(self, name: str):
-        super().__init__(name)
+        # /cdpr unless the command line says otherwise: a node started alone (ros2 run)
+        # joins the graph's topics, and `-r __ns:=…` (what launchers pass) overrides this
+        super().__init__(name, namespace=contract.DEFAULT_NAMESPACE)
         self.sole_writers: list[SoleWriterSubscription] = []
         self.clock_mode = self.parameter('clock_mode', 'lockstep',
                                          'lockstep: each tick waits for its command, repeatable; '
