@@ -5,6 +5,7 @@ import faulthandler
 import functools
 import os
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -37,6 +38,8 @@ def pytest_runtest_protocol(item, nextitem):
 def pytest_configure(config):
     # One DDS domain per test session so parallel sessions never see each other's graph.
     os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 101))
+    # where the venv's packages are indexed, as `make test` and the venv's activate say
+    os.environ.setdefault('AMENT_PREFIX_PATH', sys.prefix)
     use_shipped_setup()
 
 
