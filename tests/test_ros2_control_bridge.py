@@ -256,3 +256,15 @@ def test_node_turns_the_robot_into_the_contract_and_back(graph, robot):
     assert all(bridge.describe_parameter(name).read_only and bridge.describe_parameter(name).description
                for name in ('robot_joints', 'controller_joints', 'robot_joint_states_topic',
                             'controller_commands_topic', 'command_writer'))
+
+
+def test_the_example_configuration_drives_every_motor_through_its_effort_controller():
+    import yaml
+    from conftest import CONFIG_DIR
+    example = yaml.safe_load((CONFIG_DIR / 'ros2_control_example.yaml').read_text())
+    bridge = example['/cdpr/ros2_control_bridge']['ros__parameters']
+    controller_joints = example['effort_controller']['ros__parameters']['joints']
+    assert bridge['controller_joints'] == controller_joints
+    assert example['controller_manager']['ros__parameters']['effort_controller']['type'] == \
+        'effort_controllers/JointGroupEffortController'
+    JointMapping(MOTORS, bridge['robot_joints'], bridge['controller_joints'])
