@@ -22,6 +22,7 @@ setup(
         'console_scripts': [
             'digital_twin = cdpr_twin.digital_twin_node:main',
             'plant_simulator = cdpr_twin.plant_simulator_node:main',
+            'ros2_control_bridge = cdpr_twin.ros2_control_bridge_node:main',
         ],
     },
 )

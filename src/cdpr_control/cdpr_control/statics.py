@@ -24,6 +24,12 @@ def static_tensions(robot: Robot, position_m, attached) -> np.ndarray:
     return tensions
 
 
+def holding_torque_nm(robot: Robot, position_m, attached) -> np.ndarray:
+    """c = −ρ t (N·m), t the static tensions of the `attached` cables at p: the motor
+    torques that hold the end-effector still there (pulling is negative)."""
+    return -robot.motor.drum_radius_m * static_tensions(robot, position_m, attached)
+
+
 def in_static_equilibrium(robot: Robot, position_m, attached, tolerance: float = 1e-9) -> bool:
     """True when non-negative tensions of the `attached` cables balance gravity at p.
 

@@ -38,6 +38,8 @@ DIGITAL_TWIN = 'digital_twin'
 SUPERVISOR = 'supervisor'
 PLANT_SIMULATOR = 'plant_simulator'
 BAG_RECORDER = 'bag_recorder'
+# A hardware bridge in the plant simulator's place, for a ros2_control robot.
+ROS2_CONTROL_BRIDGE = 'ros2_control_bridge'
 
 # The sections of a settled run (cdpr_control.settings) each node reads as its ROS
 # parameters, besides those every node reads.
@@ -48,6 +50,7 @@ SETTINGS_OF = {
     SUPERVISOR: ('control', 'fdi', 'recovery'),
     PLANT_SIMULATOR: ('control', 'plant', 'run'),
     BAG_RECORDER: ('control',),
+    ROS2_CONTROL_BRIDGE: ('control', 'plant'),
 }
 SETTINGS_OF_EVERY_NODE = ('streams', 'health')
 

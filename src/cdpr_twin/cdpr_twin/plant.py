@@ -13,7 +13,7 @@ import numpy as np
 
 from cdpr_control.config import Section
 from cdpr_control.robot import Robot
-from cdpr_control.statics import static_tensions
+from cdpr_control.statics import holding_torque_nm
 
 from .elastic_model import ElasticCableRobot
 from .rigid_model import RigidCableRobot
@@ -129,8 +129,7 @@ class PlantSimulator:
     def holding_torque_nm(self) -> np.ndarray:
         """c = −ρ t (N·m), t the static tensions of the cables still attached where the
         end-effector is: what the drive holds the load with before its first command."""
-        return -self.robot.motor.drum_radius_m * static_tensions(
-            self.robot, self.position_m, self.robot.cable_mask(self.broken))
+        return holding_torque_nm(self.robot, self.position_m, self.robot.cable_mask(self.broken))
 
     def applied_torque_nm(self, command_nm) -> np.ndarray:
         """The torque (N·m) the motors apply, and the drive reports as applied, for
