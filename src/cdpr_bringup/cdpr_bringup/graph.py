@@ -227,8 +227,8 @@ def run_until_stopped(nodes: list[NodeSpec], namespace: str, log=print) -> None:
 
 def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
                 supervised: bool = True, plant: bool = True) -> list[NodeSpec]:
-    """The closed loop: generator, controller, twin, supervisor, plant, and a recorder,
-    each with its settled parameters (Scenario.node_parameters).
+    """The closed loop: generator, controller, twin, supervisor, plant, a recorder and the
+    markers, each with its settled parameters (Scenario.node_parameters).
 
     Each node gets the `matches` its per-cycle endpoints must reach before it subscribes
     to its tick (CdprNode.start_when_matched); the plant starts when all have. Without
@@ -241,6 +241,7 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
         specs.append(('cdpr_fdi', 'supervisor', {}))
     if bag_path is not None:
         specs.append(('cdpr_bringup', 'bag_recorder', {'bag_path': bag_path}))
+    specs.append(('cdpr_fdi', 'markers', {}))
     if plant:
         specs.append(('cdpr_twin', 'plant_simulator', {}))
     realtime = parameters['controller']['clock_mode'] == 'realtime'
@@ -259,14 +260,15 @@ def start_handshake(nodes: set[str], lockstep: bool, simulated: bool = True) -> 
     the topics written at every tick (contract.TOPICS) by a node of `nodes` (the plant
     simulator's simulated topics only when it is one, not a bridge in its place): their
     writer waits until it has all their readers in `nodes`; each reader, except on its
-    tick (which it subscribes to only once started), waits until it has the writer."""
+    tick (which it subscribes to only once started), waits until it has the writer. A
+    display's reader (the markers') takes no part."""
     publishers = {node: [] for node in nodes}
     subscriptions = {node: [] for node in nodes}
     for topic in contract.TOPICS.values():
         if (not topic.every_tick or topic.writer not in nodes or (topic.lockstep and not lockstep)
                 or (topic.simulated and not simulated)):
             continue
-        readers = [reader for reader in topic.readers if reader.node in nodes
+        readers = [reader for reader in topic.readers if reader.node in nodes and not reader.display
                    and (not reader.pacing or (lockstep and topic.writer in nodes))
                    and (simulated or not reader.simulated)]
         if readers and topic.writer in nodes:

@@ -19,6 +19,7 @@ from cdpr_control.settings import ROBOT_DESCRIPTION, flatten, robot_description
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_fdi.config import FdiConfig, RecoveryConfig, calibrated_fdi, settled_fdi
+from cdpr_fdi.markers import Frame, MarkerStyle
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 from cdpr_twin.plant import FIDELITIES, PlantConfig
@@ -37,13 +38,14 @@ NODE_SECTIONS = {
     'supervisor': ('control', 'fdi', 'recovery'),
     'plant_simulator': ('control', 'plant', 'run'),
     'bag_recorder': ('control',),
+    'markers': ('control', 'fdi', 'recovery', 'markers'),
 }
 COMMON_SECTIONS = ('streams', 'health')
 # Realtime: the nodes a command waits on; the FDI, whose recovery setpoints a command
 # waits on after a failure; and what may lag without harm.
 CONTROL_LOOP = ('plant_simulator', 'controller', 'trajectory_generator')
 FDI = ('digital_twin', 'supervisor')
-BACKGROUND = ('bag_recorder',)
+BACKGROUND = ('bag_recorder', 'markers')
 
 
 @dataclass
@@ -85,6 +87,11 @@ class Scenario:
     distribution: TensionDistribution
     fdi: FdiConfig
     recovery: RecoveryConfig
+    markers: MarkerStyle
+
+    def marker_frame(self) -> Frame:
+        """The markers node's core for this run, as the node settles it."""
+        return Frame(self.robot, self.fdi.friction, self.recovery, self.markers)
 
     @property
     def failure_time_s(self) -> float | None:
@@ -211,6 +218,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         distribution=distribution,
         fdi=fdi,
         recovery=recovery,
+        markers=MarkerStyle.from_section(settings.section('markers')),
     )
     settings.data['run']['last_tick'] = scenario.cycles - 1
     if options.duration_s is None:

@@ -23,7 +23,7 @@ from .robot import Robot, robot_from_section
 ROBOT_DESCRIPTION = 'robot_description'
 # The sections a settled run has besides `robot`, in the order docs/design.md §6 lists them.
 SECTIONS = ('control', 'twin', 'plant', 'fdi', 'recovery', 'scheduling', 'streams', 'health',
-            'motion', 'run')
+            'markers', 'motion', 'run')
 
 
 def flatten(mapping: Mapping, prefix: str = '') -> dict[str, Any]:
