@@ -113,7 +113,10 @@ class Graph:
         self.log(f'[cdpr-graph] ROS_DOMAIN_ID={launch_environment()} (set it to listen from another shell)')
         for spec in self.nodes:
             params = self.folder / f'{spec.name}.yaml'
-            params.write_text(yaml.safe_dump({'/**': {'ros__parameters': spec.parameters}}))
+            # ROS cannot type an empty array (a node with no `matches` died declaring it);
+            # every node reads a missing one as its default
+            given = {name: value for name, value in spec.parameters.items() if value != []}
+            params.write_text(yaml.safe_dump({'/**': {'ros__parameters': given}}))
             command = executable_command(spec.package, spec.executable) + [
                 '--ros-args', '-r', f'__ns:={self.namespace}', '--params-file', str(params)]
             process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
