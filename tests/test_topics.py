@@ -12,6 +12,7 @@ from cdpr_bringup.bag_recorder_node import BagRecorderNode
 from cdpr_bringup.graph import graph_nodes
 from cdpr_control.controller_node import ControllerNode
 from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
+from cdpr_fdi.markers_node import MarkersNode
 from cdpr_fdi.supervisor_node import SupervisorNode
 from cdpr_msgs_py import contract, qos
 from cdpr_twin.digital_twin_node import DigitalTwinNode
@@ -191,11 +192,12 @@ PINNED = {
 }
 
 
-# Three changes since: a reader waits only for a writer the graph starts (without a
+# Four changes since: a reader waits only for a writer the graph starts (without a
 # supervisor the recorder waited for fdi/residual, which nobody wrote, and the plant never
 # started); a hardware bridge writes nothing only a simulation has (the recorder waited
 # for the ground truth, and never subscribed to the states); the plant simulator reads
-# fdi/residual (the tick a mode it learns was decided on).
+# fdi/residual (the tick a mode it learns was decided on); the markers node starts before
+# the plant, waiting for nobody and waited for by nobody (a display's reader).
 NEVER_WRITTEN = {
     'no supervisor': {'subscription:fdi/residual=1'},
     'hardware': {'subscription:ground_truth/pose=1', 'subscription:ground_truth/tensions=1',
@@ -219,7 +221,9 @@ def expected_handshake(supervised, plant, bag, clock_mode) -> dict[str, str]:
         readers = int(written[0].split('=')[1]) if written else 0
         supervisor[:] = [entry for entry in supervisor if entry not in written]
         supervisor.append(f'publisher:fdi/residual={readers + 1}')
-    return {node: ' '.join(sorted(entries)) for node, entries in expected.items()}
+    nodes = list(expected.items())
+    nodes.insert(len(nodes) - 1 if plant else len(nodes), ('cdpr_fdi/markers', []))
+    return {node: ' '.join(sorted(entries)) for node, entries in nodes}
 
 
 @pytest.mark.parametrize('supervised, plant, bag, clock_mode',
@@ -241,7 +245,7 @@ def test_the_start_handshake_is_the_one_written_by_hand_but_for_two_mends(superv
 NODES = {contract.TRAJECTORY_GENERATOR: TrajectoryGeneratorNode,
          contract.CONTROLLER: ControllerNode, contract.DIGITAL_TWIN: DigitalTwinNode,
          contract.SUPERVISOR: SupervisorNode, contract.PLANT_SIMULATOR: PlantSimulatorNode,
-         contract.BAG_RECORDER: BagRecorderNode}
+         contract.BAG_RECORDER: BagRecorderNode, contract.MARKERS_NODE: MarkersNode}
 # What rclpy gives every node, besides the contract.
 RCLPY_TOPICS = {'/rosout', '/parameter_events'}
 

@@ -21,6 +21,7 @@ setup(
     entry_points={
         'console_scripts': [
             'supervisor = cdpr_fdi.supervisor_node:main',
+            'markers = cdpr_fdi.markers_node:main',
         ],
     },
 )

@@ -21,6 +21,7 @@ from rosbags.rosbag2 import CompressionMode, Reader, StoragePlugin, Writer
 from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
 from rosbags.typesys import Stores, get_typestore
 
+from cdpr_fdi.markers import FRAME_ID, Frame, Shape
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.stamps import NANOSECONDS, ns_parts, stamp_to_ns
 
@@ -227,13 +228,15 @@ def recording_from_bag(bag: str | Path, namespace: str = '/cdpr') -> Recording:
 
 
 def write_recording(writer: BagWriter, recording: Recording,
-                    namespace: str = contract.DEFAULT_NAMESPACE) -> None:
+                    namespace: str = contract.DEFAULT_NAMESPACE, frame: Frame | None = None) -> None:
     """An in-process Recording into an open bag as the graph would have recorded it, so
     that it gets the same report: the per-tick topics, the residual, the verdict and mode
     changes of the supervisor's summary (`recording.fdi`), and that summary on
     /diagnostics at the last tick. Bag times are the tick stamps plus 1 ns per message in
     the graph's order: the state, the command and the twin, then the supervisor's verdict
-    and mode, then its residual of that tick."""
+    and mode, then its residual of that tick. With a `frame` (cdpr_fdi.markers, the
+    markers node's core) also `markers`, every frame_ticks ticks after the residual, from
+    what the node reads of the same ticks, so that a viewer shows the run from its bag."""
     types = TYPESTORE.types
     stamps = np.round(recording.time_s * NANOSECONDS).astype(np.int64)
     names = contract.joint_names(recording.angle_rad.shape[1])
@@ -282,6 +285,9 @@ def write_recording(writer: BagWriter, recording: Recording,
             r.fdi, header(stamps.size - 1), namespace)))
     events.sort(key=lambda event: event[0])
     connections = {}
+    # a run of one tick has one frame
+    frame_ticks = (1 if frame is None or stamps.size < 2
+                   else frame.style.frame_ticks(float(r.time_s[1] - r.time_s[0])))
 
     def write(topic, k, message, order_ns):
         if topic not in connections:
@@ -298,8 +304,52 @@ def write_recording(writer: BagWriter, recording: Recording,
             order += 1
             _, topic, message = events.pop(0)
             write(topic, k, message, order)
+            if frame is not None and topic == contract.FDI_BROKEN_CABLE:
+                frame.on_broken_cable(message.data)
         if r.residual_nm is not None:
             write(contract.FDI_RESIDUAL, k, joints(k, effort=r.residual_nm[k]), order + 1)
+        if frame is not None:
+            frame.on_state(r.time_s[k], r.angle_rad[k], r.angular_velocity_rad_s[k], applied[k])
+            frame.on_twin_pose(r.twin_position_m[k])
+            if (r.recovery_reference_angle_rad is not None
+                    and np.isfinite(r.recovery_reference_angle_rad[k]).all()):
+                frame.on_recovery_reference(r.recovery_reference_angle_rad[k])
+            if k % frame_ticks == 0:
+                write(contract.MARKERS, k, marker_array(frame.shapes(), header(k)), order + 2)
+
+
+def marker_array(shapes: list[Shape], header):
+    """A frame of the markers node (cdpr_fdi.markers_node.marker_array) in the bag's types:
+    DELETEALL, then every shape, its points in the world frame."""
+    types = TYPESTORE.types
+    marker, point = types['visualization_msgs/msg/Marker'], types['geometry_msgs/msg/Point']
+    colour = types['std_msgs/msg/ColorRGBA']
+    header = types['std_msgs/msg/Header'](stamp=header.stamp, frame_id=FRAME_ID)
+    no_bytes = np.zeros(0, dtype=np.uint8)
+
+    def make(action, shape: Shape | None = None):
+        scale = 0.0 if shape is None else float(shape.scale_m)
+        colours = [] if shape is None else [colour(*map(float, rgba)) for rgba in shape.colours]
+        return marker(
+            header=header, ns='' if shape is None else shape.namespace,
+            id=0 if shape is None else shape.id,
+            type=0 if shape is None else getattr(marker, shape.kind), action=action,
+            pose=types['geometry_msgs/msg/Pose'](
+                position=point(0.0, 0.0, 0.0),
+                orientation=types['geometry_msgs/msg/Quaternion'](0.0, 0.0, 0.0, 1.0)),
+            scale=types['geometry_msgs/msg/Vector3'](scale, scale, scale),
+            color=colours[0] if colours else colour(0.0, 0.0, 0.0, 0.0),
+            lifetime=types['builtin_interfaces/msg/Duration'](sec=0, nanosec=0),
+            frame_locked=False,
+            points=[] if shape is None else [point(*map(float, xyz)) for xyz in shape.points_m],
+            colors=colours, texture_resource='',
+            texture=types['sensor_msgs/msg/CompressedImage'](header=header, format='', data=no_bytes),
+            uv_coordinates=[], text='', mesh_resource='',
+            mesh_file=types['visualization_msgs/msg/MeshFile'](filename='', data=no_bytes),
+            mesh_use_embedded_materials=False)
+
+    return types['visualization_msgs/msg/MarkerArray'](
+        markers=[make(marker.DELETEALL)] + [make(marker.ADD, shape) for shape in shapes])
 
 
 def supervisor_diagnostics(summary: dict, header, namespace: str):

@@ -58,7 +58,9 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     rows = {name: np.empty((cycles, width)) for name, width in (
         ('angle', m), ('speed', m), ('command', m), ('twin_angle', m), ('twin_speed', m),
         ('twin_torque', m), ('twin_position', 3), ('true_position', 3), ('true_tension', m),
-        ('reference_position', 3), ('reference_angle', m), ('residual', m))}
+        ('reference_position', 3), ('reference_angle', m), ('residual', m),
+        ('recovery_reference_angle', m))}
+    rows['recovery_reference_angle'][:] = np.nan
     applied = np.zeros(m)
     run_length = RunLength(cycles - 1, scenario.hold_after_cycles)
     ran = 0
@@ -79,6 +81,8 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             if verdict is not None:
                 steer(setpoints, verdict, stamp + period_ns)
                 rows['residual'][k] = verdict.residual_nm
+                if verdict.reference is not None:
+                    rows['recovery_reference_angle'][k] = verdict.reference.angle_rad
                 # the graph's plant learns the verdict once it stands at the next tick
                 run_length.mode(verdict.mode, k + 1)
             plant.step(command, scenario.period_s)
@@ -104,5 +108,6 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
         reference_angle_rad=rows['reference_angle'],
         true_position_m=rows['true_position'], true_tension_n=rows['true_tension'],
         residual_nm=rows['residual'] if supervisor is not None else None,
+        recovery_reference_angle_rad=rows['recovery_reference_angle'],
         fdi=supervisor.summary() if supervisor is not None else {},
         interrupted=ran <= run_length.last_tick)

@@ -113,7 +113,10 @@ class Graph:
         self.log(f'[cdpr-graph] ROS_DOMAIN_ID={launch_environment()} (set it to listen from another shell)')
         for spec in self.nodes:
             params = self.folder / f'{spec.name}.yaml'
-            params.write_text(yaml.safe_dump({'/**': {'ros__parameters': spec.parameters}}))
+            # ROS cannot type an empty array (a node with no `matches` died declaring it);
+            # every node reads a missing one as its default
+            given = {name: value for name, value in spec.parameters.items() if value != []}
+            params.write_text(yaml.safe_dump({'/**': {'ros__parameters': given}}))
             command = executable_command(spec.package, spec.executable) + [
                 '--ros-args', '-r', f'__ns:={self.namespace}', '--params-file', str(params)]
             process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -227,8 +230,8 @@ def run_until_stopped(nodes: list[NodeSpec], namespace: str, log=print) -> None:
 
 def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
                 supervised: bool = True, plant: bool = True) -> list[NodeSpec]:
-    """The closed loop: generator, controller, twin, supervisor, plant, and a recorder,
-    each with its settled parameters (Scenario.node_parameters).
+    """The closed loop: generator, controller, twin, supervisor, plant, a recorder and the
+    markers, each with its settled parameters (Scenario.node_parameters).
 
     Each node gets the `matches` its per-cycle endpoints must reach before it subscribes
     to its tick (CdprNode.start_when_matched); the plant starts when all have. Without
@@ -241,6 +244,7 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
         specs.append(('cdpr_fdi', 'supervisor', {}))
     if bag_path is not None:
         specs.append(('cdpr_bringup', 'bag_recorder', {'bag_path': bag_path}))
+    specs.append(('cdpr_fdi', 'markers', {}))
     if plant:
         specs.append(('cdpr_twin', 'plant_simulator', {}))
     realtime = parameters['controller']['clock_mode'] == 'realtime'
@@ -259,14 +263,15 @@ def start_handshake(nodes: set[str], lockstep: bool, simulated: bool = True) -> 
     the topics written at every tick (contract.TOPICS) by a node of `nodes` (the plant
     simulator's simulated topics only when it is one, not a bridge in its place): their
     writer waits until it has all their readers in `nodes`; each reader, except on its
-    tick (which it subscribes to only once started), waits until it has the writer."""
+    tick (which it subscribes to only once started), waits until it has the writer. A
+    display's reader (the markers') takes no part."""
     publishers = {node: [] for node in nodes}
     subscriptions = {node: [] for node in nodes}
     for topic in contract.TOPICS.values():
         if (not topic.every_tick or topic.writer not in nodes or (topic.lockstep and not lockstep)
                 or (topic.simulated and not simulated)):
             continue
-        readers = [reader for reader in topic.readers if reader.node in nodes
+        readers = [reader for reader in topic.readers if reader.node in nodes and not reader.display
                    and (not reader.pacing or (lockstep and topic.writer in nodes))
                    and (simulated or not reader.simulated)]
         if readers and topic.writer in nodes:

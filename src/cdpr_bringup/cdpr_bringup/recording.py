@@ -24,6 +24,9 @@ class Recording:
     true_position_m: np.ndarray
     true_tension_n: np.ndarray
     residual_nm: np.ndarray | None = None
+    # The supervisor's recovery/reference angles published at each tick (for the next),
+    # NaN where it published none; None when unknown (a bag's Recording).
+    recovery_reference_angle_rad: np.ndarray | None = None
     fdi: dict = field(default_factory=dict)
     # Ctrl-C ended the run early: the rows are the cycles that ran.
     interrupted: bool = False

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import yaml
 
+from cdpr_fdi.markers import Frame
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 
 from .bag_io import BagWriter, read_messages, recording_from_bag, write_recording
@@ -185,7 +186,7 @@ def run_scenario(args) -> int:
     print(f'metrics: {out / "metrics.json"}')
     if not args.no_plots:
         if args.engine == 'inprocess':
-            record(recording, out / 'bag', args.namespace)
+            record(recording, out / 'bag', args.namespace, scenario.marker_frame())
         write_report(out / 'bag', out / 'plots', RunSettings(
             scenario.robot, scenario.fdi, scenario.recovery, f'settings: the run\'s own, {out / SETTLED_RUN}'),
             args.namespace)
@@ -193,12 +194,12 @@ def run_scenario(args) -> int:
     return 0
 
 
-def record(recording, bag: Path, namespace: str) -> None:
-    """The in-process run as a bag, as the graph would have recorded it."""
+def record(recording, bag: Path, namespace: str, frame: Frame) -> None:
+    """The in-process run as a bag, as the graph would have recorded it, markers included."""
     writer = BagWriter(bag)
     writer.open()
     try:
-        write_recording(writer, recording, namespace)
+        write_recording(writer, recording, namespace, frame)
     finally:
         writer.close()
 

@@ -19,6 +19,7 @@ from cdpr_control.settings import ROBOT_DESCRIPTION, flatten, robot_description
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_fdi.config import FdiConfig, RecoveryConfig, calibrated_fdi, settled_fdi
+from cdpr_fdi.markers import Frame, MarkerStyle
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_msgs_py.contract import SETTINGS_OF, SETTINGS_OF_EVERY_NODE
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
@@ -34,7 +35,7 @@ NO_CALIBRATION = 'none'
 # waits on after a failure; and what may lag without harm.
 CONTROL_LOOP = ('plant_simulator', 'controller', 'trajectory_generator')
 FDI = ('digital_twin', 'supervisor')
-BACKGROUND = ('bag_recorder',)
+BACKGROUND = ('bag_recorder', 'markers')
 
 
 @dataclass
@@ -76,6 +77,11 @@ class Scenario:
     distribution: TensionDistribution
     fdi: FdiConfig
     recovery: RecoveryConfig
+    markers: MarkerStyle
+
+    def marker_frame(self) -> Frame:
+        """The markers node's core for this run, as the node settles it."""
+        return Frame(self.robot, self.fdi.friction, self.recovery, self.markers)
 
     @property
     def failure_time_s(self) -> float | None:
@@ -202,6 +208,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         distribution=distribution,
         fdi=fdi,
         recovery=recovery,
+        markers=MarkerStyle.from_section(settings.section('markers')),
     )
     settings.data['run']['last_tick'] = scenario.cycles - 1
     if options.duration_s is None:

@@ -4,7 +4,7 @@ A robot file holds the robot alone (`robot:`); a robot's set-up names its robot 
 (`robot_file:`, relative to the set-up) and holds the options it runs with that differ
 from the paper's. load_config fills in every option left out from the files of
 defaults/ beside this module (one per section: control, twin, plant, fdi, recovery,
-scheduling, streams, health), key by key, and remembers which keys it filled in
+scheduling, streams, health, markers), key by key, and remembers which keys it filled in
 (Section.is_default). A file with both a robot and options still loads.
 """
 from __future__ import annotations

@@ -27,6 +27,7 @@ RECOVERY_REFERENCE = 'recovery/reference'
 GROUND_TRUTH_POSE = 'ground_truth/pose'
 GROUND_TRUTH_TENSIONS = 'ground_truth/tensions'
 INJECT_FAILURE = 'inject_failure'
+MARKERS = 'markers'
 CLOCK = '/clock'
 DIAGNOSTICS = '/diagnostics'
 
@@ -38,6 +39,7 @@ DIGITAL_TWIN = 'digital_twin'
 SUPERVISOR = 'supervisor'
 PLANT_SIMULATOR = 'plant_simulator'
 BAG_RECORDER = 'bag_recorder'
+MARKERS_NODE = 'markers'
 # A hardware bridge in the plant simulator's place, for a ros2_control robot.
 ROS2_CONTROL_BRIDGE = 'ros2_control_bridge'
 
@@ -50,6 +52,7 @@ SETTINGS_OF = {
     SUPERVISOR: ('control', 'fdi', 'recovery'),
     PLANT_SIMULATOR: ('control', 'plant', 'run'),
     BAG_RECORDER: ('control',),
+    MARKERS_NODE: ('control', 'fdi', 'recovery', 'markers'),
     ROS2_CONTROL_BRIDGE: ('control', 'plant'),
 }
 SETTINGS_OF_EVERY_NODE = ('streams', 'health')
@@ -61,6 +64,8 @@ class Delivery(Enum):
     # Verdicts and modes: a reader that joins late still gets the last value.
     LATCHED = 'latched'
     DIAGNOSTICS = 'diagnostics'
+    # Drawn for a viewer a few times a second: a reader that lags loses old frames only.
+    DISPLAY = 'display'
 
 
 @dataclass(frozen=True)
@@ -73,11 +78,15 @@ class Reader:
     lockstep and only when told the writer is there (the controller's
     `wait_for_supervisor`); in realtime the wait would cost a third of the loop.
     `simulated`: read by the plant simulator only, not by a hardware bridge in its place.
+    `display`: read to draw it (the markers node): the reader subscribes at once, and no
+    writer waits for it (the start handshake leaves it out), so that it never holds up
+    the loop.
     """
     node: str
     tick: bool = False
     pacing: bool = False
     simulated: bool = False
+    display: bool = False
 
 
 @dataclass(frozen=True)
@@ -101,12 +110,14 @@ class Topic:
 
 # The recorder reads every topic; like the loop's nodes it is driven by joint_states.
 _RECORDER = Reader(BAG_RECORDER)
+_MARKERS = Reader(MARKERS_NODE, display=True)
 _STREAM, _LATCHED = Delivery.STREAM, Delivery.LATCHED
 
 TOPICS = {topic.name: topic for topic in (
     Topic(JOINT_STATES, 'sensor_msgs/msg/JointState', _STREAM, PLANT_SIMULATOR,
           (Reader(TRAJECTORY_GENERATOR, tick=True), Reader(CONTROLLER, tick=True),
-           Reader(SUPERVISOR, tick=True), Reader(BAG_RECORDER, tick=True)), every_tick=True),
+           Reader(SUPERVISOR, tick=True), Reader(BAG_RECORDER, tick=True), _MARKERS),
+          every_tick=True),
     Topic(REFERENCE, 'sensor_msgs/msg/JointState', _STREAM, TRAJECTORY_GENERATOR,
           (Reader(CONTROLLER), Reader(DIGITAL_TWIN, tick=True), Reader(SUPERVISOR), _RECORDER),
           every_tick=True),
@@ -119,18 +130,18 @@ TOPICS = {topic.name: topic for topic in (
     Topic(TWIN_JOINT_STATES, 'sensor_msgs/msg/JointState', _STREAM, DIGITAL_TWIN,
           (Reader(SUPERVISOR), _RECORDER), every_tick=True),
     Topic(TWIN_POSE, 'geometry_msgs/msg/PointStamped', _STREAM, DIGITAL_TWIN,
-          (_RECORDER,), every_tick=True),
+          (_RECORDER, _MARKERS), every_tick=True),
     Topic(FDI_RESIDUAL, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
           (Reader(CONTROLLER, pacing=True), Reader(PLANT_SIMULATOR, simulated=True), _RECORDER),
           every_tick=True),
     Topic(FDI_BROKEN_CABLE, 'std_msgs/msg/Int32', _LATCHED, SUPERVISOR,
-          (Reader(CONTROLLER), _RECORDER)),
+          (Reader(CONTROLLER), _RECORDER, _MARKERS)),
     Topic(MODE, 'std_msgs/msg/String', _LATCHED, SUPERVISOR,
           (Reader(CONTROLLER), Reader(PLANT_SIMULATOR), _RECORDER)),
     Topic(RECOVERY_TENSIONS, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
           (Reader(CONTROLLER), _RECORDER)),
     Topic(RECOVERY_REFERENCE, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
-          (Reader(CONTROLLER), _RECORDER)),
+          (Reader(CONTROLLER), _RECORDER, _MARKERS)),
     # The truth, for evaluation: never read by control or FDI.
     Topic(GROUND_TRUTH_POSE, 'geometry_msgs/msg/PointStamped', _STREAM, PLANT_SIMULATOR,
           (_RECORDER,), every_tick=True, simulated=True),
@@ -138,6 +149,8 @@ TOPICS = {topic.name: topic for topic in (
           (_RECORDER,), every_tick=True, simulated=True),
     Topic(INJECT_FAILURE, 'std_msgs/msg/Int32', _STREAM, None,
           (Reader(PLANT_SIMULATOR), _RECORDER)),
+    Topic(MARKERS, 'visualization_msgs/msg/MarkerArray', Delivery.DISPLAY, MARKERS_NODE,
+          (_RECORDER,)),
     Topic(CLOCK, 'rosgraph_msgs/msg/Clock', _STREAM, PLANT_SIMULATOR,
           (_RECORDER,), every_tick=True, lockstep=True, simulated=True),
     Topic(DIAGNOSTICS, 'diagnostic_msgs/msg/DiagnosticArray', Delivery.DIAGNOSTICS, None,

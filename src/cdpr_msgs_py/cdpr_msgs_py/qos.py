@@ -44,9 +44,16 @@ DIAGNOSTICS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
 
+# Markers: a second of frames at the default rate (defaults/markers.yaml); a viewer or
+# recorder that lags longer loses the oldest, never holds up the writer. Reliable, since
+# RViz and Foxglove ask for reliable by default and would not match a best-effort writer.
+DISPLAY = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=20,
+                     reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.VOLATILE)
+
 # What the graph's readers ask for, per kind of topic (contract.Delivery).
 FOR_READERS = {contract.Delivery.STREAM: STREAM, contract.Delivery.LATCHED: LATCHED,
-               contract.Delivery.DIAGNOSTICS: DIAGNOSTICS}
+               contract.Delivery.DIAGNOSTICS: DIAGNOSTICS, contract.Delivery.DISPLAY: DISPLAY}
 
 
 def of_readers(topic: str) -> QoSProfile:

@@ -1,0 +1,237 @@
+"""What RViz and Foxglove draw of a run (/cdpr/markers), as plain shapes from numpy inputs.
+
+The cables run from their exit points A_i to the end-effector p, coloured by the
+sensorless tension τ̂ (residual.sensorless_tensions) on a scale from the robot's
+tension_min_n (blue) to tension_max_n (red); a broken cable hangs from its exit point,
+grey, thin and dashed. p is forward kinematics of the measured angles, over the remaining
+cables once a cable is broken, as the supervisor and the report find it. The twin's
+end-effector, the safe point, the residual SEW outline at the safe point's height and the
+path of the recovery setpoints complete the picture.
+
+`Frame` gathers the messages of a run as they come and returns the shapes of one frame;
+the markers node publishes them, and bag_io writes them into an in-process run's bag.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cdpr_control.config import Section
+from cdpr_control.friction import FrictionModel
+from cdpr_control.kinematics import KinematicsError, forward_kinematics
+from cdpr_control.robot import Robot
+from cdpr_control.workspace import sew_cross_section
+
+from .config import RecoveryConfig
+from .recovery import RecoveryInfeasible, safe_point_for
+from .residual import sensorless_tensions
+
+# Every point is in the world frame of docs/design.md §4 (z up).
+FRAME_ID = 'world'
+# Marker types, as visualization_msgs/Marker names them.
+LINE_LIST, LINE_STRIP, SPHERE_LIST = 'LINE_LIST', 'LINE_STRIP', 'SPHERE_LIST'
+
+# RGBA in 0..1. The tension scale runs blue → green → red.
+TENSION_SCALE = np.array([[0.1, 0.3, 1.0, 1.0], [0.1, 0.9, 0.2, 1.0], [1.0, 0.1, 0.1, 1.0]])
+BROKEN_GREY = (0.55, 0.55, 0.55, 1.0)
+END_EFFECTOR_COLOUR = (0.85, 0.85, 0.9, 1.0)
+# Half transparent: the twin's ball shows through where it overlaps the robot's.
+TWIN_COLOUR = (0.2, 0.6, 1.0, 0.45)
+SAFE_POINT_COLOUR = (1.0, 0.8, 0.0, 1.0)
+SEW_COLOUR = (0.2, 0.8, 0.3, 1.0)
+PATH_COLOUR = (1.0, 0.5, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Shape:
+    """One marker: `points_m` (n × 3, world frame) and a colour per point (n × 4 RGBA);
+    `scale_m` is a line's width or a sphere's diameter."""
+    namespace: str
+    id: int
+    kind: str
+    points_m: np.ndarray
+    colours: np.ndarray
+    scale_m: float
+
+
+@dataclass(frozen=True)
+class MarkerStyle:
+    """The `markers` section (defaults/markers.yaml)."""
+    rate_hz: float
+    cable_width_m: float
+    broken_cable_width_m: float
+    dash_length_m: float
+    end_effector_diameter_m: float
+    safe_point_diameter_m: float
+    line_width_m: float
+    path_spacing_m: float
+
+    @classmethod
+    def from_section(cls, section: Section) -> 'MarkerStyle':
+        return cls(**{name: section.number(name, positive=True) for name in cls.__dataclass_fields__})
+
+    def frame_ticks(self, period_s: float) -> int:
+        """Control ticks per frame (at least one)."""
+        return max(1, int(round(1.0 / (self.rate_hz * period_s))))
+
+
+def tension_colour(tension_n: np.ndarray, tension_min_n: float, tension_max_n: float) -> np.ndarray:
+    """RGBA (… × 4) of each tension (N) on the scale from tension_min_n to tension_max_n,
+    clipped at its ends: a slack cable is as blue as one at the floor."""
+    fraction = np.clip((np.asarray(tension_n, float) - tension_min_n)
+                       / (tension_max_n - tension_min_n), 0.0, 1.0)
+    position = fraction * (len(TENSION_SCALE) - 1)
+    lower = np.minimum(position.astype(int), len(TENSION_SCALE) - 2)
+    weight = (position - lower)[..., None]
+    return (1.0 - weight) * TENSION_SCALE[lower] + weight * TENSION_SCALE[lower + 1]
+
+
+def dashes(start_m: np.ndarray, end_m: np.ndarray, dash_length_m: float) -> np.ndarray:
+    """The end points (2k × 3) of dashes of `dash_length_m` with gaps as long, from
+    `start_m` towards `end_m` (a LINE_LIST)."""
+    length = float(np.linalg.norm(end_m - start_m))
+    if length == 0.0:
+        return np.empty((0, 3))
+    starts = np.arange(0.0, length, 2.0 * dash_length_m)
+    ends = np.minimum(starts + dash_length_m, length)
+    along = np.column_stack([starts, ends]).ravel() / length
+    return start_m + along[:, None] * (end_m - start_m)
+
+
+def _single(namespace: str, kind: str, points_m, colour, scale_m: float, id: int = 0) -> Shape:
+    points = np.atleast_2d(np.asarray(points_m, float))
+    return Shape(namespace, id, kind, points, np.tile(colour, (len(points), 1)), scale_m)
+
+
+def cable_shapes(robot: Robot, style: MarkerStyle, position_m: np.ndarray,
+                 tension_n: np.ndarray, broken_cables: list[int]) -> list[Shape]:
+    """Per cable (id = its 1-based number): a line from its exit point to `position_m`
+    coloured by its tension, or, for a broken cable, a dashed grey line hanging straight
+    down from its exit point to the end-effector's height."""
+    colours = tension_colour(tension_n, robot.tension_min_n, robot.tension_max_n)
+    shapes = []
+    for index, exit_point in enumerate(robot.exit_points_m):
+        cable = index + 1
+        if cable in broken_cables:
+            below = np.array([exit_point[0], exit_point[1], position_m[2]])
+            shapes.append(_single('cables', LINE_LIST, dashes(exit_point, below, style.dash_length_m),
+                                  BROKEN_GREY, style.broken_cable_width_m, cable))
+        else:
+            shapes.append(_single('cables', LINE_LIST, [exit_point, position_m], colours[index],
+                                  style.cable_width_m, cable))
+    return shapes
+
+
+class Frame:
+    """A run's markers as its messages arrive: the measured state of each tick, the
+    broken cables, the twin's pose, the recovery setpoints; `shapes()` gives those of one
+    frame.
+
+    The tension a cable is coloured by is τ̂ averaged over the ticks since the last frame:
+    the mean of per-tick estimates, whose acceleration is then the speed change over the
+    whole frame, far less noisy than one tick's.
+    """
+
+    def __init__(self, robot: Robot, friction: FrictionModel, recovery: RecoveryConfig,
+                 style: MarkerStyle):
+        self.robot = robot
+        self.friction = friction
+        self.recovery = recovery
+        self.style = style
+        self.broken_cables: list[int] = []
+        self.angle_rad: np.ndarray | None = None
+        self.twin_position_m: np.ndarray | None = None
+        self.previous: tuple[float, np.ndarray] | None = None   # (time s, speed rad/s)
+        self.tension_sum_n = np.zeros(robot.cable_count)
+        self.tension_ticks = 0
+        self.tension_n = np.zeros(robot.cable_count)
+        self.recovery_path_m: list[np.ndarray] = []
+        self.safe_point_m: np.ndarray | None = None
+        self.sew_outline_m: np.ndarray | None = None
+
+    @property
+    def attached(self) -> np.ndarray:
+        return self.robot.cable_mask([cable - 1 for cable in self.broken_cables])
+
+    def on_state(self, time_s: float, angle_rad, angular_velocity_rad_s, applied_torque_nm) -> None:
+        """A measured tick: θ, θ̇ and the torque applied over the period that ended."""
+        speed = np.asarray(angular_velocity_rad_s, float)
+        if self.previous is not None and time_s > self.previous[0]:
+            before_s, before = self.previous
+            self.tension_sum_n += sensorless_tensions(
+                self.robot.motor, self.friction, np.asarray(applied_torque_nm, float), before,
+                speed, time_s - before_s)
+            self.tension_ticks += 1
+        self.previous = (time_s, speed)
+        self.angle_rad = np.asarray(angle_rad, float)
+
+    def on_broken_cable(self, cable: int) -> None:
+        """fdi/broken_cable: 0 while healthy, then each broken cable (1-based)."""
+        if cable <= 0 or cable in self.broken_cables:
+            return
+        self.broken_cables.append(cable)
+        try:
+            self.safe_point_m = safe_point_for(self.robot, self.recovery, self.attached)
+            outline = sew_cross_section(self.robot, self.attached, self.safe_point_m[2])
+            self.sew_outline_m = np.column_stack([outline, np.full(len(outline), self.safe_point_m[2])])
+        except RecoveryInfeasible:
+            self.safe_point_m = self.sew_outline_m = None
+
+    def on_twin_pose(self, position_m) -> None:
+        self.twin_position_m = np.asarray(position_m, float)
+
+    def on_recovery_reference(self, angle_rad) -> None:
+        """A recovery setpoint's angles: its pose joins the path when it is path_spacing_m
+        from the last one kept. Before the broken cable is known its free motor's angle
+        would enter the pose: such a setpoint is left out."""
+        if not self.broken_cables:
+            return
+        try:
+            position = forward_kinematics(self.robot, np.asarray(angle_rad, float), self.attached)
+        except (KinematicsError, np.linalg.LinAlgError):
+            return
+        if (not self.recovery_path_m
+                or np.linalg.norm(position - self.recovery_path_m[-1]) >= self.style.path_spacing_m):
+            self.recovery_path_m.append(position)
+
+    def end_effector_m(self) -> np.ndarray | None:
+        """Forward kinematics of the last measured angles over the remaining cables (m),
+        None before a state or where the lengths admit no position."""
+        if self.angle_rad is None:
+            return None
+        try:
+            return forward_kinematics(self.robot, self.angle_rad, self.attached)
+        except (KinematicsError, np.linalg.LinAlgError):
+            return None
+
+    def take_tension_n(self) -> np.ndarray:
+        """τ̂ (N) averaged over the ticks since the last call (the last average if none)."""
+        if self.tension_ticks:
+            self.tension_n = self.tension_sum_n / self.tension_ticks
+            self.tension_sum_n = np.zeros(self.robot.cable_count)
+            self.tension_ticks = 0
+        return self.tension_n
+
+    def shapes(self) -> list[Shape]:
+        """The shapes of one frame; what is not known yet is left out."""
+        style = self.style
+        tension = self.take_tension_n()
+        shapes = []
+        position = self.end_effector_m()
+        if position is not None:
+            shapes += cable_shapes(self.robot, style, position, tension, self.broken_cables)
+            shapes.append(_single('end_effector', SPHERE_LIST, position, END_EFFECTOR_COLOUR,
+                                  style.end_effector_diameter_m))
+        if self.twin_position_m is not None:
+            shapes.append(_single('twin', SPHERE_LIST, self.twin_position_m, TWIN_COLOUR,
+                                  style.end_effector_diameter_m))
+        if self.safe_point_m is not None:
+            shapes.append(_single('safe_point', SPHERE_LIST, self.safe_point_m, SAFE_POINT_COLOUR,
+                                  style.safe_point_diameter_m))
+            closed = np.vstack([self.sew_outline_m, self.sew_outline_m[:1]])
+            shapes.append(_single('sew_outline', LINE_STRIP, closed, SEW_COLOUR, style.line_width_m))
+        if len(self.recovery_path_m) >= 2:
+            shapes.append(_single('recovery_path', LINE_STRIP, self.recovery_path_m, PATH_COLOUR,
+                                  style.line_width_m))
+        return shapes

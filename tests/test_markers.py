@@ -1,0 +1,187 @@
+"""The markers of /cdpr/markers (cdpr_fdi.markers) against a simulated run's ground truth,
+and the same markers in an in-process run's bag."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cdpr_bringup.bag_io import BagWriter, read_messages, write_recording
+from cdpr_bringup.engine import run_inprocess
+from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_control.workspace import contains
+from cdpr_fdi.markers import (BROKEN_GREY, LINE_LIST, LINE_STRIP, SPHERE_LIST, TENSION_SCALE,
+                              dashes, tension_colour)
+from cdpr_fdi.residual import sensorless_tensions
+from cdpr_msgs_py import contract
+
+from conftest import MOTIONS, PAPER_ROBOT
+
+BROKEN = 4
+
+
+@pytest.fixture(scope='module')
+def run():
+    """Cable 4 breaks mid-way along cable 4 on the rigid plant, detected and recovered
+    in-process; the shapes of every frame, fed as the markers node is fed:
+    (scenario, recording, [(tick, shapes by namespace and id)], frame ticks)."""
+    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+                                              motion='along-4', fail_cables=[BROKEN],
+                                              fidelity='rigid'))
+    recording = run_inprocess(scenario)
+    frame = scenario.marker_frame()
+    ticks = scenario.markers.frame_ticks(scenario.period_s)
+    applied = np.vstack([np.zeros_like(recording.command_nm[:1]), recording.command_nm[:-1]])
+    frames = []
+    for k, time_s in enumerate(recording.time_s):
+        if k == recording.fdi['identified_tick']:
+            frame.on_broken_cable(BROKEN)
+        frame.on_state(time_s, recording.angle_rad[k], recording.angular_velocity_rad_s[k], applied[k])
+        frame.on_twin_pose(recording.twin_position_m[k])
+        if np.isfinite(recording.recovery_reference_angle_rad[k]).all():
+            frame.on_recovery_reference(recording.recovery_reference_angle_rad[k])
+        if k % ticks == 0:
+            frames.append((k, {(s.namespace, s.id): s for s in frame.shapes()}))
+    return scenario, recording, frames, ticks
+
+
+def test_cables_run_from_the_exit_points_to_the_true_end_effector(run):
+    scenario, recording, frames, _ = run
+    robot = scenario.robot
+    for k, shapes in frames:
+        true = recording.true_position_m[k]
+        assert np.allclose(shapes['end_effector', 0].points_m, [true], atol=1e-6), k
+        assert np.allclose(shapes['twin', 0].points_m, [recording.twin_position_m[k]])
+        for cable in range(1, robot.cable_count + 1):
+            shape = shapes['cables', cable]
+            assert shape.kind == LINE_LIST
+            if cable == BROKEN and k >= recording.fdi['identified_tick']:
+                continue
+            assert np.allclose(shape.points_m, [robot.exit_points_m[cable - 1], true], atol=1e-6), k
+
+
+def test_the_broken_cable_hangs_grey_thin_and_dashed_once_identified(run):
+    scenario, recording, frames, _ = run
+    style, exit_point = scenario.markers, scenario.robot.exit_points_m[BROKEN - 1]
+    identified = recording.fdi['identified_tick']
+    for k, shapes in frames:
+        shape = shapes['cables', BROKEN]
+        if k < identified:
+            assert shape.scale_m == style.cable_width_m
+            continue
+        assert shape.scale_m == style.broken_cable_width_m < style.cable_width_m
+        assert np.all(shape.colours == BROKEN_GREY)
+        assert len(shape.points_m) > 2 and len(shape.points_m) % 2 == 0, 'dashes, not one line'
+        assert np.allclose(shape.points_m[:, :2], exit_point[:2]), 'hanging straight down'
+        assert shape.points_m[0, 2] == exit_point[2]
+        # down to the end-effector's height, the last dash within a dash and a gap of it
+        height = recording.true_position_m[k, 2]
+        assert np.all(shape.points_m[:, 2] >= height - 1e-6)
+        assert shape.points_m[-1, 2] - height <= 2 * style.dash_length_m
+        for other in set(range(1, 5)) - {BROKEN}:
+            assert not np.any(np.all(shapes['cables', other].colours == BROKEN_GREY, axis=1))
+
+
+def test_a_cable_is_coloured_by_its_sensorless_tension_over_the_frame(run):
+    scenario, recording, frames, ticks = run
+    robot = scenario.robot
+    speed = recording.angular_velocity_rad_s
+    estimate = sensorless_tensions(robot.motor, scenario.fdi.friction, recording.command_nm[:-1],
+                                   speed[:-1], speed[1:], scenario.period_s)
+    checked = 0
+    for (_, _), (k, shapes) in zip(frames, frames[1:]):
+        mean = estimate[k - ticks:k].mean(axis=0)
+        colours = tension_colour(mean, robot.tension_min_n, robot.tension_max_n)
+        for cable in range(1, robot.cable_count + 1):
+            if cable == BROKEN and k >= recording.fdi['identified_tick']:
+                continue
+            assert np.allclose(shapes['cables', cable].colours, colours[cable - 1]), k
+        if k < recording.fdi['identified_tick'] - ticks:
+            # the estimate follows the truth on the rigid plant, so the colours do
+            true = recording.true_tension_n[k - ticks + 1:k + 1].mean(axis=0)
+            assert np.allclose(mean, true, atol=0.5), k
+            checked += 1
+    assert checked > 10
+
+
+def test_the_tension_scale_runs_from_blue_at_the_floor_to_red_at_the_ceiling():
+    low, high = 1.0, 100.0
+    tensions = np.linspace(-10.0, 120.0, 200)
+    colours = tension_colour(tensions, low, high)
+    assert np.allclose(colours[tensions <= low], TENSION_SCALE[0])
+    assert np.allclose(colours[tensions >= high], TENSION_SCALE[-1])
+    assert np.all(np.diff(colours[:, 0]) >= -1e-12) and np.all(np.diff(colours[:, 2]) <= 1e-12)
+    assert np.allclose(tension_colour((low + high) / 2, low, high), TENSION_SCALE[1])
+
+
+def test_dashes_cover_the_line_with_gaps():
+    points = dashes(np.array([0.0, 0.0, 2.0]), np.array([0.0, 0.0, 1.0]), 0.1)
+    assert len(points) == 10
+    assert np.allclose(points[::2, 2], np.arange(2.0, 1.0, -0.2))
+    assert np.allclose(points[1::2, 2] - points[::2, 2], -0.1)
+
+
+def test_the_safe_point_is_the_supervisors_inside_the_sew_outline_at_its_height(run):
+    scenario, recording, frames, _ = run
+    identified = recording.fdi['identified_tick']
+    for k, shapes in frames:
+        if k < identified:
+            assert ('safe_point', 0) not in shapes and ('sew_outline', 0) not in shapes
+            continue
+        safe_point = shapes['safe_point', 0]
+        outline = shapes['sew_outline', 0]
+        assert safe_point.kind == SPHERE_LIST and outline.kind == LINE_STRIP
+        assert np.allclose(safe_point.points_m, [recording.fdi['safe_point_m']])
+        assert np.allclose(outline.points_m[:, 2], scenario.recovery.safe_height_m)
+        assert np.allclose(outline.points_m[0], outline.points_m[-1]), 'closed'
+        assert contains(outline.points_m[:-1, :2], safe_point.points_m[0, :2])
+    # the remaining exit points' projections: cable 4's corner is cut off
+    corners = {tuple(p) for p in np.round(outline.points_m[:-1, :2], 9)}
+    assert corners == {tuple(p[:2]) for i, p in enumerate(scenario.robot.exit_points_m) if i != BROKEN - 1}
+
+
+def test_the_recovery_path_follows_the_setpoints_to_the_safe_point(run):
+    scenario, recording, frames, _ = run
+    _, shapes = frames[-1]
+    path = shapes['recovery_path', 0].points_m
+    assert len(path) > 10
+    assert np.linalg.norm(path[-1] - recording.fdi['safe_point_m']) < scenario.recovery.reached_tolerance_m
+    steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    assert np.all(steps >= scenario.markers.path_spacing_m - 1e-12)
+    move = recording.fdi['phase_ticks']['RECOVERY_MOVE']
+    assert not any(('recovery_path', 0) in s for k, s in frames if k < move)
+
+
+def test_an_inprocess_bag_carries_the_same_markers(run, tmp_path):
+    scenario, recording, frames, _ = run
+    writer = BagWriter(tmp_path / 'bag')
+    writer.open()
+    write_recording(writer, recording, frame=scenario.marker_frame())
+    writer.close()
+    topic = f'{contract.DEFAULT_NAMESPACE}/{contract.MARKERS}'
+    messages = [message for _, message in read_messages(tmp_path / 'bag', [topic])[topic]]
+    assert len(messages) == len(frames)
+    for message, (k, shapes) in zip(messages, frames):
+        first, *markers = message.markers
+        assert first.action == first.DELETEALL
+        assert message.markers[1].header.frame_id == 'world'
+        assert {(m.ns, m.id) for m in markers} == set(shapes)
+        for m in markers:
+            shape = shapes[m.ns, m.id]
+            assert m.type == getattr(m, shape.kind) and m.scale.x == shape.scale_m
+            assert np.allclose([[p.x, p.y, p.z] for p in m.points], shape.points_m)
+            assert np.allclose([[c.r, c.g, c.b, c.a] for c in m.colors], shape.colours, atol=1e-6)
+
+
+def test_the_node_sends_the_shapes_as_markers(run):
+    from visualization_msgs.msg import Marker
+
+    from cdpr_fdi.markers_node import marker_array
+    _, _, frames, _ = run
+    k, shapes = frames[-1]
+    message = marker_array(list(shapes.values()), 123)
+    assert message.markers[0].action == Marker.DELETEALL
+    for m, shape in zip(message.markers[1:], shapes.values()):
+        assert (m.ns, m.id, m.type) == (shape.namespace, shape.id, getattr(Marker, shape.kind))
+        assert m.header.frame_id == 'world' and m.header.stamp.nanosec == 123
+        assert np.allclose([[p.x, p.y, p.z] for p in m.points], shape.points_m)
+        assert np.allclose([[c.r, c.g, c.b, c.a] for c in m.colors], shape.colours, atol=1e-6)
