@@ -197,12 +197,20 @@ PINNED = {
 # started); a hardware bridge writes nothing only a simulation has (the recorder waited
 # for the ground truth, and never subscribed to the states); the plant simulator reads
 # fdi/residual (the tick a mode it learns was decided on); the markers node starts before
-# the plant, waiting for nobody and waited for by nobody (a display's reader).
+# the plant and waits for nobody, but the writers of what it reads at every tick count
+# it among the graph's readers (a display's reader, whose lag is not an outside reader's).
 NEVER_WRITTEN = {
     'no supervisor': {'subscription:fdi/residual=1'},
     'hardware': {'subscription:ground_truth/pose=1', 'subscription:ground_truth/tensions=1',
                  'subscription:/clock=1'},
 }
+
+
+def one_more_reader(entries: list[str], topic: str) -> None:
+    """The writer's entries, `topic` counting one reader more."""
+    written = [entry for entry in entries if entry.startswith(f'publisher:{topic}=')]
+    readers = int(written[0].split('=')[1]) if written else 0
+    entries[:] = [entry for entry in entries if entry not in written] + [f'publisher:{topic}={readers + 1}']
 
 
 def expected_handshake(supervised, plant, bag, clock_mode) -> dict[str, str]:
@@ -216,11 +224,10 @@ def expected_handshake(supervised, plant, bag, clock_mode) -> dict[str, str]:
                 for node, matches in PINNED[supervised, plant, bag, clock_mode].items()}
     if supervised and plant:
         expected['cdpr_twin/plant_simulator'].append('subscription:fdi/residual=1')
-        supervisor = expected['cdpr_fdi/supervisor']
-        written = [entry for entry in supervisor if entry.startswith('publisher:fdi/residual=')]
-        readers = int(written[0].split('=')[1]) if written else 0
-        supervisor[:] = [entry for entry in supervisor if entry not in written]
-        supervisor.append(f'publisher:fdi/residual={readers + 1}')
+        one_more_reader(expected['cdpr_fdi/supervisor'], 'fdi/residual')
+    one_more_reader(expected['cdpr_twin/digital_twin'], 'twin/pose')
+    if plant:
+        one_more_reader(expected['cdpr_twin/plant_simulator'], 'joint_states')
     nodes = list(expected.items())
     nodes.insert(len(nodes) - 1 if plant else len(nodes), ('cdpr_fdi/markers', []))
     return {node: ' '.join(sorted(entries)) for node, entries in nodes}

@@ -46,8 +46,7 @@ class BagRecorderNode(CdprNode):
 
     def __init__(self):
         super().__init__(contract.BAG_RECORDER)
-        settings = node_settings(self, contract.BAG_RECORDER)
-        self.configure(settings, settings.section('control').number('period_s', positive=True))
+        node_settings(self, contract.BAG_RECORDER)
         path = self.parameter('bag_path', 'bag', 'the bag folder to write')
         storage = self.parameter('storage', 'mcap', 'mcap or sqlite3')
         self.flush_period_s = self.parameter('flush_period_s', FLUSH_PERIOD_S,

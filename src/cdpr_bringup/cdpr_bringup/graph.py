@@ -264,20 +264,21 @@ def start_handshake(nodes: set[str], lockstep: bool, simulated: bool = True) -> 
     simulator's simulated topics only when it is one, not a bridge in its place): their
     writer waits until it has all their readers in `nodes`; each reader, except on its
     tick (which it subscribes to only once started), waits until it has the writer. A
-    display's reader (the markers') takes no part."""
+    display's reader (the markers') waits for nothing, but its writer counts it: it is
+    one of the graph's readers, whose lag is never reported as an outside reader's."""
     publishers = {node: [] for node in nodes}
     subscriptions = {node: [] for node in nodes}
     for topic in contract.TOPICS.values():
         if (not topic.every_tick or topic.writer not in nodes or (topic.lockstep and not lockstep)
                 or (topic.simulated and not simulated)):
             continue
-        readers = [reader for reader in topic.readers if reader.node in nodes and not reader.display
+        readers = [reader for reader in topic.readers if reader.node in nodes
                    and (not reader.pacing or (lockstep and topic.writer in nodes))
                    and (simulated or not reader.simulated)]
-        if readers and topic.writer in nodes:
+        if readers:
             publishers[topic.writer].append(f'publisher:{topic.name}={len(readers)}')
         for reader in readers:
-            if not reader.tick:
+            if not reader.tick and not reader.display:
                 subscriptions[reader.node].append(f'subscription:{topic.name}=1')
     return {node: publishers[node] + subscriptions[node] for node in nodes}
 

@@ -18,7 +18,7 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.contract import NOMINAL, SAFE_HOLD
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.runtime import CdprNode, run
-from cdpr_msgs_py.stamps import NANOSECONDS, seconds_to_ns
+from cdpr_msgs_py.stamps import NANOSECONDS
 
 from .controller import JointController, JointReference, PdGains
 from .friction import FrictionModel
@@ -30,11 +30,8 @@ class ControllerNode(CdprNode):
     def __init__(self):
         super().__init__(contract.CONTROLLER)
         settings = node_settings(self, contract.CONTROLLER)
-        self.robot = settings.robot
+        self.robot, self.period_ns = settings.robot, settings.period_ns
         control = settings.section('control')
-        period_s = control.number('period_s', positive=True)
-        self.period_ns = seconds_to_ns(period_s)
-        self.configure(settings, period_s)
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
         self.last_state_at: float | None = None
         self.controller = JointController(self.robot, PdGains.from_section(self.robot, control),

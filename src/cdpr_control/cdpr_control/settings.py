@@ -18,6 +18,7 @@ from typing import Any, Mapping
 import yaml
 
 from cdpr_msgs_py.contract import SETTINGS_OF, SETTINGS_OF_EVERY_NODE
+from cdpr_msgs_py.stamps import seconds_to_ns
 
 from .config import Section, default_descriptions, load_config, paper_defaults
 from .robot import Robot, robot_from_section
@@ -81,6 +82,15 @@ class Settings:
                 'cdpr-scenario) or with config_file:=PATH of a robot file'))
         return robot_from_section(self.document.section('robot'))
 
+    @property
+    def period_s(self) -> float:
+        """The control period (s)."""
+        return self.document.section('control').number('period_s', positive=True)
+
+    @property
+    def period_ns(self) -> int:
+        return seconds_to_ns(self.period_s)
+
     def section(self, name: str, default: Any = ...) -> Section:
         return self.document.section(name, default)
 
@@ -92,7 +102,8 @@ def node_settings(node, name: str) -> Settings:
     """The settings `node` (a cdpr_msgs_py.runtime.CdprNode, the contract's node `name`)
     runs with, each key of its sections (contract.SETTINGS_OF) declared as a read-only ROS parameter described as the defaults file
     describes it: the values it was given (a launcher's settled run), else those of the
-    robot file its `config_file` parameter names, else the paper's."""
+    robot file its `config_file` parameter names, else the paper's. The node is configured
+    from them (its writers' history, its /diagnostics limits: CdprNode.configure)."""
     sections = SETTINGS_OF[name] + SETTINGS_OF_EVERY_NODE
     source = f'parameters of {node.get_fully_qualified_name()}'
     text = node.parameter(ROBOT_DESCRIPTION, '', "the robot, as a robot file's YAML text (as ROS "
@@ -118,8 +129,10 @@ def node_settings(node, name: str) -> Settings:
     document = unflatten(values)
     if base.has('robot'):
         document['robot'] = base.data['robot']
-    return Settings(Section(document, source if text or not path else f'{path} (and the {source})',
-                            defaulted=base.defaulted, sources=base.sources))
+    settings = Settings(Section(document, source if text or not path else f'{path} (and the {source})',
+                                defaulted=base.defaulted, sources=base.sources))
+    node.configure(settings, settings.period_s)
+    return settings
 
 
 def described_robot(text: str, source: str) -> dict:

@@ -22,7 +22,6 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import (InvalidMessage, joint_state, point_from_message,
                                       point_stamped, stamp_to_ns)
 from cdpr_msgs_py.runtime import CdprNode, run
-from cdpr_msgs_py.stamps import seconds_to_ns
 
 from .motions import motion_from_settled, settled_motion
 from .reference import tabulate_reference
@@ -36,11 +35,8 @@ class TrajectoryGeneratorNode(CdprNode):
     def __init__(self):
         super().__init__(contract.TRAJECTORY_GENERATOR)
         settings = node_settings(self, contract.TRAJECTORY_GENERATOR)
-        self.robot = settings.robot
+        self.robot, self.period_s, self.period_ns = settings.robot, settings.period_s, settings.period_ns
         control = settings.section('control')
-        self.period_s = control.number('period_s', positive=True)
-        self.configure(settings, self.period_s)
-        self.period_ns = seconds_to_ns(self.period_s)
         self.lead = control.integer('reference_lead_cycles', minimum=1)
         self.distribution = configured_tension_distribution(control, self.robot)
         # started alone, without a settled motion: the named one of a motions file (a path)

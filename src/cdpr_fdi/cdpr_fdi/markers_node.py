@@ -50,8 +50,6 @@ class MarkersNode(CdprNode):
         super().__init__(contract.MARKERS_NODE)
         settings = node_settings(self, contract.MARKERS_NODE)
         self.robot = settings.robot
-        control = settings.section('control')
-        self.configure(settings, control.number('period_s', positive=True))
         fdi, recovery = settled_fdi(settings, self.robot)
         style = MarkerStyle.from_section(settings.section('markers'))
         self.frame = Frame(self.robot, fdi.friction, recovery, style)

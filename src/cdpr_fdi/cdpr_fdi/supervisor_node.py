@@ -24,7 +24,6 @@ from cdpr_msgs_py.contract import NOMINAL
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.health import unjudged_problem, verdict_problems
 from cdpr_msgs_py.runtime import CdprNode, run
-from cdpr_msgs_py.stamps import seconds_to_ns
 
 from .config import settled_fdi
 from .supervisor import Supervisor
@@ -39,11 +38,8 @@ class SupervisorNode(CdprNode):
     def __init__(self):
         super().__init__(contract.SUPERVISOR)
         settings = node_settings(self, contract.SUPERVISOR)
-        self.robot = settings.robot
+        self.robot, self.period_s, self.period_ns = settings.robot, settings.period_s, settings.period_ns
         control = settings.section('control')
-        self.period_s = control.number('period_s', positive=True)
-        self.configure(settings, self.period_s)
-        self.period_ns = seconds_to_ns(self.period_s)
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
         fdi, recovery = settled_fdi(settings, self.robot)
         distribution = configured_tension_distribution(control, self.robot)

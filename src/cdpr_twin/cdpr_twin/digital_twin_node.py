@@ -11,7 +11,6 @@ from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, point_stamped
 from cdpr_msgs_py.runtime import CdprNode, run
-from cdpr_msgs_py.stamps import seconds_to_ns
 
 from .twin import DigitalTwin
 
@@ -21,11 +20,8 @@ class DigitalTwinNode(CdprNode):
     def __init__(self):
         super().__init__(contract.DIGITAL_TWIN)
         settings = node_settings(self, contract.DIGITAL_TWIN)
-        self.robot = settings.robot
+        self.robot, self.period_s, self.period_ns = settings.robot, settings.period_s, settings.period_ns
         control = settings.section('control')
-        self.period_s = control.number('period_s', positive=True)
-        self.configure(settings, self.period_s)
-        self.period_ns = seconds_to_ns(self.period_s)
         self.stale_cycles = control.integer('stale_cycles', minimum=1)
         self.gains = PdGains.from_section(self.robot, control)
         self.substeps = settings.section('twin').integer('substeps', minimum=1)

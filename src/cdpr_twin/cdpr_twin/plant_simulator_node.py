@@ -24,7 +24,6 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
 from cdpr_msgs_py.health import loop_problem
 from cdpr_msgs_py.runtime import CdprNode, run
-from cdpr_msgs_py.stamps import seconds_to_ns
 
 from .plant import PlantConfig, PlantSimulator
 from .run_length import RunLength
@@ -37,10 +36,7 @@ class PlantSimulatorNode(CdprNode):
     def __init__(self):
         super().__init__(contract.PLANT_SIMULATOR)
         settings = node_settings(self, contract.PLANT_SIMULATOR)
-        self.robot = settings.robot
-        self.period_s = settings.section('control').number('period_s', positive=True)
-        self.period_ns = seconds_to_ns(self.period_s)
-        self.configure(settings, self.period_s)
+        self.robot, self.period_s, self.period_ns = settings.robot, settings.period_s, settings.period_ns
         plant_section = settings.section('plant')
         # Started alone, without a settled run: from the robot's home, until stopped.
         run = settings.section('run', {})

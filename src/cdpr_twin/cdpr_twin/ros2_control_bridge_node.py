@@ -39,10 +39,8 @@ class Ros2ControlBridgeNode(CdprNode):
     def __init__(self):
         super().__init__(contract.ROS2_CONTROL_BRIDGE)
         settings = node_settings(self, contract.ROS2_CONTROL_BRIDGE)
-        self.robot = settings.robot
+        self.robot, self.period_s = settings.robot, settings.period_s
         control = settings.section('control')
-        self.period_s = control.number('period_s', positive=True)
-        self.configure(settings, self.period_s)
         self.names = contract.joint_names(self.robot.cable_count)
         robot_joints = self.parameter(
             'robot_joints', self.names,
