@@ -79,7 +79,8 @@ def test_a_node_started_with_its_shipped_file_has_described_read_only_settings()
 def test_a_health_limit_changes_while_the_node_runs_and_a_bad_one_is_refused_saying_why():
     with supervisor('-p', f'config_file:={PAPER_ROBOT}') as node:
         assert not node.describe_parameter('health.warning_hold_s').read_only
-        changed = node.set_parameters([Parameter('health.warning_hold_s', value=5.0)])[0]
+        # an integer, as `ros2 param set … health.warning_hold_s 5` sends it
+        changed = node.set_parameters([Parameter('health.warning_hold_s', value=5)])[0]
         assert changed.successful and node.diagnostics.health.limits.warning_hold_s == 5.0
         refused = node.set_parameters([Parameter('health.unjudged_limit', value=2.0)])[0]
         assert not refused.successful and 'must be a fraction' in refused.reason
@@ -119,4 +120,15 @@ def test_a_node_that_cannot_start_says_why_in_one_fatal_line_and_exits_1(paramet
     fatal = [line for line in output.splitlines() if '[FATAL]' in line]
     assert result.returncode == 1, output
     assert len(fatal) == 1 and named in fatal[0], output
+    assert 'Traceback' not in output
+
+
+def test_a_parameters_file_that_cannot_be_read_is_one_fatal_line():
+    command = executable_command('cdpr_fdi', 'supervisor') + [
+        '--ros-args', '--params-file', str(CONFIG_DIR / 'params' / 'absent.yaml')]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=60,
+                            env=dict(node_environment(), CDPR_LAUNCHER_PID=str(os.getpid())))
+    output = result.stdout + result.stderr
+    fatal = [line for line in output.splitlines() if '[FATAL]' in line]
+    assert result.returncode == 1 and len(fatal) == 1 and 'absent.yaml' in fatal[0], output
     assert 'Traceback' not in output

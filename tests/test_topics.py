@@ -240,7 +240,7 @@ def test_the_start_handshake_is_the_one_written_by_hand_but_for_two_mends(superv
                                                                           clock_mode):
     nodes = graph_nodes(settled_parameters(clock_mode), 'bag' if bag else None,
                         supervised=supervised, plant=plant)
-    matches = {f'{node.package}/{node.executable}': ' '.join(sorted(node.parameters['matches']))
+    matches = {f'{node.package}/{node.executable}': ' '.join(sorted(node.parameters.get('matches', [])))
                for node in nodes}
     expected = expected_handshake(supervised, plant, bag, clock_mode)
     assert matches == expected

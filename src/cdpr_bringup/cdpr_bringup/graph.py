@@ -113,10 +113,7 @@ class Graph:
         self.log(f'[cdpr-graph] ROS_DOMAIN_ID={launch_environment()} (set it to listen from another shell)')
         for spec in self.nodes:
             params = self.folder / f'{spec.name}.yaml'
-            # ROS cannot type an empty array (a node with no `matches` died declaring it);
-            # every node reads a missing one as its default
-            given = {name: value for name, value in spec.parameters.items() if value != []}
-            params.write_text(yaml.safe_dump({'/**': {'ros__parameters': given}}))
+            params.write_text(yaml.safe_dump({'/**': {'ros__parameters': spec.parameters}}))
             command = executable_command(spec.package, spec.executable) + [
                 '--ros-args', '-r', f'__ns:={self.namespace}', '--params-file', str(params)]
             process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -253,8 +250,11 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
     started = {executable for _, executable, _ in specs}
     handshake = start_handshake(started | {contract.PLANT_SIMULATOR}, lockstep=not realtime,
                                 simulated=plant)
+    # A node with nothing to match gets no `matches`: ROS cannot type an empty array (the
+    # node died declaring one), and the node's default is to wait for nothing.
     return [NodeSpec(package, executable, dict(parameters[executable], **extra,
-                                               matches=handshake[executable]))
+                                               **({'matches': handshake[executable]}
+                                                  if handshake[executable] else {})))
             for package, executable, extra in specs]
 
 

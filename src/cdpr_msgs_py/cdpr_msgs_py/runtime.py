@@ -77,8 +77,13 @@ def run(node_class, args=None) -> int:
     signal.signal(signal.SIGTERM, request_stop)
     follow_launcher(request_stop)
     with bounded_initialisation(node_class.__name__):
-        # rclpy's own handlers would invalidate the context on SIGINT, before the drain
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            # rclpy's own handlers would invalidate the context on SIGINT, before the drain
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        except rclpy_implementation.RCLError as err:
+            # the command line (a parameters file that cannot be read, a bad remap)
+            rclpy.logging.get_logger(node_class.__name__).fatal(str(err).splitlines()[0])
+            return SET_UP_EXIT_CODE
         try:
             node = node_class()
         except SET_UP_ERRORS as err:
@@ -487,7 +492,10 @@ class CdprNode(Node):
                 given = Parameter(name, Parameter.Type.DOUBLE, float(given.value))
                 self._parameter_overrides[name] = given
             default = given.value
-        descriptor = ParameterDescriptor(description=description, read_only=read_only)
+        # A changeable one takes what `ros2 param set` sends (5 for 5.0): the change's
+        # callback judges the value.
+        descriptor = ParameterDescriptor(description=description, read_only=read_only,
+                                         dynamic_typing=not read_only)
         if integer_range is not None:
             descriptor.integer_range = [IntegerRange(from_value=integer_range[0], to_value=integer_range[1], step=1)]
         return self.declare_parameter(name, default, descriptor).value
