@@ -100,10 +100,11 @@ class Settings:
 
 def node_settings(node, name: str) -> Settings:
     """The settings `node` (a cdpr_msgs_py.runtime.CdprNode, the contract's node `name`)
-    runs with, each key of its sections (contract.SETTINGS_OF) declared as a read-only ROS parameter described as the defaults file
-    describes it: the values it was given (a launcher's settled run), else those of the
-    robot file its `config_file` parameter names, else the paper's. The node is configured
-    from them (its writers' history, its /diagnostics limits: CdprNode.configure)."""
+    runs with, each key of its sections (contract.SETTINGS_OF) declared as a ROS parameter
+    described as the defaults file describes it (read-only but CdprNode.CHANGEABLE_SETTINGS):
+    the values it was given (a launcher's settled run), else those of the robot file its
+    `config_file` parameter names, else the paper's. The node is configured from them (its
+    writers' history, its /diagnostics limits: CdprNode.configure)."""
     sections = SETTINGS_OF[name] + SETTINGS_OF_EVERY_NODE
     source = f'parameters of {node.get_fully_qualified_name()}'
     text = node.parameter(ROBOT_DESCRIPTION, '', "the robot, as a robot file's YAML text (as ROS "
@@ -114,8 +115,8 @@ def node_settings(node, name: str) -> Settings:
         base = Section(dict(paper_defaults(), robot=described_robot(text, source)), source)
     else:
         base = load_config(path) if path else Section(paper_defaults(), source)
-    given = [name for name in node.given_parameters()
-             if name.split('.')[0] in sections and name.startswith(OPEN_KEYS)]
+    given = {key: value for key, value in node.given_parameters().items()
+             if key.split('.')[0] in sections and key.startswith(OPEN_KEYS)}
     defaults = flatten({name: base.data[name] for name in sections if base.has(name)})
     descriptions = default_descriptions()
     values = {}
@@ -123,7 +124,7 @@ def node_settings(node, name: str) -> Settings:
         description = descriptions.get(key) or f'see cdpr_control/defaults/{key.split(".")[0]}.yaml'
         # a key the defaults do not have (a safe point per cable, the run's failures) is
         # typed as given
-        default = defaults[key] if key in defaults else node.given_parameters()[key]
+        default = defaults[key] if key in defaults else given[key]
         values[key] = node.parameter(key, default, description,
                                      read_only=key not in node.CHANGEABLE_SETTINGS)
     document = unflatten(values)

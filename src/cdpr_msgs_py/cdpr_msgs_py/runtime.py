@@ -365,8 +365,9 @@ def parse_matches(entries) -> list[tuple[str, str, int]]:
 class CdprNode(Node):
     """A node of the graph: settled parameters, diagnostics, idle and close hooks.
 
-    Every parameter it is given is declared (the settled sections of a run are dotted
-    names: cdpr_control.settings reads them).
+    Each parameter is declared with a description (`parameter`); one it is given but does
+    not declare is reported as ignored (the settled sections of a run are dotted names:
+    cdpr_control.settings declares them).
     """
 
     # The settings a node takes while it runs: the /diagnostics limits. Every other one is
