@@ -3,6 +3,7 @@ supported, the /diagnostics limits changeable while a node runs, integers taken 
 numbers, shipped parameter files, and one FATAL line for a node that cannot start."""
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 from contextlib import contextmanager
@@ -82,9 +83,32 @@ def test_a_health_limit_changes_while_the_node_runs_and_a_bad_one_is_refused_say
         # an integer, as `ros2 param set … health.warning_hold_s 5` sends it
         changed = node.set_parameters([Parameter('health.warning_hold_s', value=5)])[0]
         assert changed.successful and node.diagnostics.health.limits.warning_hold_s == 5.0
-        refused = node.set_parameters([Parameter('health.unjudged_limit', value=2.0)])[0]
+        # beyond the declared range (a fraction), refused by rclpy; an integer is not
+        # range-checked by rclpy on a number parameter, but by the node
+        beyond = node.set_parameters([Parameter('health.unjudged_limit', value=2.0)])[0]
+        assert not beyond.successful and 'out of range' in beyond.reason
+        refused = node.set_parameters([Parameter('health.unjudged_limit', value=2)])[0]
         assert not refused.successful and 'must be a fraction' in refused.reason
         assert node.diagnostics.health.limits.unjudged_limit == 0.01
+
+
+def test_a_settled_value_is_declared_with_the_bounds_its_loader_checks():
+    with supervisor('-p', f'config_file:={PAPER_ROBOT}') as node:
+        epsilon = node.describe_parameter('fdi.epsilon_nm')
+        fraction = node.describe_parameter('health.unjudged_limit')
+        detector = node.describe_parameter('fdi.detector')
+        priority = node.describe_parameter('realtime_priority')
+    # positive: from 0 (excluded, said in words) to unbounded
+    (epsilon_range,) = epsilon.floating_point_range
+    assert (epsilon_range.from_value, epsilon_range.to_value) == (0.0, math.inf)
+    assert epsilon.additional_constraints == '> 0'
+    (fraction_range,) = fraction.floating_point_range
+    assert (fraction_range.from_value, fraction_range.to_value) == (0.0, 1.0)
+    assert fraction.additional_constraints == '>= 0 and <= 1'
+    assert not detector.floating_point_range and not detector.integer_range
+    assert detector.additional_constraints == 'one of threshold, cusum'
+    (priority_range,) = priority.integer_range
+    assert (priority_range.from_value, priority_range.to_value) == (0, 99)
 
 
 def test_an_integer_is_taken_for_a_number():

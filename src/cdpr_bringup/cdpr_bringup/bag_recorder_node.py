@@ -46,11 +46,12 @@ class BagRecorderNode(CdprNode):
 
     def __init__(self):
         super().__init__(contract.BAG_RECORDER)
-        node_settings(self, contract.BAG_RECORDER)
+        settings = node_settings(self, contract.BAG_RECORDER)
         path = self.parameter('bag_path', 'bag', 'the bag folder to write')
         storage = self.parameter('storage', 'mcap', 'mcap or sqlite3')
         self.flush_period_s = self.parameter('flush_period_s', FLUSH_PERIOD_S,
-                                             'the bag is written out this often (s)')
+                                             'the bag is written out this often (s)',
+                                             value_range=(0.0, None))
         namespace = self.get_namespace().rstrip('/')
         topics = [self.contract_name(name, namespace)
                   for name in self.parameter('topics', list(RECORDED), 'the topics to record')]
@@ -76,6 +77,7 @@ class BagRecorderNode(CdprNode):
                                          if topic == contract.JOINT_STATES])
         self.last_flush = time.monotonic()
         self.get_logger().info(f'recording {len(topics)} topics into {path} ({storage})')
+        settings.declare(self)
 
     @staticmethod
     def contract_name(name: str, namespace: str) -> str:

@@ -10,6 +10,7 @@ scheduling, streams, health, markers), key by key, and remembers which keys it f
 from __future__ import annotations
 
 import copy
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, Mapping
@@ -56,11 +57,36 @@ def _is_finite(value: int | float) -> bool:
         return False
 
 
+@dataclass(frozen=True)
+class Bounds:
+    """What a loader accepts for a key, for the ROS parameter that carries it: numbers
+    from `low` to `high` (None: unbounded on that side; `low` itself refused when
+    `low_excluded`), or a string among `choices`."""
+
+    low: float | None = None
+    high: float | None = None
+    low_excluded: bool = False
+    choices: tuple[str, ...] = ()
+
+    def text(self) -> str:
+        """The constraint in words, as `ros2 param describe` shows it."""
+        if self.choices:
+            return f'one of {", ".join(self.choices)}'
+        sides = [f'{">" if self.low_excluded else ">="} {self.low:g}'] if self.low is not None else []
+        if self.high is not None:
+            sides.append(f'<= {self.high:g}')
+        return ' and '.join(sides)
+
+
 class Section:
-    """A view on one mapping of a config file that reports dotted key paths."""
+    """A view on one mapping of a config file that reports dotted key paths.
+
+    The sections taken from one another share `bounds`: dotted key → the Bounds a loader
+    checked its value against, gathered as the loaders read."""
 
     def __init__(self, data: Mapping[str, Any], path: str | Path, prefix: str = '',
-                 defaulted: frozenset[str] = frozenset(), sources: Mapping[str, str] | None = None):
+                 defaulted: frozenset[str] = frozenset(), sources: Mapping[str, str] | None = None,
+                 bounds: dict[str, Bounds] | None = None):
         if not isinstance(data, Mapping):
             raise ConfigError(path, prefix or '<root>', 'must be a mapping')
         self.data = data
@@ -70,6 +96,7 @@ class Section:
         self.defaulted = defaulted
         # top-level sections read from another file than `path` (a set-up's robot file)
         self.sources = dict(sources or {})
+        self.bounds = {} if bounds is None else bounds
 
     def key(self, name: str) -> str:
         return f'{self.prefix}.{name}' if self.prefix else name
@@ -93,10 +120,14 @@ class Section:
 
     def section(self, name: str, default: Any = ...) -> 'Section':
         path = self.path if self.prefix else self.sources.get(name, self.path)
-        return Section(self.raw(name, default), path, self.key(name), self.defaulted)
+        return Section(self.raw(name, default), path, self.key(name), self.defaulted,
+                       bounds=self.bounds)
 
     def number(self, name: str, default: Any = ..., *, positive: bool = False,
-               non_negative: bool = False) -> float:
+               non_negative: bool = False, maximum: float | None = None) -> float:
+        if positive or non_negative or maximum is not None:
+            self.bounds[self.key(name)] = Bounds(0.0 if positive or non_negative else None,
+                                                 maximum, low_excluded=positive)
         value = self.raw(name, default)
         if not _is_number(value):
             raise self.error(name, f'must be a number, got {value!r}')
@@ -107,10 +138,14 @@ class Section:
             raise self.error(name, f'must be positive, got {value!r}')
         if non_negative and value < 0.0:
             raise self.error(name, f'must not be negative, got {value!r}')
+        if maximum is not None and value > maximum:
+            raise self.error(name, f'must be at most {maximum:g}, got {value!r}')
         return value
 
     def integer(self, name: str, default: Any = ..., *, minimum: int | None = None,
                 maximum: int | None = None) -> int:
+        if minimum is not None or maximum is not None:
+            self.bounds[self.key(name)] = Bounds(minimum, maximum)
         value = self.raw(name, default)
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(name, f'must be an integer, got {value!r}')
@@ -121,6 +156,8 @@ class Section:
         return value
 
     def string(self, name: str, default: Any = ..., *, choices: tuple[str, ...] = ()) -> str:
+        if choices:
+            self.bounds[self.key(name)] = Bounds(choices=tuple(choices))
         value = self.raw(name, default)
         if not isinstance(value, str):
             raise self.error(name, f'must be a string, got {value!r}')

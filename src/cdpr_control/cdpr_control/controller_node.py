@@ -58,6 +58,7 @@ class ControllerNode(CdprNode):
             self.create_subscription(JointState, contract.FDI_RESIDUAL, self.on_residual, qos.STREAM)
         self.start_when_matched(lambda: self.create_subscription(
             JointState, contract.JOINT_STATES, self.on_state, qos.STREAM))
+        settings.declare(self)
 
     def on_reference(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.REFERENCE)

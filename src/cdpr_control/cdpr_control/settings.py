@@ -69,10 +69,27 @@ def robot_description(robot: Mapping) -> str:
 
 
 class Settings:
-    """What a node is settled with: the robot and its sections (cdpr_control.config.Section)."""
+    """What a node is settled with: the robot and its sections (cdpr_control.config.Section),
+    and those sections' values by dotted name."""
 
-    def __init__(self, document: Section):
+    def __init__(self, document: Section, values: Mapping[str, Any]):
         self.document = document
+        self.values = dict(values)
+
+    def declare(self, node) -> None:
+        """Each value as a ROS parameter of `node` (a cdpr_msgs_py.runtime.CdprNode),
+        described as the defaults files describe it, with the bounds the node's loaders
+        checked it against (so once the node has built its core from these settings), and
+        read-only but CdprNode.CHANGEABLE_SETTINGS."""
+        descriptions = default_descriptions()
+        for key, value in self.values.items():
+            bounds = self.document.bounds.get(key)
+            node.parameter(
+                key, value,
+                descriptions.get(key) or f'see cdpr_control/defaults/{key.split(".")[0]}.yaml',
+                read_only=key not in node.CHANGEABLE_SETTINGS,
+                value_range=(bounds.low, bounds.high) if bounds else None,
+                constraints=bounds.text() if bounds else '')
 
     @property
     def robot(self) -> Robot:
@@ -100,11 +117,11 @@ class Settings:
 
 def node_settings(node, name: str) -> Settings:
     """The settings `node` (a cdpr_msgs_py.runtime.CdprNode, the contract's node `name`)
-    runs with, each key of its sections (contract.SETTINGS_OF) declared as a ROS parameter
-    described as the defaults file describes it (read-only but CdprNode.CHANGEABLE_SETTINGS):
-    the values it was given (a launcher's settled run), else those of the robot file its
-    `config_file` parameter names, else the paper's. The node is configured from them (its
-    writers' history, its /diagnostics limits: CdprNode.configure)."""
+    runs with, each key of its sections (contract.SETTINGS_OF): the values it was given (a
+    launcher's settled run), else those of the robot file its `config_file` parameter
+    names, else the paper's. The node is configured from them (its writers' history, its
+    /diagnostics limits: CdprNode.configure); once it has built its core from them,
+    `Settings.declare` makes them its ROS parameters."""
     sections = SETTINGS_OF[name] + SETTINGS_OF_EVERY_NODE
     source = f'parameters of {node.get_fully_qualified_name()}'
     text = node.parameter(ROBOT_DESCRIPTION, '', "the robot, as a robot file's YAML text (as ROS "
@@ -118,20 +135,15 @@ def node_settings(node, name: str) -> Settings:
     given = {key: value for key, value in node.given_parameters().items()
              if key.split('.')[0] in sections and key.startswith(OPEN_KEYS)}
     defaults = flatten({name: base.data[name] for name in sections if base.has(name)})
-    descriptions = default_descriptions()
-    values = {}
-    for key in list(defaults) + [key for key in given if key not in defaults]:
-        description = descriptions.get(key) or f'see cdpr_control/defaults/{key.split(".")[0]}.yaml'
-        # a key the defaults do not have (a safe point per cable, the run's failures) is
-        # typed as given
-        default = defaults[key] if key in defaults else given[key]
-        values[key] = node.parameter(key, default, description,
-                                     read_only=key not in node.CHANGEABLE_SETTINGS)
+    # a key the defaults do not have (a safe point per cable, the run's failures) is typed
+    # as given
+    values = {key: node.given_value(key, defaults[key] if key in defaults else given[key])
+              for key in list(defaults) + [key for key in given if key not in defaults]}
     document = unflatten(values)
     if base.has('robot'):
         document['robot'] = base.data['robot']
     settings = Settings(Section(document, source if text or not path else f'{path} (and the {source})',
-                                defaulted=base.defaulted, sources=base.sources))
+                                defaulted=base.defaulted, sources=base.sources), values)
     node.configure(settings, settings.period_s)
     return settings
 

@@ -57,6 +57,7 @@ class TrajectoryGeneratorNode(CdprNode):
         self.create_subscription(PointStamped, contract.GOAL, self.on_goal, qos.STREAM)
         self.start_when_matched(lambda: self.create_subscription(
             JointState, contract.JOINT_STATES, self.on_state, qos.STREAM))
+        settings.declare(self)
 
     def on_state(self, message: JointState) -> None:
         stamp = stamp_to_ns(message.header.stamp)

@@ -66,6 +66,7 @@ class MarkersNode(CdprNode):
         self.create_subscription(JointState, contract.RECOVERY_REFERENCE, self.on_recovery_reference,
                                  qos.of_readers(contract.RECOVERY_REFERENCE))
         self.create_timer(1.0 / style.rate_hz, self.publish_frame)
+        settings.declare(self)
 
     def on_state(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.JOINT_STATES)

@@ -70,6 +70,7 @@ class SupervisorNode(CdprNode):
             JointState, contract.JOINT_STATES, self.on_state, qos.STREAM))
         self.broken_cable.publish(Int32(data=0))
         self.mode.publish(String(data=NOMINAL))
+        settings.declare(self)
 
     def on_state(self, message: JointState) -> None:
         self.store('state', self.joints_or_reject(message, contract.JOINT_STATES))

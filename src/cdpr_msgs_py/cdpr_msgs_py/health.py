@@ -52,7 +52,8 @@ class HealthLimits:
         """From a config section (cdpr_control.config.Section: this package reads no file)."""
         limits = cls()
         for field in fields(cls):
-            value = health.number(field.name, field.default, non_negative=True)
+            value = health.number(field.name, field.default, non_negative=True,
+                                  maximum=1.0 if field.name in FRACTIONS else None)
             try:
                 limits = limits.with_value(field.name, value)
             except ValueError as err:

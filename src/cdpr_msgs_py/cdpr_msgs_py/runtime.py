@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ctypes
 import inspect
+import math
 import signal
 import threading
 import time
@@ -13,7 +14,7 @@ from dataclasses import fields
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import IntegerRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
@@ -49,6 +50,8 @@ EXECUTOR_SHUTDOWN_S = 0.5
 SHUTDOWN_LIMIT_S = DRAIN_LIMIT_S + ACKNOWLEDGEMENT_WAIT_S + ACKNOWLEDGE_LIMIT_S + EXECUTOR_SHUTDOWN_S
 # Printed on stdout once the node is constructed: launchers wait for it.
 READY_MARK = 'cdpr-node-ready'
+# A ROS integer parameter is an int64: an integer range unbounded on a side ends there.
+INT64_MIN, INT64_MAX = -2 ** 63, 2 ** 63 - 1
 LEVELS = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR}
 
 
@@ -402,8 +405,8 @@ class CdprNode(Node):
         (cdpr-graph sets them in realtime mode from the config's scheduling section)."""
         applied, outcome = apply_scheduling(
             self.parameter('realtime_priority', 0, 'SCHED_FIFO priority of every thread; 0: normal',
-                           integer_range=PRIORITY_RANGE),
-            self.parameter('nice', 0, 'niceness of every thread; 0: normal', integer_range=NICE_RANGE))
+                           value_range=PRIORITY_RANGE),
+            self.parameter('nice', 0, 'niceness of every thread; 0: normal', value_range=NICE_RANGE))
         self.diagnostics.facts['scheduling'] = outcome
         if applied:
             self.get_logger().info(f'scheduling: {outcome}')
@@ -481,25 +484,43 @@ class CdprNode(Node):
         return subscription
 
     def parameter(self, name: str, default, description: str, read_only: bool = True,
-                  integer_range: tuple[int, int] | None = None):
+                  value_range: tuple[float | None, float | None] | None = None,
+                  constraints: str = ''):
         """Declare one parameter, read-only unless told; its value. Typed as given (the
         node's loaders judge the value, naming the parameter), an integer given for a
-        number taken as that number; typed as `default` when not given."""
+        number taken as that number; typed as `default` when not given. `value_range`
+        (low, high; None: unbounded) becomes the descriptor's integer or floating-point
+        range, as the value is typed; `constraints` says it in words."""
         if self.has_parameter(name):
             return self.get_parameter(name).value
-        given = self._parameter_overrides.get(name)   # rclpy keeps what --ros-args gave here
-        if given is not None:
-            if isinstance(default, float) and given.type_ == Parameter.Type.INTEGER:
-                given = Parameter(name, Parameter.Type.DOUBLE, float(given.value))
-                self._parameter_overrides[name] = given
-            default = given.value
+        value = self.given_value(name, default)
         # A changeable one takes what `ros2 param set` sends (5 for 5.0): the change's
         # callback judges the value.
         descriptor = ParameterDescriptor(description=description, read_only=read_only,
-                                         dynamic_typing=not read_only)
-        if integer_range is not None:
-            descriptor.integer_range = [IntegerRange(from_value=integer_range[0], to_value=integer_range[1], step=1)]
-        return self.declare_parameter(name, default, descriptor).value
+                                         dynamic_typing=not read_only,
+                                         additional_constraints=constraints)
+        if value_range is not None and not isinstance(value, bool):
+            low, high = value_range
+            if isinstance(value, int):
+                descriptor.integer_range = [IntegerRange(
+                    from_value=INT64_MIN if low is None else math.ceil(low),
+                    to_value=INT64_MAX if high is None else math.floor(high), step=1)]
+            elif isinstance(value, float):
+                descriptor.floating_point_range = [FloatingPointRange(
+                    from_value=-math.inf if low is None else float(low),
+                    to_value=math.inf if high is None else float(high), step=0.0)]
+        return self.declare_parameter(name, value, descriptor).value
+
+    def given_value(self, name: str, default):
+        """What the command line gave for `name` (an integer given for a number taken as
+        that number), else `default`; declares nothing."""
+        given = self._parameter_overrides.get(name)   # rclpy keeps what --ros-args gave here
+        if given is None:
+            return default
+        if isinstance(default, float) and given.type_ == Parameter.Type.INTEGER:
+            given = Parameter(name, Parameter.Type.DOUBLE, float(given.value))
+            self._parameter_overrides[name] = given
+        return given.value
 
     def given_parameters(self) -> dict:
         """Name → value of every parameter this node was started with (--ros-args)."""

@@ -34,6 +34,7 @@ class DigitalTwinNode(CdprNode):
         # The twin's tick is the reference: it listens once its outputs have listeners.
         self.start_when_matched(lambda: self.create_subscription(
             JointState, contract.REFERENCE, self.on_reference, qos.STREAM))
+        settings.declare(self)
 
     def on_reference(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.REFERENCE)

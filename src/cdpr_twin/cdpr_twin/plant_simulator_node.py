@@ -48,9 +48,11 @@ class PlantSimulatorNode(CdprNode):
             run.integer('last_tick', minimum=0) if run.has('last_tick') else math.inf,
             run.integer('hold_after_ticks', minimum=0) if run.has('hold_after_ticks') else None)
         self.resend_s = self.parameter(
-            'command_timeout_s', 0.5, 'lockstep: a state not answered for this long (s) is sent again')
+            'command_timeout_s', 0.5, 'lockstep: a state not answered for this long (s) is sent again',
+            value_range=(0.0, None))
         self.start_delay_s = self.parameter(
-            'start_delay_s', 0.5, 'the first tick waits this long (s) once every node listens')
+            'start_delay_s', 0.5, 'the first tick waits this long (s) once every node listens',
+            value_range=(0.0, None))
         self.ready_since = None
         self.names = contract.joint_names(self.robot.cable_count)
         self.tick = 0
@@ -76,6 +78,7 @@ class PlantSimulatorNode(CdprNode):
         self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
         self.timer = None
         self.watchdog = CommandWatchdog(plant_section.integer('command_timeout_cycles', minimum=1))
+        settings.declare(self)
 
     def stamp_ns(self) -> int:
         return self.tick * self.period_ns

@@ -72,6 +72,7 @@ class Ros2ControlBridgeNode(CdprNode):
                                      'the node whose effort_command is obeyed (relative to the namespace)'))
         self.create_subscription(Int32, contract.FDI_BROKEN_CABLE, self.on_broken_cable, qos.LATCHED)
         self.create_timer(self.period_s, self.on_period)
+        settings.declare(self)
 
     def on_robot_state(self, message: JointState) -> None:
         try:
