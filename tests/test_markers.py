@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 
 from cdpr_bringup.bag_io import BagWriter, read_messages, write_recording
 from cdpr_bringup.engine import run_inprocess
@@ -170,6 +172,15 @@ def test_an_inprocess_bag_carries_the_same_markers(run, tmp_path):
             assert m.type == getattr(m, shape.kind) and m.scale.x == shape.scale_m
             assert np.allclose([[p.x, p.y, p.z] for p in m.points], shape.points_m)
             assert np.allclose([[c.r, c.g, c.b, c.a] for c in m.colors], shape.colours, atol=1e-6)
+    # as a viewer of MCAP files (Foxglove) decodes them: from the schema the file embeds
+    with open(next((tmp_path / 'bag').glob('*.mcap')), 'rb') as file:
+        reader = make_reader(file, decoder_factories=[DecoderFactory()])
+        viewed = [message for schema, _, _, message in reader.iter_decoded_messages(topics=[topic])
+                  if schema.name == 'visualization_msgs/msg/MarkerArray']
+    assert len(viewed) == len(frames)
+    for message, (k, shapes) in zip(viewed, frames):
+        assert {(m.ns, m.id) for m in message.markers[1:]} == set(shapes)
+        assert {m.header.frame_id for m in message.markers[1:]} == {'world'}
 
 
 def test_the_node_sends_the_shapes_as_markers(run):
