@@ -36,6 +36,8 @@ bench: setup
 	$(VENV)/bin/cdpr-bench model
 	$(VENV)/bin/cdpr-bench graph
 	$(VENV)/bin/cdpr-bench fdi
+	$(VENV)/bin/cdpr-bench roc
+	$(VENV)/bin/cdpr-bench sweep
 
 clean:
 	rm -rf $(VENV) build install log .pytest_cache

@@ -1,7 +1,10 @@
 """cdpr-bench: benchmarks of the project, printing figures (and JSON on request).
 
 model: median µs per call of the model functions. graph: the node graph's and the
-in-process engine's speed against their targets (cdpr_bringup.bench_graph).
+in-process engine's speed against their targets (cdpr_bringup.bench_graph). fdi: each
+detector's figures on a campaign (cdpr_bringup.bench_fdi). roc: detection delay against
+false alarms per hour (cdpr_bringup.bench_roc). sweep: the detectors on plants that differ
+from the one they were calibrated on (cdpr_bringup.bench_sweep). soak: a long realtime run.
 """
 from __future__ import annotations
 
@@ -17,6 +20,8 @@ from cdpr_control.dynamics import direct_dynamics, inverse_dynamics
 from cdpr_control.kinematics import forward_kinematics, inverse_kinematics, structure_matrix
 from cdpr_control.robot import load_robot
 from cdpr_control.tension_distribution import METHODS, make_tension_distribution
+
+from cdpr_twin.plant import FIDELITIES
 
 from .cli import command
 from .paths import DEFAULT_ROBOT, config_file
@@ -73,12 +78,15 @@ def machine() -> str:
 @command('cdpr-bench')
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument('suite', choices=['model', 'graph', 'fdi', 'soak'], help='what to measure')
+    parser.add_argument('suite', choices=['model', 'graph', 'fdi', 'roc', 'sweep', 'soak'], help='what to measure')
     parser.add_argument('--minutes', type=float, default=10.0, help='soak: how long')
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--json', action='store_true', help='print one JSON object last')
-    parser.add_argument('--out', default='runs/bench-fdi', help='fdi: campaign folder')
+    parser.add_argument('--out', help='fdi, roc, sweep: output folder (default runs/bench-SUITE)')
+    parser.add_argument('--fidelity', choices=FIDELITIES, default='elastic', help='roc, sweep: the plant')
+    parser.add_argument('--jobs', type=int, default=None, help='fdi, roc, sweep: parallel runs (default: cores)')
     args = parser.parse_args(argv)
+    out = args.out or f'runs/bench-{args.suite}'
     if args.suite == 'soak':
         from .bench_soak import bench_soak
         figures = bench_soak(args.config, args.minutes)
@@ -87,9 +95,19 @@ def main(argv=None):
             print(f'  {key:<28} {value}')
     elif args.suite == 'fdi':
         from .bench_fdi import bench_fdi, table as fdi_table
-        figures = bench_fdi(args.config, args.out)
-        print(f'cdpr-bench fdi on {machine()}; campaign in {args.out} (summary.md)')
+        figures = bench_fdi(args.config, out, args.jobs)
+        print(f'cdpr-bench fdi on {machine()}; campaign in {out} (summary.md)')
         print('\n'.join(fdi_table(figures)))
+    elif args.suite == 'roc':
+        from .bench_roc import bench_roc, table as roc_table
+        figures = bench_roc(args.config, out, args.fidelity, args.jobs)
+        print(f'cdpr-bench roc on {machine()}, {args.fidelity} plant; {out}/roc.csv, {out}/roc.png')
+        print('\n'.join(roc_table(figures)))
+    elif args.suite == 'sweep':
+        from .bench_sweep import bench_sweep, table as sweep_table
+        figures = bench_sweep(args.config, out, args.fidelity, args.jobs)
+        print(f'cdpr-bench sweep on {machine()}, {args.fidelity} plant; {out}/sweep.csv, {out}/sweep.png')
+        print('\n'.join(sweep_table(figures)))
     elif args.suite == 'graph':
         # rclpy is imported only for this suite
         from .bench_graph import bench_graph, table
