@@ -21,6 +21,8 @@ BAD_OPTIONS = [
     (['--fail-cable', '9'], '--fail-cable 9'),
     (['--seed', '-3'], '--seed -3'),
     (['--fail-cable', '4', '--recovery-budget', '0'], '--recovery-budget 0.0'),
+    (['--push', '1', '0', '0', '0', '20'], '--push 1 0 0 0 20'),
+    (['--push', '1', '0.3', 'nan', '0', '20'], '--push 1 0.3 nan 0 20'),
 ]
 
 

@@ -46,7 +46,7 @@ def steer(setpoints: Setpoints, verdict: Verdict, next_stamp_ns: int) -> None:
 def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     robot = scenario.robot
     start = scenario.reference.position_m[0]
-    plant = PlantSimulator(robot, scenario.plant, start, scenario.failures)
+    plant = PlantSimulator(robot, scenario.plant, start, scenario.failures, scenario.pushes)
     twin = DigitalTwin(robot, scenario.gains, start, scenario.twin_substeps)
     controller = JointController(robot, scenario.gains, scenario.fdi.friction)
     setpoints = Setpoints(controller, exact=True)

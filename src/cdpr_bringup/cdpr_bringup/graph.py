@@ -28,7 +28,7 @@ from cdpr_msgs_py.runtime import READY_MARK, SHUTDOWN_LIMIT_S
 
 from .cli import command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
-from .scenario_setup import ScenarioOptions, build_scenario
+from .scenario_setup import ScenarioOptions, add_push_option, build_scenario
 
 # After SIGINT a node drains, waits for acknowledgements and exits; SIGKILL comes only
 # after that has had its time (a killed node can leave DDS state behind).
@@ -300,6 +300,7 @@ def parser() -> argparse.ArgumentParser:
                          help='break cable K (1-based) during the motion; repeat for several')
     options.add_argument('--fail-at-fraction', type=float, metavar='F',
                          help='when, as a fraction of the move (default 0.5, the midpoint)')
+    add_push_option(options)
     options.add_argument('--namespace', default=DEFAULT_NAMESPACE)
     options.add_argument('--bag', help='record every topic into this bag folder')
     options.add_argument('--hardware', action='store_true',
@@ -315,7 +316,7 @@ def requested_graph(args: argparse.Namespace) -> list[NodeSpec]:
     scenario = build_scenario(ScenarioOptions(
         config=args.config, motions=args.motions, motion=args.motion, fidelity=args.fidelity,
         detector=args.detector, calibration=args.calibration, fail_cables=args.fail_cable,
-        fail_at_fraction=args.fail_at_fraction))
+        fail_at_fraction=args.fail_at_fraction, pushes=[tuple(push) for push in args.push]))
     parameters = scenario.node_parameters('realtime' if args.hardware else args.clock)
     return graph_nodes(parameters, args.bag, plant=not args.hardware)
 

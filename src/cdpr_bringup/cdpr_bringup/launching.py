@@ -25,7 +25,8 @@ class LaunchArgument:
 
 def launch_arguments() -> list[LaunchArgument]:
     """One launch argument per cdpr-graph option, named as its destination (`fail_cable`
-    for --fail-cable); an empty value leaves the option out, a list is comma-separated."""
+    for --fail-cable); an empty value leaves the option out, a list is comma-separated (and
+    the values of one --push space-separated: push:='2 0.3 0 0 20, 5 0.2 10 0 0')."""
     arguments = []
     for action in parser()._actions:
         if not action.option_strings or action.dest == 'help':
@@ -51,7 +52,9 @@ def command_line(values: dict[str, str]) -> list[str]:
         if isinstance(action, argparse._StoreTrueAction):
             argv += [flag] if value.lower() in TRUE else []
         elif isinstance(action, argparse._AppendAction):
-            argv += [part for item in value.split(',') if item.strip() for part in (flag, item.strip())]
+            # an option of several values (--push) takes them space-separated
+            argv += [part for item in value.split(',') if item.strip()
+                     for part in (flag, *item.split())]
         else:
             argv += [flag, value]
     return argv

@@ -114,6 +114,8 @@ def metrics_json(run: KnownRun) -> dict:
                         if failure_known else None),
         'mode': run.mode,
         'fault': run.supervisor.get('fault') or None,
+        # pushes and contacts the supervisor told from failures (wrench_balance)
+        'disturbances': run.supervisor.get('disturbances'),
         'safe_point_m': None if run.safe_point_m is None else [float(v) for v in run.safe_point_m],
         'recovery': {
             'reached_safe_point': (None if final_error is None or run.reached_tolerance_m is None

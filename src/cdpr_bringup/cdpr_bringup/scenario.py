@@ -25,7 +25,7 @@ from .graph import INTERRUPTED_EXIT_CODE, GraphError, graph_nodes, run_to_comple
 from .metrics import PAPER_KPI, KnownRun, fdi_summary_from_diagnostics, metrics_json
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
 from .report import SETTLED_RUN, RunSettings, write_report
-from .scenario_setup import ScenarioOptions, build_scenario
+from .scenario_setup import ScenarioOptions, add_push_option, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
 
@@ -54,6 +54,7 @@ def parse_args(argv=None):
     parser.add_argument('--recovery-budget', type=float, metavar='SECONDS',
                         help='how long to run after a failure (default: derived from the '
                              'recovery phases and the distance to SP; a re-planned move takes longer)')
+    add_push_option(parser)
     parser.add_argument('--namespace', default=DEFAULT_NAMESPACE)
     parser.add_argument('--out', required=True, help='output folder')
     parser.add_argument('--quiet', action='store_true', help='do not stream node logs')
@@ -159,7 +160,8 @@ def run_scenario(args) -> int:
                               fail_at_s=args.fail_at, fail_at_fraction=args.fail_at_fraction,
                               fidelity=args.fidelity, seed=args.seed, detector=args.detector,
                               epsilon_nm=args.epsilon, calibration=args.calibration,
-                              recovery_budget_s=args.recovery_budget)
+                              recovery_budget_s=args.recovery_budget,
+                              pushes=[tuple(push) for push in args.push])
     scenario = build_scenario(options)
     out = Path(args.out)
     if (out / 'bag').exists():

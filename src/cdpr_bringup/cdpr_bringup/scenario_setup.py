@@ -23,7 +23,7 @@ from cdpr_fdi.markers import Frame, MarkerStyle
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_msgs_py.contract import SETTINGS_OF, SETTINGS_OF_EVERY_NODE
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
-from cdpr_twin.plant import FIDELITIES, PlantConfig
+from cdpr_twin.plant import FIDELITIES, PlantConfig, Push, settled_pushes
 
 from .cli import UsageError
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file, shipped_calibration
@@ -58,6 +58,8 @@ class ScenarioOptions:
     # The run's length (s), as given: a realtime run that outlasts its motion, and does
     # not end early when a recovery is over.
     duration_s: float | None = None
+    # Forces on the end-effector: (start s, duration s, f_x, f_y, f_z N) each.
+    pushes: list[tuple[float, float, float, float, float]] = field(default_factory=list)
 
 
 @dataclass
@@ -73,6 +75,7 @@ class Scenario:
     reference: ReferenceTable
     plant: PlantConfig
     failures: list[tuple[float, int]]
+    pushes: list[Push]
     calibration_path: Path | None
     distribution: TensionDistribution
     fdi: FdiConfig
@@ -175,6 +178,9 @@ def settle(options: ScenarioOptions) -> tuple[Section, Path | None]:
         'failure_times_s': [motion.failure_time(options.fail_at_s, options.fail_at_fraction)
                             for _ in options.fail_cables],
         'failure_cable_indices': [cable - 1 for cable in options.fail_cables],
+        'push_start_s': [float(push[0]) for push in options.pushes],
+        'push_duration_s': [float(push[1]) for push in options.pushes],
+        'push_force_n': [float(f) for push in options.pushes for f in push[2:]],
     }
     return Section(document, config_path, defaulted=settings.defaulted,
                    sources=settings.sources), calibration
@@ -204,6 +210,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         reference=tabulate_reference(robot, distribution, motion.trajectory, period),
         plant=PlantConfig.from_section(settings.section('plant')),
         failures=failures,
+        pushes=settled_pushes(run),
         calibration_path=calibration,
         distribution=distribution,
         fdi=fdi,
@@ -245,6 +252,20 @@ def check_options(options: ScenarioOptions, robot: Robot, motion: Motion) -> Non
         raise UsageError(f'--recovery-budget {options.recovery_budget_s}: must be a positive number of s')
     if options.seed is not None and options.seed < 0:
         raise UsageError(f'--seed {options.seed}: must be 0 or more')
+    for push in options.pushes:
+        start, duration, *force = push
+        if not (len(force) == 3 and all(map(math.isfinite, push)) and start >= 0.0 and duration > 0.0):
+            raise UsageError(f'--push {" ".join(f"{v:g}" for v in push)}: must be START_S (0 or more) '
+                             'DURATION_S (positive) and the force FX FY FZ (N), finite')
+
+
+def add_push_option(parser) -> None:
+    """--push, for every command that runs a scenario."""
+    parser.add_argument('--push', type=float, nargs=5, action='append', default=[],
+                        metavar=('START_S', 'DURATION_S', 'FX_N', 'FY_N', 'FZ_N'),
+                        help='push the end-effector with force (FX, FY, FZ) N, world frame, for '
+                             'DURATION_S from START_S (s); repeat for several. A disturbance, '
+                             'not a failure: no cable is to be named for it')
 
 
 def calibration_for(config_path: Path, fdi: Section, robot: Robot, fidelity: str,

@@ -15,6 +15,9 @@ from .linalg3 import solve3_floats
 from .robot import Robot
 from .tension_distribution import InfeasibleTensionError, TensionDistribution
 
+# No force on the end-effector but its weight and the cables' (N, world frame).
+NO_FORCE = (0.0, 0.0, 0.0)
+
 
 @dataclass
 class InverseDynamics:
@@ -105,11 +108,14 @@ class RigidDirectDynamics:
         # J/ρ² (kg): a motor's inertia as the cable feels it
         self.reflected_mass_kg = motor.inertia_kg_m2 / motor.drum_radius_m ** 2
 
-    def accelerations(self, directions, velocity_m_s, torque_nm, joint_velocity_rad_s, candidates):
+    def accelerations(self, directions, velocity_m_s, torque_nm, joint_velocity_rad_s, candidates,
+                      external_force_n=NO_FORCE):
         """p̈ (m/s², a 3-tuple), and per cable θ̈ (rad/s²), τ (N) and taut flags (lists).
 
         `directions` holds (u_x, u_y, u_z, d_i) per cable (kinematics.cable_directions) and
-        `candidates` flags the cables that may be taut; every other argument is plain floats.
+        `candidates` flags the cables that may be taut; `external_force_n` acts on the
+        end-effector besides its weight (a push: the plant's, never the twin's); every
+        argument is plain floats.
         """
         inertia, friction, radius = self.inertia_kg_m2, self.friction_nm_s_rad, self.radius_m
         radius_squared = radius * radius
@@ -127,6 +133,9 @@ class RigidDirectDynamics:
             cable_rate.append(rate)
             pull.append((inertia * rate + friction * speed) / radius_squared + c / radius)
         taut = list(candidates)
+        wx, wy, wz = self.weight_n
+        if external_force_n is not NO_FORCE:
+            wx, wy, wz = wx + external_force_n[0], wy + external_force_n[1], wz + external_force_n[2]
         while True:
             sxx = sxy = sxz = syy = syz = szz = 0.0
             fx = fy = fz = 0.0
@@ -142,7 +151,6 @@ class RigidDirectDynamics:
                     fy += uy * p
                     fz += uz * p
             mxy, mxz, myz = reflected * sxy, reflected * sxz, reflected * syz
-            wx, wy, wz = self.weight_n
             ax, ay, az = solve3_floats(
                 ((mass + reflected * sxx, mxy, mxz), (mxy, mass + reflected * syy, myz),
                  (mxz, myz, mass + reflected * szz)),

@@ -36,6 +36,11 @@ class FdiConfig:
     late_command_burst: int
     late_command_window_cycles: int
     identification_confirm_cycles: int
+    disturbance_force_n: float
+    disturbance_window_cycles: int
+    disturbance_hold_cycles: int
+    disturbance_settle_cycles: int
+    identification_stretch_m: float
 
     @classmethod
     def from_section(cls, fdi: Section, robot: Robot, friction: FrictionModel) -> 'FdiConfig':
@@ -61,6 +66,11 @@ class FdiConfig:
             late_command_burst=fdi.integer('late_command_burst', minimum=1),
             late_command_window_cycles=fdi.integer('late_command_window_cycles', minimum=1),
             identification_confirm_cycles=fdi.integer('identification_confirm_cycles', minimum=1),
+            disturbance_force_n=fdi.number('disturbance_force_n', positive=True),
+            disturbance_window_cycles=fdi.integer('disturbance_window_cycles', minimum=1),
+            disturbance_hold_cycles=fdi.integer('disturbance_hold_cycles', minimum=1),
+            disturbance_settle_cycles=fdi.integer('disturbance_settle_cycles', minimum=0),
+            identification_stretch_m=fdi.number('identification_stretch_m', positive=True),
         )
 
     def with_overrides(self, detector: str | None = None, epsilon_nm: float | None = None,

@@ -24,6 +24,7 @@ from .identification import identify_broken_cables
 from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point,
                        initial_tensions, taut_tension_n)
 from .residual import sensorless_tension_bounds
+from .wrench_balance import POSITION_CABLES, WrenchBalance, overstretch_m
 
 
 @dataclass
@@ -67,6 +68,16 @@ class Supervisor:
         self.recent_late_ticks: deque[int] = deque()
         self.untrusted_until = -1
         self.unjudged_ticks = 0
+        self.balance = WrenchBalance(robot, period_s, fdi.disturbance_window_cycles)
+        # the tick an unexplained force on the end-effector was first seen (None: none now)
+        self.disturbed_since: int | None = None
+        self.last_disturbed_tick: int | None = None
+        # the first tick of the free motors leaving too few cables to place the end-effector
+        self.unplaced_since: int | None = None
+        # free cables spanning more than their length: since which tick
+        self.overstretched_since: dict[int, int] = {}
+        self.disturbance_reported = False
+        self.disturbances = 0
 
     def update(self, tick: int, angle_rad, angular_velocity_rad_s, applied_torque_nm,
                command_nm, twin_torque_nm, twin_angular_velocity_rad_s,
@@ -76,6 +87,7 @@ class Supervisor:
             self.tension_bounds_n = sensorless_tension_bounds(
                 self.robot.motor, self.fdi.friction, np.asarray(applied_torque_nm, float),
                 self.previous_speed, np.asarray(angular_velocity_rad_s, float), self.period_s)
+            self.balance.record(angle_rad, angular_velocity_rad_s, np.mean(self.tension_bounds_n, axis=0))
         events: list[str] = []
         alarm = False
         applied = np.asarray(applied_torque_nm, float)
@@ -99,10 +111,14 @@ class Supervisor:
             if alarm and self.previous_speed is not None:
                 found = identify_broken_cables(*self.tension_bounds_n, residual,
                                                self.robot.motor.drum_radius_m, self.fdi.delta_nm)
+                if self.disturbed(tick, found, events) or self.settling(tick):
+                    found = self.overstretched(tick, found, angle_rad)
                 confirmed = self.confirm(tick, found)
                 if confirmed:
                     events += self.on_identified(tick, confirmed, angle_rad, command_nm, reference)
-            elif not alarm and self.alarm_tick is not None:
+            elif not alarm:
+                self.disturbed_since = None
+            if not alarm and self.alarm_tick is not None:
                 self.unidentified_alarms += 1
                 events.append(f'alarm from tick {self.alarm_tick} ended without a free motor')
                 self.alarm_tick = None
@@ -125,22 +141,90 @@ class Supervisor:
         return Verdict(tick, residual, alarm, [c + 1 for c in self.broken], self.mode, tensions,
                        setpoint, events)
 
+    def disturbed(self, tick: int, found: list[int], events: list[str]) -> bool:
+        """Whether, on an alarm, something outside pushes the end-effector: the cables
+        taken taut (all but the `found` free ones) leave a force above
+        fdi.disturbance_force_n unexplained (wrench_balance), or are too few to weigh the
+        end-effector while a push is on or the end-effector swings from one (a push
+        slackening two cables of four). Reported once an episode, when it has lasted the
+        balance's window; within it, a failure's jolt can look alike, and nothing is named."""
+        taut = self.robot.cable_mask(found)
+        weighable = self.placed_by(taut)
+        if weighable:
+            self.unplaced_since = None
+        elif self.unplaced_since is None:
+            self.unplaced_since = tick
+        force = self.balance.unexplained_force_n(taut) if weighable else None
+        magnitude = None if force is None else float(np.linalg.norm(force))
+        # Right after a failure a loaded cable can slacken too, for less than
+        # identification_confirm_cycles (confirm() narrows them): too few to weigh is a
+        # disturbance within one, after one, or for longer.
+        if ((weighable and (magnitude is None or magnitude <= self.fdi.disturbance_force_n))
+                or (not weighable and self.disturbed_since is None and not self.settling(tick)
+                    and tick - self.unplaced_since + 1 < self.fdi.identification_confirm_cycles)):
+            self.disturbed_since = None
+            return False
+        if self.disturbed_since is None:
+            self.disturbed_since, self.disturbance_reported = tick, False
+        if tick - self.disturbed_since < self.fdi.disturbance_window_cycles:
+            return True   # a failure's passing jolt, or the start of a push: hold
+        self.last_disturbed_tick = tick
+        if not self.disturbance_reported:
+            self.disturbance_reported = True
+            self.disturbances += 1
+            slack = f'motor(s) {", ".join(str(c + 1) for c in found)} free' if found else ''
+            events.append(f'disturbance from tick {self.disturbed_since}: ' + (
+                f'{magnitude:.1f} N on the end-effector that the cables do not explain, not a '
+                f'failure' + (f' ({slack})' if slack else '') if weighable else
+                f'{slack}, too few cables taut to weigh the end-effector'))
+        return True
+
+    def settling(self, tick: int) -> bool:
+        """Within fdi.disturbance_settle_cycles of a disturbance: the end-effector may still
+        swing from it, and a cable go slack with nothing pushing."""
+        return (self.last_disturbed_tick is not None
+                and tick - self.last_disturbed_tick <= self.fdi.disturbance_settle_cycles)
+
+    def overstretched(self, tick: int, found: list[int], angle_rad) -> list[int]:
+        """Of the free motors `found`, the cables proven broken (wrench_balance.overstretch_m
+        above fdi.identification_stretch_m for disturbance_window_cycles), the others taken
+        taut; all while those are too few to place the end-effector (confirm() then holds
+        them for disturbance_hold_cycles). Called on the ticks a disturbance is judged."""
+        taut = self.robot.cable_mask(found)
+        if not self.placed_by(taut):
+            return found   # confirm() holds them
+        stretch = overstretch_m(self.robot, angle_rad, taut)
+        # for disturbance_window_cycles on end: a slack cable snapping taut again can
+        # overshoot for a period, a broken one only draws further away
+        self.overstretched_since = {
+            cable: self.overstretched_since.get(cable, tick) for cable in found
+            if stretch[cable] > self.fdi.identification_stretch_m}
+        return [cable for cable, since in self.overstretched_since.items()
+                if tick - since + 1 >= self.fdi.disturbance_window_cycles]
+
+    def placed_by(self, taut: np.ndarray) -> bool:
+        """Whether the cables of the mask `taut` place the end-effector (and weigh it)."""
+        return np.count_nonzero(taut) >= POSITION_CABLES
+
     def confirm(self, tick: int, found: list[int]) -> list[int]:
         """One free motor is named at once; several are watched, narrowed to those free on
         every tick since, and named when one is left or after identification_confirm_cycles.
+        None is named while the motors free now leave too few cables to place the
+        end-effector (a push's slack cables, disturbed()), unless they stay so for
+        disturbance_hold_cycles.
 
         Right after a failure a loaded motor can look free for a while (its cable
         unloaded); the broken cables' motors stay free.
         """
+        if self.candidates:
+            self.candidates = [cable for cable in self.candidates if cable in found]
         if not self.candidates:
-            if len(found) == 1:
-                return found
             self.candidates, self.candidates_since = found, tick
-            return []
-        self.candidates = [cable for cable in self.candidates if cable in found]
-        if not self.candidates:
-            return self.confirm(tick, found)
-        if len(self.candidates) == 1 or tick - self.candidates_since + 1 >= self.fdi.identification_confirm_cycles:
+        watched = tick - self.candidates_since + 1
+        placed = self.placed_by(self.robot.cable_mask(found))
+        if (self.candidates and (len(self.candidates) == 1
+                                 or watched >= self.fdi.identification_confirm_cycles)
+                and (placed or watched >= self.fdi.disturbance_hold_cycles)):
             return sorted(self.candidates)
         return []
 
@@ -192,4 +276,5 @@ class Supervisor:
             'unidentified_alarms': self.unidentified_alarms,
             'late_commands': self.late_commands,
             'unjudged_ticks': self.unjudged_ticks,
+            'disturbances': self.disturbances,
         }

@@ -54,6 +54,7 @@ class SupervisorNode(CdprNode):
         self.verdict_lag_ns: int | None = None
         self.published_mode = NOMINAL
         self.unidentified_alarms = 0
+        self.disturbances = 0
         self.residual = self.create_stream_publisher(JointState, contract.FDI_RESIDUAL)
         self.broken_cable = self.create_publisher(Int32, contract.FDI_BROKEN_CABLE, qos.LATCHED)
         self.mode = self.create_publisher(String, contract.MODE, qos.LATCHED)
@@ -158,6 +159,10 @@ class SupervisorNode(CdprNode):
             self.unidentified_alarms = self.supervisor.unidentified_alarms
             self.diagnostics.warn('unidentified alarm', f'an alarm ended without a free motor '
                                                         f'({self.unidentified_alarms} in all)')
+        if self.supervisor.disturbances > self.disturbances:
+            self.disturbances = self.supervisor.disturbances
+            self.diagnostics.warn('disturbance', f'a push or contact on the end-effector, not a '
+                                                 f'failure: no cable named ({self.disturbances} in all)')
         if verdict.events:
             self.diagnostics.publish()
 

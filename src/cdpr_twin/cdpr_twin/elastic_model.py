@@ -16,6 +16,7 @@ import numpy as np
 
 from cdpr_control.kinematics import cable_vectors
 from cdpr_control.robot import Robot
+from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.statics import static_tensions
 
 
@@ -63,16 +64,19 @@ class ElasticCableRobot:
 
     def evaluate_tensions(self) -> None:
         """The spring–damper tensions of the current state, for the next sub-step."""
-        self.integrate([0.0] * self.robot.cable_count, 0.0, 1)
+        self.integrate([0.0] * self.robot.cable_count, 0.0, 1, NO_FORCE)
 
-    def step(self, torque_nm: np.ndarray, period_s: float) -> None:
-        """Apply `torque_nm` (N·m) for `period_s` (s)."""
+    def step(self, torque_nm: np.ndarray, period_s: float, external_force_n=NO_FORCE) -> None:
+        """Apply `torque_nm` (N·m) for `period_s` (s), and `external_force_n` (N, world
+        frame) on the end-effector."""
         self.integrate(np.asarray(torque_nm, dtype=float).tolist(), period_s / self.substeps,
-                       self.substeps)
+                       self.substeps, tuple(external_force_n))
         self.tension_n = np.array(self.spring_tension_n)
 
-    def integrate(self, torque_nm: list[float], h: float, substeps: int) -> None:
-        """`substeps` semi-implicit Euler sub-steps of `h` s under `torque_nm`.
+    def integrate(self, torque_nm: list[float], h: float, substeps: int,
+                  external_force_n: tuple[float, float, float]) -> None:
+        """`substeps` semi-implicit Euler sub-steps of `h` s under `torque_nm` and
+        `external_force_n`.
 
         A sub-step moves the state with the tensions of its start, then evaluates the
         tensions of its end, which the next sub-step starts from. With h = 0 the state
@@ -84,7 +88,8 @@ class ElasticCableRobot:
         smoothing = self.coulomb_velocity_rad_s
         stiffness, damping = self.axial_stiffness_n, self.damping_n_s_m
         mass = self.robot.mass_kg
-        gx, gy, gz = self.robot.gravity_m_s2.tolist()
+        # gravity and the external force, as accelerations of the end-effector
+        gx, gy, gz = (g + f / mass for g, f in zip(self.robot.gravity_m_s2.tolist(), external_force_n))
         px, py, pz = self.position_m.tolist()
         vx, vy, vz = self.velocity_m_s.tolist()
         angle = self.angle_rad.tolist()

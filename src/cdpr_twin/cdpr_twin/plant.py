@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cdpr_control.config import Section
+from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.robot import Robot
 from cdpr_control.statics import holding_torque_nm
 
@@ -21,6 +22,32 @@ from .rigid_model import RigidCableRobot
 FIDELITIES = ('rigid', 'elastic')
 # Instants closer than this (s) are one: summed 2 ms periods drift by ~1e-13 s.
 TICK_GRID_S = 1e-9
+
+
+@dataclass(frozen=True)
+class Push:
+    """A force `force_n` (N, world frame) on the end-effector for `duration_s` (s) from
+    `start_s` (s): a hand pushing it, a brief contact with an obstacle. Applied on the
+    control periods that start within it."""
+
+    start_s: float
+    duration_s: float
+    force_n: tuple[float, float, float]
+
+    def acts_at(self, time_s: float) -> bool:
+        return self.start_s - TICK_GRID_S <= time_s < self.start_s + self.duration_s - TICK_GRID_S
+
+
+def settled_pushes(run: Section) -> list[Push]:
+    """The pushes of a settled run's `run` section: `push_start_s`, `push_duration_s` and
+    `push_force_n` (three numbers a push, flat: ROS parameters are flat arrays)."""
+    starts, durations = run.raw('push_start_s', []), run.raw('push_duration_s', [])
+    forces = run.raw('push_force_n', [])
+    if not (len(starts) == len(durations) and 3 * len(starts) == len(forces)):
+        raise run.error('push_force_n', f'must hold 3 numbers per push start, got {forces!r} for {starts!r}')
+    forces = run.vector('push_force_n', len(forces)).reshape(-1, 3) if forces else []
+    return [Push(float(start), float(duration), tuple(force.tolist()))
+            for start, duration, force in zip(starts, durations, forces)]
 
 
 @dataclass(frozen=True)
@@ -80,7 +107,7 @@ def mismatched_robot(robot: Robot, config: PlantConfig) -> Robot:
 class PlantSimulator:
     """Steps the plant under commanded torques, breaks cables on schedule, measures θ, θ̇."""
 
-    def __init__(self, robot: Robot, config: PlantConfig, start_position_m, failures=()):
+    def __init__(self, robot: Robot, config: PlantConfig, start_position_m, failures=(), pushes=()):
         self.robot = robot
         self.config = config
         if config.fidelity == 'rigid':
@@ -92,6 +119,7 @@ class PlantSimulator:
                 config.damping_n_s_m, true_robot.motor.static_friction_nm,
                 config.coulomb_velocity_rad_s)
         self.failures = sorted((float(t), int(c)) for t, c in failures)
+        self.pushes = list(pushes)
         self.broken: list[int] = []
         self.time_s = 0.0
         self.rng = np.random.default_rng(config.seed)
@@ -143,16 +171,22 @@ class PlantSimulator:
         happens at its scheduled instant: the period is integrated up to it, then on
         without the cable, so a delay measured from that instant is the true one."""
         torque = self.applied_torque_nm(torque_nm)
+        force = self.external_force_n()
         done_s = 0.0
         for time_s, cable in self.failures:
             if self.time_s - TICK_GRID_S <= time_s < self.time_s + period_s - TICK_GRID_S:
                 before_s = time_s - self.time_s - done_s
                 if before_s > TICK_GRID_S:
-                    self.model.step(torque, before_s)
+                    self.model.step(torque, before_s, force)
                     done_s += before_s
                 self.inject_failure(cable)
-        self.model.step(torque, period_s - done_s)
+        self.model.step(torque, period_s - done_s, force)
         self.time_s += period_s
+
+    def external_force_n(self) -> tuple[float, float, float]:
+        """The pushes acting now, summed (N)."""
+        acting = [push.force_n for push in self.pushes if push.acts_at(self.time_s)]
+        return tuple(float(sum(axis)) for axis in zip(*acting)) if acting else NO_FORCE
 
     @property
     def position_m(self) -> np.ndarray:

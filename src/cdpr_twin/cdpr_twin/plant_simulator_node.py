@@ -25,7 +25,7 @@ from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
 from cdpr_msgs_py.health import loop_problem
 from cdpr_msgs_py.runtime import CdprNode, run
 
-from .plant import PlantConfig, PlantSimulator
+from .plant import PlantConfig, PlantSimulator, settled_pushes
 from .run_length import RunLength
 from .watchdog import BRAKING, CommandWatchdog
 from .tick_timing import TickTiming
@@ -43,7 +43,7 @@ class PlantSimulatorNode(CdprNode):
         failures = zip(run.raw('failure_times_s', []), run.raw('failure_cable_indices', []))
         self.plant = PlantSimulator(self.robot, PlantConfig.from_section(plant_section),
                                     run.vector('start_position_m', 3, self.robot.home_position_m.tolist()),
-                                    failures)
+                                    failures, settled_pushes(run))
         self.run_length = RunLength(
             run.integer('last_tick', minimum=0) if run.has('last_tick') else math.inf,
             run.integer('hold_after_ticks', minimum=0) if run.has('hold_after_ticks') else None)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.dynamics import RigidDirectDynamics
+from cdpr_control.dynamics import NO_FORCE, RigidDirectDynamics
 from cdpr_control.kinematics import cable_directions, inverse_kinematics
 from cdpr_control.robot import Robot
 from cdpr_control.statics import static_tensions
@@ -48,8 +48,9 @@ class RigidCableRobot:
         for index in cables:
             self.attached[index] = False
 
-    def step(self, torque_nm: np.ndarray, period_s: float) -> None:
-        """Apply `torque_nm` (N·m) for `period_s` (s).
+    def step(self, torque_nm: np.ndarray, period_s: float, external_force_n=NO_FORCE) -> None:
+        """Apply `torque_nm` (N·m) for `period_s` (s), and `external_force_n` (N, world
+        frame) on the end-effector.
 
         Plain floats throughout: a sub-step on numpy arrays of m ≈ 4 entries spends its
         time in numpy's per-call overhead, not in the arithmetic.
@@ -61,6 +62,7 @@ class RigidCableRobot:
         radius = self.robot.motor.drum_radius_m
         h = period_s / self.substeps
         torque = np.asarray(torque_nm, dtype=float).tolist()
+        external = tuple(external_force_n)
         position = tuple(self.position_m.tolist())
         vx, vy, vz = self.velocity_m_s.tolist()
         angle = self.angle_rad.tolist()
@@ -74,7 +76,7 @@ class RigidCableRobot:
                           for on, offset, theta, (_, _, _, d)
                           in zip(attached, offsets, angle, directions)]
             (ax, ay, az), theta_ddot, tension, taut = self.dynamics.accelerations(
-                directions, (vx, vy, vz), torque, speed, candidates)
+                directions, (vx, vy, vz), torque, speed, candidates, external)
             vx, vy, vz = vx + h * ax, vy + h * ay, vz + h * az
             px, py, pz = position
             position = (px + h * vx, py + h * vy, pz + h * vz)
