@@ -83,7 +83,7 @@ def main(argv=None):
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--json', action='store_true', help='print one JSON object last')
     parser.add_argument('--out', help='fdi, roc, sweep: output folder (default runs/bench-SUITE)')
-    parser.add_argument('--fidelity', choices=FIDELITIES, default='elastic', help='roc, sweep: the plant')
+    parser.add_argument('--fidelity', choices=FIDELITIES, default='elastic', help='fdi, roc, sweep: the plant')
     parser.add_argument('--jobs', type=int, default=None, help='fdi, roc, sweep: parallel runs (default: cores)')
     args = parser.parse_args(argv)
     out = args.out or f'runs/bench-{args.suite}'
@@ -95,8 +95,8 @@ def main(argv=None):
             print(f'  {key:<28} {value}')
     elif args.suite == 'fdi':
         from .bench_fdi import bench_fdi, table as fdi_table
-        figures = bench_fdi(args.config, out, args.jobs)
-        print(f'cdpr-bench fdi on {machine()}; campaign in {out} (summary.md)')
+        figures = bench_fdi(args.config, out, args.jobs, args.fidelity)
+        print(f'cdpr-bench fdi on {machine()}, {args.fidelity} plant; campaigns in {out} (summary.md)')
         print('\n'.join(fdi_table(figures)))
     elif args.suite == 'roc':
         from .bench_roc import bench_roc, table as roc_table
