@@ -38,6 +38,7 @@ from cdpr_control.config import load_section
 from cdpr_control.motions import motion_names
 from cdpr_control.robot import load_robot
 from cdpr_msgs_py.contract import FAULT
+from cdpr_twin.plant import FIDELITIES
 
 from .cli import command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
@@ -77,7 +78,6 @@ RANDOM_FRACTION_RANGE = (0.1, 0.9)
 MOTION_SET_PREFIXES = {'along': 'along-', 'orthogonal': 'orthogonal-'}
 
 DIRECTIONS = ('forward', 'reverse')
-FIDELITIES = ('rigid', 'elastic')
 DETECTORS = ('threshold', 'cusum')
 SECONDS_PER_HOUR = 3600.0
 

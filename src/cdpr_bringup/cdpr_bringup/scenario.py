@@ -17,6 +17,7 @@ import yaml
 
 from cdpr_fdi.markers import Frame
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
+from cdpr_twin.plant import FIDELITIES
 
 from .bag_io import BagWriter, read_messages, recording_from_bag, write_recording
 from .cli import command
@@ -42,7 +43,7 @@ def parse_args(argv=None):
     when.add_argument('--fail-at', type=float, metavar='SECONDS')
     when.add_argument('--fail-at-fraction', type=float, metavar='F',
                       help='fraction of the move (default 0.5, the midpoint)')
-    parser.add_argument('--fidelity', choices=['rigid', 'elastic'])
+    parser.add_argument('--fidelity', choices=FIDELITIES)
     parser.add_argument('--engine', choices=['graph', 'inprocess'], default='graph')
     parser.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')
     parser.add_argument('--detector', choices=['threshold', 'cusum'],

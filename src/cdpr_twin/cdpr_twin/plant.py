@@ -2,7 +2,12 @@
 
 Fidelity `rigid` is the twin's own model (noise-free, no mismatch); `elastic` has
 spring–damper cables that can go slack, Coulomb friction, resolver noise and
-quantisation, and the plant's parameters off the controller's by configured factors.
+quantisation, and the plant's parameters off the controller's by configured factors;
+`field` is the elastic plant with a real drive train and the paper's test rig (§4):
+the command's transport delay, the torque loop's lag and noise, the drive's filtered
+speed estimate, breakaway friction, swivel pulleys, Dyneema cables, and the
+electromagnet that opens cable 4 (its mass on the cable, its drum-side half left
+hanging once open).
 """
 from __future__ import annotations
 
@@ -15,10 +20,10 @@ from cdpr_control.config import Section
 from cdpr_control.robot import Robot
 from cdpr_control.statics import holding_torque_nm
 
-from .elastic_model import ElasticCableRobot
+from .elastic_model import DriveTrain, ElasticCableRobot
 from .rigid_model import RigidCableRobot
 
-FIDELITIES = ('rigid', 'elastic')
+FIDELITIES = ('rigid', 'elastic', 'field')
 # Instants closer than this (s) are one: summed 2 ms periods drift by ~1e-13 s.
 TICK_GRID_S = 1e-9
 
@@ -38,6 +43,13 @@ class PlantConfig:
     velocity_noise_rad_s: float
     counts_per_revolution: int
     seed: int
+    # The field fidelity's drive train and rig (no effect on the others).
+    drive: DriveTrain = DriveTrain()
+    command_delay_s: float = 0.0
+    torque_noise_nm: float = 0.0
+    electromagnet_cable: int | None = None    # 0-based
+    electromagnet_mass_kg: float = 0.0
+    electromagnet_drum_side_kg: float = 0.0
 
     @classmethod
     def from_section(cls, plant: Section, fidelity: str | None = None,
@@ -45,16 +57,39 @@ class PlantConfig:
         elastic = plant.section('elastic')
         mismatch = elastic.section('mismatch')
         resolver = elastic.section('resolver')
+        field = plant.section('field')
+        magnet = field.section('electromagnet')
         fidelity = fidelity or plant.string('fidelity', choices=FIDELITIES)
         if fidelity not in FIDELITIES:
             raise plant.error('fidelity', f'must be one of {", ".join(FIDELITIES)}, got {fidelity!r}')
         substeps = (plant.integer('rigid_substeps', minimum=1) if fidelity == 'rigid'
                     else elastic.integer('substeps', minimum=1))
+        # Every value is read whatever the fidelity, so that each is checked and bounded.
+        stiffness = {'elastic': elastic.number('cable_axial_stiffness_n', positive=True),
+                     'field': field.number('cable_axial_stiffness_n', positive=True)}
+        damping = {'elastic': elastic.number('cable_damping_n_s_m', non_negative=True),
+                   'field': field.number('cable_damping_n_s_m', non_negative=True)}
+        magnet_kg = magnet.number('mass_kg', non_negative=True)
+        field_values = dict(
+            drive=DriveTrain(
+                torque_lag_s=field.number('torque_lag_s', non_negative=True, maximum=0.1),
+                speed_filter_s=field.number('speed_filter_s', non_negative=True, maximum=0.1),
+                breakaway_friction_nm=field.number('breakaway_friction_nm', non_negative=True),
+                stribeck_speed_rad_s=field.number('stribeck_speed_rad_s', positive=True),
+                pulley_radius_m=field.number('pulley_radius_m', non_negative=True, maximum=0.1)),
+            command_delay_s=field.number('command_delay_s', non_negative=True, maximum=0.1),
+            torque_noise_nm=field.number('torque_noise_nm', non_negative=True),
+            electromagnet_cable=magnet.integer('cable', minimum=1) - 1,
+            electromagnet_mass_kg=magnet_kg,
+            electromagnet_drum_side_kg=magnet.number('drum_side_mass_kg', non_negative=True,
+                                                     maximum=magnet_kg),
+        )
+        cables = 'field' if fidelity == 'field' else 'elastic'
         return cls(
             fidelity=fidelity,
             substeps=substeps,
-            axial_stiffness_n=elastic.number('cable_axial_stiffness_n', positive=True),
-            damping_n_s_m=elastic.number('cable_damping_n_s_m', non_negative=True),
+            axial_stiffness_n=stiffness[cables],
+            damping_n_s_m=damping[cables],
             coulomb_velocity_rad_s=elastic.number('coulomb_smoothing_rad_s', positive=True),
             mass_factor=mismatch.number('mass', positive=True),
             inertia_factor=mismatch.number('inertia', positive=True),
@@ -64,17 +99,33 @@ class PlantConfig:
             velocity_noise_rad_s=resolver.number('velocity_noise_rad_s', non_negative=True),
             counts_per_revolution=resolver.integer('counts_per_revolution', minimum=1),
             seed=plant.integer('seed', minimum=0) if seed is None else seed,
+            **(field_values if fidelity == 'field' else {}),
         )
 
 
 def mismatched_robot(robot: Robot, config: PlantConfig) -> Robot:
-    """The robot as the plant really is: the controller's model off by the factors."""
+    """The robot as the plant really is: the controller's model off by the factors, the
+    electromagnet (on its cable next to the end-effector) carried with the end-effector."""
     motor = dataclasses.replace(
         robot.motor,
         inertia_kg_m2=robot.motor.inertia_kg_m2 * config.inertia_factor,
         viscous_friction_nm_s_rad=robot.motor.viscous_friction_nm_s_rad * config.viscous_friction_factor,
         static_friction_nm=robot.motor.static_friction_nm * config.static_friction_factor)
-    return dataclasses.replace(robot, mass_kg=robot.mass_kg * config.mass_factor, motor=motor)
+    return dataclasses.replace(robot, mass_kg=robot.mass_kg * config.mass_factor
+                               + config.electromagnet_mass_kg, motor=motor)
+
+
+def drive_train(robot: Robot, config: PlantConfig) -> DriveTrain:
+    """The plant's drive train, with the electromagnet's drum-side half as the mass its
+    cable leaves hanging on the drum when it opens."""
+    if config.electromagnet_cable is None:
+        return config.drive
+    if not 0 <= config.electromagnet_cable < robot.cable_count:
+        raise ValueError(f'plant.field.electromagnet.cable {config.electromagnet_cable + 1}: '
+                         f'the robot has cables 1..{robot.cable_count}')
+    hanging = [0.0] * robot.cable_count
+    hanging[config.electromagnet_cable] = config.electromagnet_drum_side_kg
+    return dataclasses.replace(config.drive, hanging_mass_kg=tuple(hanging))
 
 
 class PlantSimulator:
@@ -90,9 +141,13 @@ class PlantSimulator:
             self.model = ElasticCableRobot(
                 true_robot, start_position_m, config.substeps, config.axial_stiffness_n,
                 config.damping_n_s_m, true_robot.motor.static_friction_nm,
-                config.coulomb_velocity_rad_s)
+                config.coulomb_velocity_rad_s, drive_train(robot, config))
         self.failures = sorted((float(t), int(c)) for t, c in failures)
         self.broken: list[int] = []
+        # Commands sent but not yet applied by the drives: (due time s, torque N·m). Until
+        # the first arrives, they hold the load as they did before the run.
+        self.commands_in_flight: list[tuple[float, np.ndarray]] = []
+        self.torque_nm = self.holding_torque_nm()
         self.time_s = 0.0
         self.rng = np.random.default_rng(config.seed)
         self.angle_step_rad = 2.0 * np.pi / config.counts_per_revolution
@@ -114,7 +169,8 @@ class PlantSimulator:
     def measure(self):
         """Resolver angle (rad) and speed (rad/s) as the drive reports them."""
         angle = self.model.angle_rad
-        speed = self.model.angular_velocity_rad_s
+        speed = (self.model.speed_estimate_rad_s if self.config.drive.speed_filter_s
+                 else self.model.angular_velocity_rad_s)
         if self.config.fidelity == 'rigid':
             return angle.copy(), speed.copy()
         angle_noise, speed_noise = self.rng.standard_normal((2, self.robot.cable_count)).tolist()
@@ -139,20 +195,43 @@ class PlantSimulator:
         return np.asarray(command_nm, dtype=float).clip(-limit, limit)
 
     def step(self, torque_nm: np.ndarray, period_s: float) -> None:
-        """Apply `torque_nm` (as the motors can) for one period; a failure due within it
-        happens at its scheduled instant: the period is integrated up to it, then on
-        without the cable, so a delay measured from that instant is the true one."""
+        """Send `torque_nm` to the drives and step one period. The drives apply it (as the
+        motors can, with their noise) `command_delay_s` later; a failure due within the
+        period happens at its scheduled instant: the period is integrated up to each such
+        instant, so a delay measured from a failure is the true one."""
         torque = self.applied_torque_nm(torque_nm)
-        done_s = 0.0
-        for time_s, cable in self.failures:
-            if self.time_s - TICK_GRID_S <= time_s < self.time_s + period_s - TICK_GRID_S:
-                before_s = time_s - self.time_s - done_s
-                if before_s > TICK_GRID_S:
-                    self.model.step(torque, before_s)
-                    done_s += before_s
-                self.inject_failure(cable)
-        self.model.step(torque, period_s - done_s)
+        if self.config.torque_noise_nm:
+            torque = torque + self.config.torque_noise_nm * self.rng.standard_normal(torque.size)
+        start, end = self.time_s, self.time_s + period_s
+        self.commands_in_flight.append((start + self.config.command_delay_s, torque))
+        events = sorted([(at, 0, cable) for at, cable in self.failures
+                         if start - TICK_GRID_S <= at < end - TICK_GRID_S]
+                        + [(due, 1, i) for i, (due, _) in enumerate(self.commands_in_flight)
+                           if due < end - TICK_GRID_S])
+        arrived = [i for _, kind, i in events if kind == 1]
+        done_s = 0.0    # of the period (offsets, not instants: summing instants drifts)
+        for at, kind, what in events:
+            before_s = at - start - done_s
+            if before_s > TICK_GRID_S:
+                self.advance(before_s, period_s)
+                done_s += before_s
+            if kind == 0:
+                self.inject_failure(what)
+            else:
+                self.torque_nm = self.commands_in_flight[what][1]
+        self.commands_in_flight = [command for i, command in enumerate(self.commands_in_flight)
+                                   if i not in arrived]
+        self.advance(period_s - done_s, period_s)
         self.time_s += period_s
+
+    def advance(self, duration_s: float, period_s: float) -> None:
+        """Integrate `duration_s` under the torque the drives apply: on the model's own
+        sub-steps, but for a delayed command's part of a period, which gets its share."""
+        if self.config.command_delay_s:
+            self.model.step(self.torque_nm, duration_s,
+                            max(1, round(duration_s / period_s * self.config.substeps)))
+        else:
+            self.model.step(self.torque_nm, duration_s)
 
     @property
     def position_m(self) -> np.ndarray:
