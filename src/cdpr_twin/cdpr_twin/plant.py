@@ -12,6 +12,7 @@ hanging once open).
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,6 +51,9 @@ class PlantConfig:
     electromagnet_cable: int | None = None    # 0-based
     electromagnet_mass_kg: float = 0.0
     electromagnet_drum_side_kg: float = 0.0
+    electromagnet_holding_force_n: float = 0.0
+    electromagnet_release_time_constant_s: float = 0.0
+    electromagnet_spring_force_n: float = 0.0
 
     @classmethod
     def from_section(cls, plant: Section, fidelity: str | None = None,
@@ -83,6 +87,10 @@ class PlantConfig:
             electromagnet_mass_kg=magnet_kg,
             electromagnet_drum_side_kg=magnet.number('drum_side_mass_kg', non_negative=True,
                                                      maximum=magnet_kg),
+            electromagnet_holding_force_n=magnet.number('holding_force_n', positive=True),
+            electromagnet_release_time_constant_s=magnet.number(
+                'release_time_constant_s', positive=True, maximum=10.0),
+            electromagnet_spring_force_n=magnet.number('spring_force_n', non_negative=True),
         )
         cables = 'field' if fidelity == 'field' else 'elastic'
         return cls(
@@ -144,6 +152,10 @@ class PlantSimulator:
                 config.coulomb_velocity_rad_s, drive_train(robot, config))
         self.failures = sorted((float(t), int(c)) for t, c in failures)
         self.broken: list[int] = []
+        # 0-based cable → when it really parted (s); when its electromagnet was switched off.
+        self.broken_at_s: dict[int, float] = {}
+        self.switched_off_s: dict[int, float] = {}
+        self.elapsed_s = 0.0    # into the current period (s)
         # Commands sent but not yet applied by the drives: (due time s, torque N·m). Until
         # the first arrives, they hold the load as they did before the run.
         self.commands_in_flight: list[tuple[float, np.ndarray]] = []
@@ -161,10 +173,29 @@ class PlantSimulator:
         return self.model.drums_locked
 
     def inject_failure(self, cable: int) -> None:
-        """Break the 0-based `cable` now."""
+        """Break the 0-based `cable` now; the electromagnet's cable opens once the
+        magnet, switched off now, no longer holds its tension (`opens`)."""
+        if cable == self.config.electromagnet_cable:
+            self.switched_off_s.setdefault(cable, self.time_s + self.elapsed_s)
+        else:
+            self.break_cable(cable)
+
+    def break_cable(self, cable: int) -> None:
+        """The 0-based `cable` parts now (the instant is kept in `broken_at_s`)."""
         if cable not in self.broken:
             self.broken.append(cable)
+            self.broken_at_s[cable] = self.time_s + self.elapsed_s
             self.model.break_cables([cable])
+
+    def opens(self, cable: int) -> bool:
+        """Whether the electromagnet switched off on `cable` lets go now: its holding
+        force, decaying from F_0 as exp(−t / T_r) since switch-off, no longer exceeds the
+        cable's tension plus its separating spring's force."""
+        config = self.config
+        holding = config.electromagnet_holding_force_n * math.exp(
+            -(self.time_s + self.elapsed_s - self.switched_off_s[cable])
+            / config.electromagnet_release_time_constant_s)
+        return holding < self.model.spring_tension_n[cable] + config.electromagnet_spring_force_n
 
     def measure(self):
         """Resolver angle (rad) and speed (rad/s) as the drive reports them."""
@@ -209,6 +240,7 @@ class PlantSimulator:
                         + [(due, 1, i) for i, (due, _) in enumerate(self.commands_in_flight)
                            if due < end - TICK_GRID_S])
         arrived = [i for _, kind, i in events if kind == 1]
+        self.elapsed_s = 0.0    # into the period, where advance() has integrated to
         done_s = 0.0    # of the period (offsets, not instants: summing instants drifts)
         for at, kind, what in events:
             before_s = at - start - done_s
@@ -223,15 +255,28 @@ class PlantSimulator:
                                    if i not in arrived]
         self.advance(period_s - done_s, period_s)
         self.time_s += period_s
+        self.elapsed_s = 0.0
 
     def advance(self, duration_s: float, period_s: float) -> None:
         """Integrate `duration_s` under the torque the drives apply: on the model's own
-        sub-steps, but for a delayed command's part of a period, which gets its share."""
-        if self.config.command_delay_s:
-            self.model.step(self.torque_nm, duration_s,
-                            max(1, round(duration_s / period_s * self.config.substeps)))
-        else:
+        sub-steps, but for a delayed command's part of a period, which gets its share,
+        and while an electromagnet lets go, which is checked on every sub-step."""
+        releasing = [cable for cable in self.switched_off_s if cable not in self.broken]
+        if not (releasing or self.config.command_delay_s):
             self.model.step(self.torque_nm, duration_s)
+            self.elapsed_s += duration_s
+            return
+        substeps = max(1, round(duration_s / period_s * self.config.substeps))
+        if not releasing:
+            self.model.step(self.torque_nm, duration_s, substeps)
+            self.elapsed_s += duration_s
+            return
+        for _ in range(substeps):
+            for cable in releasing:
+                if cable not in self.broken and self.opens(cable):
+                    self.break_cable(cable)
+            self.model.step(self.torque_nm, duration_s / substeps, 1)
+            self.elapsed_s += duration_s / substeps
 
     @property
     def position_m(self) -> np.ndarray:
