@@ -144,7 +144,7 @@ def test_failure_free_circle_torque_gap_is_the_papers(circle_without_failure):
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "K_c and K_j stay ~20x below the paper's: with the controller's 12 Hz joint PD "
+    "K_c and K_j stay far below the paper's (0.4 mm, 0.007 rad): with the controller's 12 Hz joint PD "
     "(~24 N·m/rad) a joint gap of 0.058 rad would take ~1.4 N·m, nine times the paper's "
     "K_t; see notes/issue15-field-plant.md"))
 def test_failure_free_circle_position_gaps_are_the_papers(circle_without_failure):
