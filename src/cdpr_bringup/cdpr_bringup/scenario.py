@@ -23,7 +23,8 @@ from .bag_io import BagWriter, read_messages, recording_from_bag, write_recordin
 from .cli import command
 from .engine import run_inprocess
 from .graph import INTERRUPTED_EXIT_CODE, GraphError, graph_nodes, run_to_completion
-from .metrics import PAPER_KPI, KnownRun, fdi_summary_from_diagnostics, metrics_json
+from .metrics import (PAPER_KPI, KnownRun, broken_at_from_diagnostics, fdi_summary_from_diagnostics,
+                      metrics_json)
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
 from .report import SETTLED_RUN, RunSettings, write_report
 from .scenario_setup import ScenarioOptions, build_scenario
@@ -83,7 +84,9 @@ def run_graph(args, scenario, out: Path):
         if interrupted:
             return None, True
         raise
-    recording.fdi = fdi_summary_from_diagnostics(read_messages(bag, ['/diagnostics'])['/diagnostics'])
+    diagnostics = read_messages(bag, ['/diagnostics'])['/diagnostics']
+    recording.fdi = fdi_summary_from_diagnostics(diagnostics)
+    recording.broken_at_s = broken_at_from_diagnostics(diagnostics)
     return recording, interrupted
 
 
