@@ -10,6 +10,7 @@ reason; notes/issue15-field-plant.md has the whole table.
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import statistics
@@ -19,11 +20,13 @@ import numpy as np
 import pytest
 
 from cdpr_bringup.engine import run_inprocess
+from cdpr_bringup.paths import DEFAULT_ROBOT, config_file
 from cdpr_bringup.metrics import PAPER_KPI
 from cdpr_bringup.scenario import metrics_of
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_twin.elastic_model import swivel_pulley_length_m
-from cdpr_twin.plant import PlantSimulator
+from cdpr_control.config import ConfigError, Section, load_config
+from cdpr_twin.plant import PlantConfig, PlantSimulator
 
 # Paper §5.2: Tables 5 (along cable 4) and 7 (orthogonal), forward and backward (ms);
 # §5.3: the circle, failure after 135° of arc.
@@ -69,6 +72,23 @@ def orthogonal_runs():
 
 
 # ---- physics -------------------------------------------------------------------------
+
+@pytest.mark.parametrize('key, value', [('command_delay_s', -0.001), ('torque_lag_s', 0.5),
+                                        ('pulley_radius_m', -0.005)])
+def test_a_field_value_out_of_its_range_is_refused_naming_its_key(key, value):
+    # a copy: the loaded document shares the cached defaults
+    plant = copy.deepcopy(load_config(config_file(DEFAULT_ROBOT)).data['plant'])
+    plant['field'][key] = value
+    with pytest.raises(ConfigError, match=f"plant.field.{key}"):
+        PlantConfig.from_section(Section({'plant': plant}, 'set-up.yaml').section('plant'), 'field')
+
+
+def test_the_electromagnet_must_be_on_a_cable_of_the_robot():
+    scenario = build_scenario(ScenarioOptions(motion='along-2', fidelity='field'))
+    config = dataclasses.replace(scenario.plant, electromagnet_cable=scenario.robot.cable_count)
+    with pytest.raises(ValueError, match='electromagnet.cable 5'):
+        PlantSimulator(scenario.robot, config, scenario.reference.position_m[0])
+
 
 def test_a_cable_over_a_swivel_pulley_pulls_along_its_free_length():
     """The gradient of the length over the pulley with respect to the end-effector is the
