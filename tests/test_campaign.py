@@ -27,12 +27,12 @@ def test_motion_set_expands_the_paper_tables():
 def test_matrix_counts_and_ids():
     motions = ['along-1', 'circle']
     runs = build_matrix(motions, cables=[3, 4], seeds=[0, 1])
-    # (2 cables + failure-free) × 2 motions × 2 directions × 2 fidelities × 2 detectors × 2 seeds
-    assert len(runs) == 3 * 2 * 2 * 2 * 2 * 2
+    # (2 cables + failure-free) × 2 motions × 2 directions × 3 fidelities × 2 detectors × 2 seeds
+    assert len(runs) == 3 * 2 * 2 * 3 * 2 * 2
     assert len({run.id for run in runs}) == len(runs)
-    assert sum(run.cable is None for run in runs) == 2 * 2 * 2 * 2 * 2
+    assert sum(run.cable is None for run in runs) == 2 * 2 * 3 * 2 * 2
     assert runs[0].id == 'along-1_forward_cable3_at0.500_rigid_threshold_seed0'
-    assert runs[-1].id == 'circle_reverse_no-failure_elastic_cusum_seed1'
+    assert runs[-1].id == 'circle_reverse_no-failure_field_cusum_seed1'
     # The paper's failure points: the midpoint of a line, 135° of the circle.
     assert {run.fail_at_fraction for run in runs if run.motion == 'along-1'} == {0.5}
     assert {run.fail_at_fraction for run in runs if run.motion == 'circle'} == {0.375}

@@ -64,14 +64,13 @@ def test_the_balance_weighs_a_push_from_the_motors_alone(force_n):
     assert recording.true_tension_n.min() > 1.0   # no cable went slack
     balance = WrenchBalance(run.robot, run.period_s, window=5)
     applied = np.vstack([np.zeros_like(recording.command_nm[:1]), recording.command_nm[:-1]])
-    taut = np.ones(run.robot.cable_count, dtype=bool)
     forces = {}
     for k in range(1, len(recording.time_s)):
         low, high = sensorless_tension_bounds(
             run.robot.motor, run.fdi.friction, applied[k], recording.angular_velocity_rad_s[k - 1],
             recording.angular_velocity_rad_s[k], run.period_s)
-        balance.record(recording.angle_rad[k], recording.angular_velocity_rad_s[k], (low + high) / 2)
-        forces[k] = balance.unexplained_force_n(taut)
+        balance.record(k, recording.angle_rad[k], recording.angular_velocity_rad_s[k], (low + high) / 2)
+        forces[k] = balance.unexplained_force_n({})
     ticks = {name: int(round(time_s / run.period_s)) for name, time_s in
              (('start', PUSH_START_S), ('end', PUSH_START_S + 0.3))}
     pushed = np.array([forces[k] for k in range(ticks['start'] + 10, ticks['end'])])

@@ -117,7 +117,9 @@ def test_scenario_and_report_compute_the_same_metrics_of_one_run(failure_run, tm
     (run / SETTLED_RUN).write_text(yaml.safe_dump(scenario.settings.data))
     recomputed = write_report(run / 'bag', run / 'plots', run_settings(run / 'bag'))
     own, recomputed = flat(own), flat(recomputed)
-    assert set(own) - set(recomputed) == {'motion', 'fidelity', 'detector'}
+    # what the scenario knows beyond its bag: its options, and when the failure was commanded
+    assert set(own) - set(recomputed) == {'motion', 'fidelity', 'detector', 'failure_signal_time_s',
+                                          'detection_delay_from_signal_ms'}
     assert set(recomputed) <= set(own)
     differ = {key: (own[key], recomputed[key]) for key in sorted(set(recomputed) - {'wall_time_s'})
               if not (recomputed[key] == own[key] if own[key] is None or isinstance(own[key], (bool, str))

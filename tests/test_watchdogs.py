@@ -10,7 +10,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_control.controller import JointReference
 from cdpr_fdi.supervisor import Supervisor
-from cdpr_twin.plant import PlantSimulator
+from cdpr_twin.plant import FIDELITIES, PlantSimulator
 from cdpr_twin.watchdog import BRAKING, HOLDING, OK, CommandWatchdog
 
 from conftest import MOTIONS, PAPER_ROBOT
@@ -26,7 +26,7 @@ def test_watchdog_holds_then_brakes_and_a_fresh_command_releases():
         CommandWatchdog(0)
 
 
-@pytest.mark.parametrize('fidelity', ['rigid', 'elastic'])
+@pytest.mark.parametrize('fidelity', FIDELITIES)
 def test_braked_drums_hold_the_load_where_zero_torque_drops_it(fidelity):
     scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
                                               motion='circle', fidelity=fidelity))

@@ -20,6 +20,7 @@ from cdpr_control.config import load_section
 from cdpr_control.motions import motion_names
 from cdpr_control.robot import load_robot
 from cdpr_fdi.calibration import FailureFreeRun, calibrate
+from cdpr_twin.plant import FIDELITIES
 
 from .cli import command
 from .engine import run_inprocess
@@ -31,7 +32,7 @@ def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--motions', default=DEFAULT_MOTIONS, help='motions YAML')
-    parser.add_argument('--fidelity', choices=['rigid', 'elastic'], default='elastic')
+    parser.add_argument('--fidelity', choices=FIDELITIES, default='elastic')
     parser.add_argument('--seeds', default='0,1,2', help='comma-separated plant seeds')
     parser.add_argument('--false-alarms-per-hour', type=float, default=0.1,
                         help='target rate (default 0.1: one per 10 hours)')

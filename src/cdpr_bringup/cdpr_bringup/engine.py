@@ -110,4 +110,5 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
         residual_nm=rows['residual'] if supervisor is not None else None,
         recovery_reference_angle_rad=rows['recovery_reference_angle'],
         fdi=supervisor.summary() if supervisor is not None else {},
-        interrupted=ran <= run_length.last_tick)
+        interrupted=ran <= run_length.last_tick,
+        broken_at_s=dict(plant.broken_at_s))

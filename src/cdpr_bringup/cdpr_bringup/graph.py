@@ -22,6 +22,7 @@ import yaml
 
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
+from cdpr_twin.plant import FIDELITIES
 from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, shipped_environment,
                               use_shipped_setup)
 from cdpr_msgs_py.runtime import READY_MARK, SHUTDOWN_LIMIT_S
@@ -289,7 +290,7 @@ def parser() -> argparse.ArgumentParser:
     options.add_argument('--config', default=DEFAULT_ROBOT, help='robot file or set-up (YAML)')
     options.add_argument('--motions', default=DEFAULT_MOTIONS, help='motions YAML')
     options.add_argument('--motion', default='circle', help='named motion')
-    options.add_argument('--fidelity', choices=['rigid', 'elastic'],
+    options.add_argument('--fidelity', choices=FIDELITIES,
                          help="plant model (default: the config's plant.fidelity); the supervisor "
                               "gets the thresholds calibrated for it")
     options.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')

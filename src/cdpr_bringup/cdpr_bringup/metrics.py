@@ -8,7 +8,7 @@ import numpy as np
 
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.robot import Robot
-from cdpr_msgs_py.contract import SAFE_HOLD
+from cdpr_msgs_py.contract import BROKEN_AT_KEY, SAFE_HOLD
 
 from .recording import Recording
 
@@ -134,6 +134,20 @@ def metrics_json(run: KnownRun) -> dict:
         'cycles': int(run.recording.time_s.size),
         'wall_time_s': run.wall_time_s,
     }
+
+
+def broken_at_from_diagnostics(messages) -> dict[int, float] | None:
+    """0-based cable → the instant (s) the plant really parted it, from the plant
+    simulator's last /diagnostics (None when it never said)."""
+    broken = None
+    for _, message in messages:
+        for status in message.status:
+            if status.name.endswith('/plant_simulator'):
+                for value in status.values:
+                    if value.key == BROKEN_AT_KEY:
+                        broken = {int(cable) - 1: float(at)
+                                  for cable, at in json.loads(value.value).items()}
+    return broken
 
 
 def fdi_summary_from_diagnostics(messages) -> dict:

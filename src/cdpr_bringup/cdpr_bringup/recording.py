@@ -30,6 +30,10 @@ class Recording:
     fdi: dict = field(default_factory=dict)
     # Ctrl-C ended the run early: the rows are the cycles that ran.
     interrupted: bool = False
+    # 0-based cable → the instant (s) the plant really parted it, which the field plant's
+    # electromagnet makes later than the failure it was told (a simulation's ground
+    # truth; None when unknown, as in a bag).
+    broken_at_s: dict[int, float] | None = None
 
     @property
     def has_ground_truth(self) -> bool:

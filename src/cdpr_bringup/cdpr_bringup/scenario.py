@@ -17,12 +17,14 @@ import yaml
 
 from cdpr_fdi.markers import Frame
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
+from cdpr_twin.plant import FIDELITIES
 
 from .bag_io import BagWriter, read_messages, recording_from_bag, write_recording
 from .cli import command
 from .engine import run_inprocess
 from .graph import INTERRUPTED_EXIT_CODE, GraphError, graph_nodes, run_to_completion
-from .metrics import PAPER_KPI, KnownRun, fdi_summary_from_diagnostics, metrics_json
+from .metrics import (PAPER_KPI, KnownRun, broken_at_from_diagnostics, fdi_summary_from_diagnostics,
+                      metrics_json)
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
 from .report import SETTLED_RUN, RunSettings, write_report
 from .scenario_setup import ScenarioOptions, add_push_option, build_scenario
@@ -42,7 +44,7 @@ def parse_args(argv=None):
     when.add_argument('--fail-at', type=float, metavar='SECONDS')
     when.add_argument('--fail-at-fraction', type=float, metavar='F',
                       help='fraction of the move (default 0.5, the midpoint)')
-    parser.add_argument('--fidelity', choices=['rigid', 'elastic'])
+    parser.add_argument('--fidelity', choices=FIDELITIES)
     parser.add_argument('--engine', choices=['graph', 'inprocess'], default='graph')
     parser.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')
     parser.add_argument('--detector', choices=['threshold', 'cusum'],
@@ -83,7 +85,9 @@ def run_graph(args, scenario, out: Path):
         if interrupted:
             return None, True
         raise
-    recording.fdi = fdi_summary_from_diagnostics(read_messages(bag, ['/diagnostics'])['/diagnostics'])
+    diagnostics = read_messages(bag, ['/diagnostics'])['/diagnostics']
+    recording.fdi = fdi_summary_from_diagnostics(diagnostics)
+    recording.broken_at_s = broken_at_from_diagnostics(diagnostics)
     return recording, interrupted
 
 
@@ -101,13 +105,21 @@ def metrics_of(scenario, recording, wall_time_s: float, interrupted: bool = Fals
     if recording is None or recording.time_s.size == 0:
         return dict(metrics, cycles=0, wall_time_s=wall_time_s)
     failures = [(at, cable) for at, cable in scenario.failures if at <= recording.time_s[-1]]
+    broken = sorted({cable + 1 for _, cable in failures})
+    # The failure is the instant a cable really parted (design.md §8); the signal that
+    # broke it (the paper's electromagnet command, from which its Tables 5 and 7 count)
+    # comes first. Without the plant's own record the two are one.
+    signal = failures[0][0] if failures else None
+    failure = signal
+    if recording.broken_at_s is not None:
+        failure = min(recording.broken_at_s.values(), default=None)
+        broken = sorted(cable + 1 for cable in recording.broken_at_s)
     supervisor = recording.fdi or {}
     identified_tick = supervisor.get('identified_tick')
     metrics.update(metrics_json(KnownRun(
         robot=scenario.robot, recording=recording, position_m=recording.true_position_m,
         tension_n=recording.true_tension_n, epsilon_nm=scenario.fdi.epsilon_nm,
-        failure_time_s=failures[0][0] if failures else None,
-        true_broken_cables=sorted({cable + 1 for _, cable in failures}),
+        failure_time_s=failure, true_broken_cables=broken,
         detection_time_s=None if identified_tick is None else identified_tick * scenario.period_s,
         identified_cables=supervisor.get('broken_cables') or [], mode=supervisor.get('mode'),
         phase_times_s={mode: tick * scenario.period_s
@@ -115,6 +127,10 @@ def metrics_of(scenario, recording, wall_time_s: float, interrupted: bool = Fals
         safe_point_m=supervisor.get('safe_point_m'),
         reached_tolerance_m=scenario.recovery.reached_tolerance_m, supervisor=supervisor,
         wall_time_s=wall_time_s)))
+    detection = metrics['detection_time_s']
+    metrics['failure_signal_time_s'] = signal
+    metrics['detection_delay_from_signal_ms'] = (None if detection is None or signal is None
+                                                 else (detection - signal) * 1000.0)
     return metrics
 
 
@@ -122,13 +138,18 @@ def print_summary(metrics: dict, engine: str) -> None:
     print(f'{metrics["motion"]} on the {metrics["fidelity"]} plant, {engine} engine, '
           f'{metrics["detector"]} detector: {metrics["cycles"]} cycles in {metrics["wall_time_s"]:.1f} s')
     if metrics['failure_time_s'] is not None:
-        print(f'  cable(s) {metrics["true_broken_cables"]} broke at {metrics["failure_time_s"]:.4f} s')
+        print(f'  cable(s) {metrics["true_broken_cables"]} broke at {metrics["failure_time_s"]:.4f} s'
+              + ('' if metrics['failure_signal_time_s'] == metrics['failure_time_s']
+                 else f' (signal at {metrics["failure_signal_time_s"]:.4f} s)'))
     if metrics['detection_time_s'] is None:
         print('  no failure detected')
     else:
         delay = metrics['detection_delay_ms']
         print(f'  detected at {metrics["detection_time_s"]:.3f} s'
-              + ('' if delay is None else f' ({delay:.1f} ms after the failure)')
+              + ('' if delay is None else f' ({delay:.1f} ms after the failure')
+              + ('' if delay is None or metrics['failure_signal_time_s'] == metrics['failure_time_s']
+                 else f', {metrics["detection_delay_from_signal_ms"]:.1f} ms after its signal')
+              + ('' if delay is None else ')')
               + f', cable(s) {metrics["identified_cables"]} named'
               + (' — FALSE ALARM' if metrics['false_alarm'] else ''))
     recovery = metrics['recovery']

@@ -271,21 +271,22 @@ def add_push_option(parser) -> None:
 def calibration_for(config_path: Path, fdi: Section, robot: Robot, fidelity: str,
                     calibration: str | None) -> Path | None:
     """The given calibration file; else, on the elastic plant, the set-up's
-    `fdi.elastic_calibration_file`, else the shipped calibration made on this robot; the
-    rigid plant keeps the paper's noise-free values. NO_CALIBRATION: the set-up's own
-    thresholds (a run without a supervisor)."""
-    if calibration == NO_CALIBRATION or (not calibration and fidelity != 'elastic'):
+    `fdi.elastic_calibration_file`; else, on the elastic or field plant, the shipped
+    calibration made on this robot for that plant; the rigid plant keeps the paper's
+    noise-free values. NO_CALIBRATION: the set-up's own thresholds (a run without a
+    supervisor)."""
+    if calibration == NO_CALIBRATION or (not calibration and fidelity == 'rigid'):
         return None
     if calibration:
         return config_file(calibration)
-    if fdi.has('elastic_calibration_file'):
+    if fidelity == 'elastic' and fdi.has('elastic_calibration_file'):
         return config_file(fdi.string('elastic_calibration_file'))
     shipped = shipped_calibration(robot.fingerprint(), fidelity)
     if shipped is None:
         raise fdi.error('elastic_calibration_file', (
             f'is missing, and no shipped calibration was made on this robot ({robot.name}, '
-            f'{robot.fingerprint()}): the elastic plant needs thresholds measured on it; make '
-            f'them with cdpr-calibrate --config {config_path} --motions MOTIONS.yaml --out FILE '
-            'and name FILE here, or pass --calibration FILE (or run --fidelity rigid, on the '
-            'noise-free defaults)'))
+            f'{robot.fingerprint()}) for the {fidelity} plant: it needs thresholds measured on '
+            f'it; make them with cdpr-calibrate --config {config_path} --fidelity {fidelity} '
+            '--motions MOTIONS.yaml --out FILE and name FILE here, or pass --calibration FILE '
+            '(or run --fidelity rigid, on the noise-free defaults)'))
     return shipped

@@ -74,6 +74,8 @@ class Supervisor:
         self.last_disturbed_tick: int | None = None
         # the first tick of the free motors leaving too few cables to place the end-effector
         self.unplaced_since: int | None = None
+        # the motors looking free on the last alarm tick: since which tick (0-based cable)
+        self.free_since: dict[int, int] = {}
         # free cables spanning more than their length: since which tick
         self.overstretched_since: dict[int, int] = {}
         self.disturbance_reported = False
@@ -87,7 +89,8 @@ class Supervisor:
             self.tension_bounds_n = sensorless_tension_bounds(
                 self.robot.motor, self.fdi.friction, np.asarray(applied_torque_nm, float),
                 self.previous_speed, np.asarray(angular_velocity_rad_s, float), self.period_s)
-            self.balance.record(angle_rad, angular_velocity_rad_s, np.mean(self.tension_bounds_n, axis=0))
+            self.balance.record(tick, angle_rad, angular_velocity_rad_s,
+                                np.mean(self.tension_bounds_n, axis=0))
         events: list[str] = []
         alarm = False
         applied = np.asarray(applied_torque_nm, float)
@@ -118,6 +121,7 @@ class Supervisor:
                     events += self.on_identified(tick, confirmed, angle_rad, command_nm, reference)
             elif not alarm:
                 self.disturbed_since = None
+                self.free_since = {}
             if not alarm and self.alarm_tick is not None:
                 self.unidentified_alarms += 1
                 events.append(f'alarm from tick {self.alarm_tick} ended without a free motor')
@@ -148,13 +152,13 @@ class Supervisor:
         end-effector while a push is on or the end-effector swings from one (a push
         slackening two cables of four). Reported once an episode, when it has lasted the
         balance's window; within it, a failure's jolt can look alike, and nothing is named."""
-        taut = self.robot.cable_mask(found)
-        weighable = self.placed_by(taut)
+        self.free_since = {cable: self.free_since.get(cable, tick) for cable in found}
+        weighable = self.placed_by(self.robot.cable_mask(found))
         if weighable:
             self.unplaced_since = None
         elif self.unplaced_since is None:
             self.unplaced_since = tick
-        force = self.balance.unexplained_force_n(taut) if weighable else None
+        force = self.balance.unexplained_force_n(self.free_since) if weighable else None
         magnitude = None if force is None else float(np.linalg.norm(force))
         # Right after a failure a loaded cable can slacken too, for less than
         # identification_confirm_cycles (confirm() narrows them): too few to weigh is a

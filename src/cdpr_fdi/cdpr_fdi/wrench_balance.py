@@ -13,7 +13,8 @@ push itself when something outside pulls. p comes from the motor angles of the t
 cables (forward kinematics), ṗ from their resolver speeds (ρ θ̇_j = −u_jᵀ ṗ, as sharp as
 the speeds, where differentiating positions would amplify their quantisation), p̈ from two
 speeds `window` periods apart, and τ̂ is averaged over the same periods, so both sides
-describe one stretch of time: a cable that broke within it pulled as its motor said.
+describe one stretch of time: a free cable pulled as its motor said until it looked free,
+nothing since.
 
 A balance that holds does not prove a break, though: after a push the end-effector
 swings, and a cable can go slack with nothing pushing. What does prove one is a cable
@@ -45,27 +46,33 @@ class WrenchBalance:
         # that ended there (N)
         self.ticks: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=window + 1)
 
-    def record(self, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray,
+    def record(self, tick: int, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray,
                tension_n: np.ndarray) -> None:
-        self.ticks.append((np.asarray(angle_rad, float), np.asarray(angular_velocity_rad_s, float),
-                           np.asarray(tension_n, float)))
+        self.ticks.append((tick, np.asarray(angle_rad, float),
+                           np.asarray(angular_velocity_rad_s, float), np.asarray(tension_n, float)))
 
-    def unexplained_force_n(self, taut: np.ndarray) -> np.ndarray | None:
-        """F (N): the end-effector placed and moved by the cables of the boolean mask
-        `taut`, pulled by every cable with its sensorless tension (a free one's is about
-        zero, a broken one's was its pull until it broke: so a failure within the window
-        leaves no force unexplained). None until `window` periods are recorded, or when
-        fewer than three cables are taut (they do not place the end-effector)."""
+    def unexplained_force_n(self, free_since: dict[int, int]) -> np.ndarray | None:
+        """F (N) with the cables of `free_since` (0-based cable → the first tick its motor
+        looked free) pulling nothing from then on, and as their motors said before (a
+        cable that broke within the window pulled until it broke; once free, its motor's
+        estimate is noise: an unloaded drum under a lagging drive), the others placing and
+        moving the end-effector and pulling as their motors say. None until `window`
+        periods are recorded, or when fewer than three cables are taut (they do not place
+        the end-effector)."""
+        taut = self.robot.cable_mask(list(free_since))
         if len(self.ticks) <= self.window or np.count_nonzero(taut) < POSITION_CABLES:
             return None
-        (angle_then, speed_then, _), (angle_now, speed_now, _) = self.ticks[0], self.ticks[-1]
+        (_, angle_then, speed_then, _), (_, angle_now, speed_now, _) = self.ticks[0], self.ticks[-1]
         velocity_then, _ = self.velocity_m_s(angle_then, speed_then, taut)
         velocity_now, position = self.velocity_m_s(angle_now, speed_now, taut)
         acceleration = (velocity_now - velocity_then) / (self.window * self.period_s)
-        tension = np.mean([tension for _, _, tension in list(self.ticks)[1:]], axis=0)
+        tensions = np.array([tension for _, _, _, tension in list(self.ticks)[1:]])
+        ticks = np.array([tick for tick, _, _, _ in list(self.ticks)[1:]])
+        for cable, since in free_since.items():
+            tensions[ticks >= since, cable] = 0.0
         directions, _ = cable_vectors(self.robot.exit_points_m, position)
         robot = self.robot
-        return robot.mass_kg * (acceleration - robot.gravity_m_s2) - directions.T @ tension
+        return robot.mass_kg * (acceleration - robot.gravity_m_s2) - directions.T @ tensions.mean(axis=0)
 
     def velocity_m_s(self, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray,
                      taut: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

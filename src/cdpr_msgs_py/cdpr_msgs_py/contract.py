@@ -30,6 +30,9 @@ INJECT_FAILURE = 'inject_failure'
 MARKERS = 'markers'
 CLOCK = '/clock'
 DIAGNOSTICS = '/diagnostics'
+# The plant simulator's /diagnostics key: {cable (1-based): instant it really parted (s)}
+# as JSON, ground truth for a run's failure_time_s.
+BROKEN_AT_KEY = 'plant broken_at_s'
 
 # The nodes of the graph, by executable. A hardware bridge takes the plant simulator's
 # place on its topics (README, "Hardware bridge").

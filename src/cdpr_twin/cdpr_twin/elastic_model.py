@@ -1,8 +1,14 @@
-"""Elastic-cable robot simulation: the plant's `elastic` fidelity.
+"""Elastic-cable robot simulation: the plant's `elastic` and `field` fidelities.
 
 Each cable is a unilateral spring–damper of stiffness EA / l between its drum and the
 end-effector (it can go slack, never push); motors carry viscous and Coulomb friction.
 Integrated by semi-implicit Euler with sub-steps inside each control period.
+
+The `field` fidelity adds what a real drive train does (`DriveTrain`): the torque loop's
+lag, the drive's filtered speed estimate, breakaway friction above Coulomb near
+standstill (Stribeck), swivel pulleys whose wrap changes a cable's length with its
+direction, and a mass left hanging on a cable's drum side once it breaks (the
+electromagnet's half). Its defaults add nothing: that is the `elastic` fidelity.
 
 The sub-steps run on plain floats: 8 of them every 2 ms on m ≈ 4 cables, where numpy's
 per-call overhead (~0.3–0.8 µs a call, dozens of calls a sub-step) would be most of
@@ -10,7 +16,9 @@ the cost.
 """
 from __future__ import annotations
 
-from math import sqrt, tanh
+import dataclasses
+from dataclasses import dataclass
+from math import exp, sqrt, tanh
 
 import numpy as np
 
@@ -18,6 +26,39 @@ from cdpr_control.kinematics import cable_vectors
 from cdpr_control.robot import Robot
 from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.statics import static_tensions
+
+
+@dataclass(frozen=True)
+class DriveTrain:
+    """A real drive train's effects on the elastic plant; the defaults add none."""
+
+    torque_lag_s: float = 0.0            # time constant of the drive's torque loop
+    speed_filter_s: float = 0.0          # time constant of the drive's speed estimate
+    breakaway_friction_nm: float = 0.0   # friction at standstill beyond Coulomb's
+    stribeck_speed_rad_s: float = 1.0    # speed over which that excess fades
+    pulley_radius_m: float = 0.0         # swivel pulley at each exit point (0: a point)
+    # Per cable: the mass (kg) left on its drum side once it breaks; () for none.
+    hanging_mass_kg: tuple[float, ...] = ()
+
+
+def swivel_pulley_length_m(exit_points_m: np.ndarray, position_m: np.ndarray,
+                           radius_m: float) -> np.ndarray:
+    """Length (m) of each cable from where it meets its swivel pulley to the end-effector.
+
+    The cable rises vertically along the pulley's swivel axis (through the exit point A_i),
+    wraps the pulley, of radius r, whose plane turns with the cable about that axis, and
+    leaves it on the tangent towards the end-effector: r β + sqrt(|C − p|² − r²), C the
+    pulley centre (r from the axis towards p, at A_i's height) and β the wrap angle.
+    """
+    r = radius_m
+    rel = position_m - exit_points_m
+    horizontal = np.hypot(rel[:, 0], rel[:, 1]) - r    # from C towards p, in the pulley plane
+    vertical = rel[:, 2]                               # below C: negative
+    centre_distance = np.hypot(horizontal, vertical)
+    # Wrap from the top of the incoming vertical (angle π in the pulley plane) over the
+    # pulley to the tangent point, at the angle of p plus arccos(r / |C − p|).
+    wrap = np.pi - np.arctan2(vertical, horizontal) - np.arccos(r / centre_distance)
+    return r * wrap + np.sqrt(centre_distance ** 2 - r * r)
 
 
 class ElasticCableRobot:
@@ -28,8 +69,9 @@ class ElasticCableRobot:
 
     def __init__(self, robot: Robot, position_m, substeps: int, axial_stiffness_n: float,
                  damping_n_s_m: float, coulomb_friction_nm: float,
-                 coulomb_velocity_rad_s: float):
+                 coulomb_velocity_rad_s: float, drive: DriveTrain = DriveTrain()):
         self.robot = robot
+        self.drive = drive
         self.substeps = int(substeps)
         self.axial_stiffness_n = axial_stiffness_n
         self.damping_n_s_m = damping_n_s_m
@@ -48,6 +90,16 @@ class ElasticCableRobot:
         self.angle_rad = (unstretched - robot.cable_length_offset_m) / radius
         self.angular_velocity_rad_s = np.zeros(robot.cable_count)
         self.tension_n = tension
+        # The drive's speed estimate (rad/s) and the torque its loop applies (N·m): both
+        # lag the true speed and the command.
+        self.speed_estimate_rad_s = np.zeros(robot.cable_count)
+        self.torque_applied_nm = (-radius * tension).tolist()
+        # The pulleys lengthen each cable by their wrap; the cable lengths were homed at
+        # the start, so only the change since then is felt (m, per control period).
+        self.start_pulley_excess_m = self.pulley_excess_m()
+        self.pulley_change_m = [0.0] * robot.cable_count
+        # Per cable: mass (kg) hanging on its drum once broken (0 while attached).
+        self.hanging_kg = [0.0] * robot.cable_count
         # Per cable: exit point A_i and length offset l_i0 (m).
         self.cables = [(ax, ay, az, offset) for (ax, ay, az), offset in
                        zip(robot.exit_points_m.tolist(), robot.cable_length_offset_m.tolist())]
@@ -57,20 +109,39 @@ class ElasticCableRobot:
         self.cable_force_n = (0.0, 0.0, 0.0)
         self.evaluate_tensions()
 
+    def pulley_excess_m(self) -> np.ndarray:
+        """How much longer (m) each cable is over its pulley than to the exit point."""
+        if not self.drive.pulley_radius_m:
+            return np.zeros(self.robot.cable_count)
+        exits = self.robot.exit_points_m
+        return (swivel_pulley_length_m(exits, self.position_m, self.drive.pulley_radius_m)
+                - cable_vectors(exits, self.position_m)[1])
+
     def break_cables(self, cables) -> None:
         for index in cables:
             self.attached[index] = False
+            if self.drive.hanging_mass_kg and self.attached.any():
+                # The mass was carried at the end-effector's end of the cable: it leaves it.
+                self.hanging_kg[index] = self.drive.hanging_mass_kg[index]
+                self.robot = dataclasses.replace(
+                    self.robot, mass_kg=self.robot.mass_kg - self.hanging_kg[index])
         self.evaluate_tensions()
 
     def evaluate_tensions(self) -> None:
         """The spring–damper tensions of the current state, for the next sub-step."""
         self.integrate([0.0] * self.robot.cable_count, 0.0, 1, NO_FORCE)
 
-    def step(self, torque_nm: np.ndarray, period_s: float, external_force_n=NO_FORCE) -> None:
-        """Apply `torque_nm` (N·m) for `period_s` (s), and `external_force_n` (N, world
-        frame) on the end-effector."""
-        self.integrate(np.asarray(torque_nm, dtype=float).tolist(), period_s / self.substeps,
-                       self.substeps, tuple(external_force_n))
+    def step(self, torque_nm: np.ndarray, period_s: float, substeps: int | None = None,
+             external_force_n=NO_FORCE) -> None:
+        """Apply `torque_nm` (N·m) for `period_s` (s), in `substeps` (default: the
+        model's) sub-steps, and `external_force_n` (N, world frame) on the end-effector.
+        The pulleys' wrap, which changes by micrometres in a period, is evaluated once at
+        its start."""
+        substeps = substeps or self.substeps
+        if self.drive.pulley_radius_m:
+            self.pulley_change_m = (self.pulley_excess_m() - self.start_pulley_excess_m).tolist()
+        self.integrate(np.asarray(torque_nm, dtype=float).tolist(), period_s / substeps,
+                       substeps, tuple(external_force_n))
         self.tension_n = np.array(self.spring_tension_n)
 
     def integrate(self, torque_nm: list[float], h: float, substeps: int,
@@ -86,6 +157,13 @@ class ElasticCableRobot:
         radius, inertia = motor.drum_radius_m, motor.inertia_kg_m2
         viscous, coulomb = motor.viscous_friction_nm_s_rad, self.coulomb_friction_nm
         smoothing = self.coulomb_velocity_rad_s
+        drive = self.drive
+        breakaway, stribeck = drive.breakaway_friction_nm, drive.stribeck_speed_rad_s
+        # First-order lags discretised exactly over a sub-step (gain 1: no lag).
+        torque_gain = 1.0 - exp(-h / drive.torque_lag_s) if drive.torque_lag_s else 1.0
+        speed_gain = 1.0 - exp(-h / drive.speed_filter_s) if drive.speed_filter_s else 1.0
+        estimate = self.speed_estimate_rad_s.tolist()
+        applied = self.torque_applied_nm
         stiffness, damping = self.axial_stiffness_n, self.damping_n_s_m
         mass = self.robot.mass_kg
         # gravity and the external force, as accelerations of the end-effector
@@ -102,24 +180,38 @@ class ElasticCableRobot:
                           vz + h * (fz / mass + gz))
             px, py, pz = px + h * vx, py + h * vy, pz + h * vz
             fx = fy = fz = 0.0
-            next_angle, next_speed, next_tensions = [], [], []
-            for (ax, ay, az, offset), theta, w, c, tension, is_attached in zip(
-                    self.cables, angle, speed, torque_nm, tensions, attached):
+            next_angle, next_speed, next_tensions, next_estimate, next_applied = [], [], [], [], []
+            for (ax, ay, az, offset), theta, w, c, tension, is_attached, w_est, c_applied, \
+                    hanging, pulley in zip(self.cables, angle, speed, torque_nm, tensions,
+                                           attached, estimate, applied, self.hanging_kg,
+                                           self.pulley_change_m):
+                c_applied += torque_gain * (c - c_applied)
                 if self.drums_locked:
                     w = 0.0
                 else:
-                    # Motor: J θ̈ = c − (b θ̇ + f_c tanh(θ̇ / ω_c)) + ρ τ
-                    w += h * ((c - (viscous * w + coulomb * tanh(w / smoothing))
-                               + radius * tension) / inertia)
+                    # Motor: J θ̈ = c − (b θ̇ + f_c tanh(θ̇ / ω_c)) + ρ τ, with f_c raised by
+                    # the breakaway excess near standstill, and a broken cable's hanging
+                    # mass m_h on the drum: (J + m_h ρ²) θ̈ = … + ρ m_h g.
+                    friction = coulomb
+                    if breakaway:
+                        ratio = w / stribeck
+                        friction += breakaway * exp(-ratio * ratio)
+                    w += h * ((c_applied - (viscous * w + friction * tanh(w / smoothing))
+                               + radius * (tension - hanging * gz))
+                              / (inertia + hanging * radius * radius))
                     theta += h * w
+                w_est += speed_gain * (w - w_est)
                 next_speed.append(w)
                 next_angle.append(theta)
+                next_estimate.append(w_est)
+                next_applied.append(c_applied)
                 # Cable: stiffness EA / l on the stretch beyond its unstretched length
                 # l = l_0 + ρ θ, damping on the stretch rate; it pulls, never pushes.
+                # Over a pulley the path to the end-effector is longer by its wrap's change.
                 rx, ry, rz = ax - px, ay - py, az - pz
                 d = sqrt(rx * rx + ry * ry + rz * rz)
                 length = offset + radius * theta
-                stretch = d - length
+                stretch = d + pulley - length
                 tension = 0.0
                 if stretch > 0.0 and is_attached:
                     ux, uy, uz = rx / d, ry / d, rz / d
@@ -133,6 +225,9 @@ class ElasticCableRobot:
                         tension = 0.0
                 next_tensions.append(tension)
             angle, speed, tensions = next_angle, next_speed, next_tensions
+            estimate, applied = next_estimate, next_applied
+        self.speed_estimate_rad_s = np.array(estimate)
+        self.torque_applied_nm = applied
         self.position_m = np.array((px, py, pz))
         self.velocity_m_s = np.array((vx, vy, vz))
         self.angle_rad = np.array(angle)

@@ -2,11 +2,17 @@
 
 Fidelity `rigid` is the twin's own model (noise-free, no mismatch); `elastic` has
 spring–damper cables that can go slack, Coulomb friction, resolver noise and
-quantisation, and the plant's parameters off the controller's by configured factors.
+quantisation, and the plant's parameters off the controller's by configured factors;
+`field` is the elastic plant with a real drive train and the paper's test rig (§4):
+the command's transport delay, the torque loop's lag and noise, the drive's filtered
+speed estimate, breakaway friction, swivel pulleys, Dyneema cables, and the
+electromagnet that opens cable 4 (its mass on the cable, its drum-side half left
+hanging once open).
 """
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,10 +22,10 @@ from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.robot import Robot
 from cdpr_control.statics import holding_torque_nm
 
-from .elastic_model import ElasticCableRobot
+from .elastic_model import DriveTrain, ElasticCableRobot
 from .rigid_model import RigidCableRobot
 
-FIDELITIES = ('rigid', 'elastic')
+FIDELITIES = ('rigid', 'elastic', 'field')
 # Instants closer than this (s) are one: summed 2 ms periods drift by ~1e-13 s.
 TICK_GRID_S = 1e-9
 
@@ -65,6 +71,16 @@ class PlantConfig:
     velocity_noise_rad_s: float
     counts_per_revolution: int
     seed: int
+    # The field fidelity's drive train and rig (no effect on the others).
+    drive: DriveTrain = DriveTrain()
+    command_delay_s: float = 0.0
+    torque_noise_nm: float = 0.0
+    electromagnet_cable: int | None = None    # 0-based
+    electromagnet_mass_kg: float = 0.0
+    electromagnet_drum_side_kg: float = 0.0
+    electromagnet_holding_force_n: float = 0.0
+    electromagnet_release_time_constant_s: float = 0.0
+    electromagnet_spring_force_n: float = 0.0
 
     @classmethod
     def from_section(cls, plant: Section, fidelity: str | None = None,
@@ -72,16 +88,43 @@ class PlantConfig:
         elastic = plant.section('elastic')
         mismatch = elastic.section('mismatch')
         resolver = elastic.section('resolver')
+        field = plant.section('field')
+        magnet = field.section('electromagnet')
         fidelity = fidelity or plant.string('fidelity', choices=FIDELITIES)
         if fidelity not in FIDELITIES:
             raise plant.error('fidelity', f'must be one of {", ".join(FIDELITIES)}, got {fidelity!r}')
         substeps = (plant.integer('rigid_substeps', minimum=1) if fidelity == 'rigid'
                     else elastic.integer('substeps', minimum=1))
+        # Every value is read whatever the fidelity, so that each is checked and bounded.
+        stiffness = {'elastic': elastic.number('cable_axial_stiffness_n', positive=True),
+                     'field': field.number('cable_axial_stiffness_n', positive=True)}
+        damping = {'elastic': elastic.number('cable_damping_n_s_m', non_negative=True),
+                   'field': field.number('cable_damping_n_s_m', non_negative=True)}
+        magnet_kg = magnet.number('mass_kg', non_negative=True)
+        field_values = dict(
+            drive=DriveTrain(
+                torque_lag_s=field.number('torque_lag_s', non_negative=True, maximum=0.1),
+                speed_filter_s=field.number('speed_filter_s', non_negative=True, maximum=0.1),
+                breakaway_friction_nm=field.number('breakaway_friction_nm', non_negative=True),
+                stribeck_speed_rad_s=field.number('stribeck_speed_rad_s', positive=True),
+                pulley_radius_m=field.number('pulley_radius_m', non_negative=True, maximum=0.1)),
+            command_delay_s=field.number('command_delay_s', non_negative=True, maximum=0.1),
+            torque_noise_nm=field.number('torque_noise_nm', non_negative=True),
+            electromagnet_cable=magnet.integer('cable', minimum=1) - 1,
+            electromagnet_mass_kg=magnet_kg,
+            electromagnet_drum_side_kg=magnet.number('drum_side_mass_kg', non_negative=True,
+                                                     maximum=magnet_kg),
+            electromagnet_holding_force_n=magnet.number('holding_force_n', positive=True),
+            electromagnet_release_time_constant_s=magnet.number(
+                'release_time_constant_s', positive=True, maximum=10.0),
+            electromagnet_spring_force_n=magnet.number('spring_force_n', non_negative=True),
+        )
+        cables = 'field' if fidelity == 'field' else 'elastic'
         return cls(
             fidelity=fidelity,
             substeps=substeps,
-            axial_stiffness_n=elastic.number('cable_axial_stiffness_n', positive=True),
-            damping_n_s_m=elastic.number('cable_damping_n_s_m', non_negative=True),
+            axial_stiffness_n=stiffness[cables],
+            damping_n_s_m=damping[cables],
             coulomb_velocity_rad_s=elastic.number('coulomb_smoothing_rad_s', positive=True),
             mass_factor=mismatch.number('mass', positive=True),
             inertia_factor=mismatch.number('inertia', positive=True),
@@ -91,17 +134,33 @@ class PlantConfig:
             velocity_noise_rad_s=resolver.number('velocity_noise_rad_s', non_negative=True),
             counts_per_revolution=resolver.integer('counts_per_revolution', minimum=1),
             seed=plant.integer('seed', minimum=0) if seed is None else seed,
+            **(field_values if fidelity == 'field' else {}),
         )
 
 
 def mismatched_robot(robot: Robot, config: PlantConfig) -> Robot:
-    """The robot as the plant really is: the controller's model off by the factors."""
+    """The robot as the plant really is: the controller's model off by the factors, the
+    electromagnet (on its cable next to the end-effector) carried with the end-effector."""
     motor = dataclasses.replace(
         robot.motor,
         inertia_kg_m2=robot.motor.inertia_kg_m2 * config.inertia_factor,
         viscous_friction_nm_s_rad=robot.motor.viscous_friction_nm_s_rad * config.viscous_friction_factor,
         static_friction_nm=robot.motor.static_friction_nm * config.static_friction_factor)
-    return dataclasses.replace(robot, mass_kg=robot.mass_kg * config.mass_factor, motor=motor)
+    return dataclasses.replace(robot, mass_kg=robot.mass_kg * config.mass_factor
+                               + config.electromagnet_mass_kg, motor=motor)
+
+
+def drive_train(robot: Robot, config: PlantConfig) -> DriveTrain:
+    """The plant's drive train, with the electromagnet's drum-side half as the mass its
+    cable leaves hanging on the drum when it opens."""
+    if config.electromagnet_cable is None:
+        return config.drive
+    if not 0 <= config.electromagnet_cable < robot.cable_count:
+        raise ValueError(f'plant.field.electromagnet.cable {config.electromagnet_cable + 1}: '
+                         f'the robot has cables 1..{robot.cable_count}')
+    hanging = [0.0] * robot.cable_count
+    hanging[config.electromagnet_cable] = config.electromagnet_drum_side_kg
+    return dataclasses.replace(config.drive, hanging_mass_kg=tuple(hanging))
 
 
 class PlantSimulator:
@@ -117,10 +176,19 @@ class PlantSimulator:
             self.model = ElasticCableRobot(
                 true_robot, start_position_m, config.substeps, config.axial_stiffness_n,
                 config.damping_n_s_m, true_robot.motor.static_friction_nm,
-                config.coulomb_velocity_rad_s)
+                config.coulomb_velocity_rad_s, drive_train(robot, config))
         self.failures = sorted((float(t), int(c)) for t, c in failures)
         self.pushes = list(pushes)
         self.broken: list[int] = []
+        # 0-based cable → when it really parted (s); when its electromagnet was switched off.
+        self.broken_at_s: dict[int, float] = {}
+        self.switched_off_s: dict[int, float] = {}
+        self.elapsed_s = 0.0    # into the current period (s)
+        # Commands sent but not yet applied by the drives: (due time s, torque N·m). Until
+        # the first arrives, they hold the load as they did before the run.
+        self.commands_in_flight: list[tuple[float, np.ndarray]] = []
+        self.torque_nm = self.holding_torque_nm()
+        self.external_force = NO_FORCE   # the pushes' sum over the current period (N)
         self.time_s = 0.0
         self.rng = np.random.default_rng(config.seed)
         self.angle_step_rad = 2.0 * np.pi / config.counts_per_revolution
@@ -134,15 +202,35 @@ class PlantSimulator:
         return self.model.drums_locked
 
     def inject_failure(self, cable: int) -> None:
-        """Break the 0-based `cable` now."""
+        """Break the 0-based `cable` now; the electromagnet's cable opens once the
+        magnet, switched off now, no longer holds its tension (`opens`)."""
+        if cable == self.config.electromagnet_cable:
+            self.switched_off_s.setdefault(cable, self.time_s + self.elapsed_s)
+        else:
+            self.break_cable(cable)
+
+    def break_cable(self, cable: int) -> None:
+        """The 0-based `cable` parts now (the instant is kept in `broken_at_s`)."""
         if cable not in self.broken:
             self.broken.append(cable)
+            self.broken_at_s[cable] = self.time_s + self.elapsed_s
             self.model.break_cables([cable])
+
+    def opens(self, cable: int) -> bool:
+        """Whether the electromagnet switched off on `cable` lets go now: its holding
+        force, decaying from F_0 as exp(−t / T_r) since switch-off, no longer exceeds the
+        cable's tension plus its separating spring's force."""
+        config = self.config
+        holding = config.electromagnet_holding_force_n * math.exp(
+            -(self.time_s + self.elapsed_s - self.switched_off_s[cable])
+            / config.electromagnet_release_time_constant_s)
+        return holding < self.model.spring_tension_n[cable] + config.electromagnet_spring_force_n
 
     def measure(self):
         """Resolver angle (rad) and speed (rad/s) as the drive reports them."""
         angle = self.model.angle_rad
-        speed = self.model.angular_velocity_rad_s
+        speed = (self.model.speed_estimate_rad_s if self.config.drive.speed_filter_s
+                 else self.model.angular_velocity_rad_s)
         if self.config.fidelity == 'rigid':
             return angle.copy(), speed.copy()
         angle_noise, speed_noise = self.rng.standard_normal((2, self.robot.cable_count)).tolist()
@@ -167,21 +255,59 @@ class PlantSimulator:
         return np.asarray(command_nm, dtype=float).clip(-limit, limit)
 
     def step(self, torque_nm: np.ndarray, period_s: float) -> None:
-        """Apply `torque_nm` (as the motors can) for one period; a failure due within it
-        happens at its scheduled instant: the period is integrated up to it, then on
-        without the cable, so a delay measured from that instant is the true one."""
+        """Send `torque_nm` to the drives and step one period. The drives apply it (as the
+        motors can, with their noise) `command_delay_s` later; a failure due within the
+        period happens at its scheduled instant: the period is integrated up to each such
+        instant, so a delay measured from a failure is the true one."""
         torque = self.applied_torque_nm(torque_nm)
-        force = self.external_force_n()
-        done_s = 0.0
-        for time_s, cable in self.failures:
-            if self.time_s - TICK_GRID_S <= time_s < self.time_s + period_s - TICK_GRID_S:
-                before_s = time_s - self.time_s - done_s
-                if before_s > TICK_GRID_S:
-                    self.model.step(torque, before_s, force)
-                    done_s += before_s
-                self.inject_failure(cable)
-        self.model.step(torque, period_s - done_s, force)
+        self.external_force = self.external_force_n()
+        if self.config.torque_noise_nm:
+            torque = torque + self.config.torque_noise_nm * self.rng.standard_normal(torque.size)
+        start, end = self.time_s, self.time_s + period_s
+        self.commands_in_flight.append((start + self.config.command_delay_s, torque))
+        events = sorted([(at, 0, cable) for at, cable in self.failures
+                         if start - TICK_GRID_S <= at < end - TICK_GRID_S]
+                        + [(due, 1, i) for i, (due, _) in enumerate(self.commands_in_flight)
+                           if due < end - TICK_GRID_S])
+        arrived = [i for _, kind, i in events if kind == 1]
+        self.elapsed_s = 0.0    # into the period, where advance() has integrated to
+        done_s = 0.0    # of the period (offsets, not instants: summing instants drifts)
+        for at, kind, what in events:
+            before_s = at - start - done_s
+            if before_s > TICK_GRID_S:
+                self.advance(before_s, period_s)
+                done_s += before_s
+            if kind == 0:
+                self.inject_failure(what)
+            else:
+                self.torque_nm = self.commands_in_flight[what][1]
+        self.commands_in_flight = [command for i, command in enumerate(self.commands_in_flight)
+                                   if i not in arrived]
+        self.advance(period_s - done_s, period_s)
         self.time_s += period_s
+        self.elapsed_s = 0.0
+
+    def advance(self, duration_s: float, period_s: float) -> None:
+        """Integrate `duration_s` under the torque the drives apply: on the model's own
+        sub-steps, but for a delayed command's part of a period, which gets its share,
+        and while an electromagnet lets go, which is checked on every sub-step."""
+        releasing = [cable for cable in self.switched_off_s if cable not in self.broken]
+        force = self.external_force
+        if not (releasing or self.config.command_delay_s):
+            self.model.step(self.torque_nm, duration_s, external_force_n=force)
+            self.elapsed_s += duration_s
+            return
+        substeps = max(1, round(duration_s / period_s * self.config.substeps))
+        if not releasing:
+            self.model.step(self.torque_nm, duration_s, substeps, force)
+            self.elapsed_s += duration_s
+            return
+        for _ in range(substeps):
+            for cable in releasing:
+                if cable not in self.broken and self.opens(cable):
+                    self.break_cable(cable)
+            self.model.step(self.torque_nm, duration_s / substeps, 1, force)
+            self.elapsed_s += duration_s / substeps
 
     def external_force_n(self) -> tuple[float, float, float]:
         """The pushes acting now, summed (N)."""
