@@ -22,6 +22,7 @@ import yaml
 from cdpr_bringup.graph import STOP_GRACE_S, TEMP_PREFIX, node_environment, parser, requested_graph
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_msgs_py import dds
+from cdpr_twin.plant import FIDELITIES
 
 from conftest import CONFIG_DIR, STALE, MOTIONS, PAPER_ROBOT, in_private_shm, needs_private_shm
 
@@ -180,16 +181,17 @@ def test_ctrl_c_writes_the_metrics_of_what_ran_and_exits_130(tmp_path):
     assert not list(Path(tempfile.gettempdir()).glob(f'{TEMP_PREFIX}{process.pid}-*'))
 
 
-@pytest.mark.parametrize('fidelity', ['rigid', 'elastic'])
+@pytest.mark.parametrize('fidelity', FIDELITIES)
 def test_the_launcher_gives_the_supervisor_the_thresholds_of_its_plant(fidelity):
     scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
                                               motion='circle', fidelity=fidelity))
     parameters = scenario.node_parameters('lockstep')
     assert parameters['plant_simulator']['plant.fidelity'] == fidelity
     supervisor = parameters['supervisor']
-    calibration = yaml.safe_load((CONFIG_DIR / 'fdi_calibration_elastic.yaml').read_text())['fdi']
-    if fidelity == 'elastic':
-        # the calibrated thresholds themselves, for the elastic plant's noise
+    if fidelity != 'rigid':
+        # the calibrated thresholds themselves, made on that plant for its noise
+        calibration = yaml.safe_load(
+            (CONFIG_DIR / f'fdi_calibration_{fidelity}.yaml').read_text())['fdi']
         assert supervisor['fdi.epsilon_nm'] == calibration['epsilon_nm'] > 0.1
         assert supervisor['control.coulomb_friction_nm'] > 0.0
     else:

@@ -509,7 +509,9 @@ def summary_markdown(rows: list[dict]) -> str:
         'Paper: Table 5 (along cable 4), Table 7 (orthogonal to cable 4) and §5.3 (circle), '
         'measured on the real robot at ε = 0.3 N·m. Forward = start → finish of Tables 4/6 '
         '(towards A4 for the along motions), reverse = the paper\'s t_backward. Ours: median '
-        'over seeds of the detection delay (ms); "missed" = not detected, "–" = not run.',
+        'over seeds of the detection delay (ms), counted as the paper counts from the signal '
+        'that broke the cable (on the field plant the electromagnet parts it later; the table '
+        'above counts from the parting); "missed" = not detected, "–" = not run.',
         '',
         '| motion | direction | paper t (ms) | ' + ' | '.join(keys) + ' |',
         '|---|---|---:|' + '---:|' * len(keys),

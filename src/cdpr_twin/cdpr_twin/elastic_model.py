@@ -120,7 +120,7 @@ class ElasticCableRobot:
     def break_cables(self, cables) -> None:
         for index in cables:
             self.attached[index] = False
-            if self.drive.hanging_mass_kg and self.attached.any():
+            if self.drive.hanging_mass_kg:
                 # The mass was carried at the end-effector's end of the cable: it leaves it.
                 self.hanging_kg[index] = self.drive.hanging_mass_kg[index]
                 self.robot = dataclasses.replace(
