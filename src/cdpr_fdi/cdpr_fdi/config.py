@@ -41,6 +41,7 @@ class FdiConfig:
     disturbance_hold_cycles: int
     disturbance_settle_cycles: int
     identification_stretch_m: float
+    drive_delay_s: float
 
     @classmethod
     def from_section(cls, fdi: Section, robot: Robot, friction: FrictionModel) -> 'FdiConfig':
@@ -71,6 +72,7 @@ class FdiConfig:
             disturbance_hold_cycles=fdi.integer('disturbance_hold_cycles', minimum=1),
             disturbance_settle_cycles=fdi.integer('disturbance_settle_cycles', minimum=0),
             identification_stretch_m=fdi.number('identification_stretch_m', positive=True),
+            drive_delay_s=fdi.number('drive_delay_s', non_negative=True),
         )
 
     def with_overrides(self, detector: str | None = None, epsilon_nm: float | None = None,

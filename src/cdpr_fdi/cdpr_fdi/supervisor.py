@@ -64,6 +64,7 @@ class Supervisor:
         self.candidates: list[int] = []
         self.candidates_since = 0
         self.previous_command: np.ndarray | None = None
+        self.previous_applied: np.ndarray | None = None
         self.late_commands = 0
         self.recent_late_ticks: deque[int] = deque()
         self.untrusted_until = -1
@@ -85,15 +86,15 @@ class Supervisor:
                command_nm, twin_torque_nm, twin_angular_velocity_rad_s,
                reference: JointReference) -> Verdict:
         residual = np.asarray(command_nm, float) - np.asarray(twin_torque_nm, float)
+        applied = np.asarray(applied_torque_nm, float)
         if self.previous_speed is not None:
             self.tension_bounds_n = sensorless_tension_bounds(
-                self.robot.motor, self.fdi.friction, np.asarray(applied_torque_nm, float),
+                self.robot.motor, self.fdi.friction, self.felt_torque_nm(applied),
                 self.previous_speed, np.asarray(angular_velocity_rad_s, float), self.period_s)
             self.balance.record(tick, angle_rad, angular_velocity_rad_s,
                                 np.mean(self.tension_bounds_n, axis=0))
         events: list[str] = []
         alarm = False
-        applied = np.asarray(applied_torque_nm, float)
         if self.previous_command is not None and not np.array_equal(applied, self.previous_command):
             # The drive applied something other than the last command (it came late, or
             # its watchdog acted). After a burst of that the robot differs from the twin by
@@ -141,9 +142,18 @@ class Supervisor:
                               + (f': {self.fault_reason}' if self.mode == FAULT else ''))
         self.previous_speed = np.array(angular_velocity_rad_s, dtype=float)
         self.previous_command = np.array(command_nm, dtype=float)
+        self.previous_applied = applied
         self.previous_reference = reference
         return Verdict(tick, residual, alarm, [c + 1 for c in self.broken], self.mode, tensions,
                        setpoint, events)
+
+    def felt_torque_nm(self, applied: np.ndarray) -> np.ndarray:
+        """The torque the motors felt over the period that `applied` was applied in (N·m):
+        the one before for fdi.drive_delay_s, then `applied`."""
+        share = min(self.fdi.drive_delay_s / self.period_s, 1.0)
+        if share == 0.0 or self.previous_applied is None:
+            return applied
+        return (1.0 - share) * applied + share * self.previous_applied
 
     def disturbed(self, tick: int, found: list[int], events: list[str]) -> bool:
         """Whether, on an alarm, something outside pushes the end-effector: the cables
