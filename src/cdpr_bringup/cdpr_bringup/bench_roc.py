@@ -6,8 +6,9 @@ reference). Up to its first verdict a supervisor changes nothing of the motion, 
 detector at every sensitivity then judges the same recordings offline, as the supervisor
 does in a run, up to the tick it names a cable:
 - failure runs (cable 4 of every motion of Tables 4 and 6 and the circle, both directions,
-  at the paper's instant): the delay from the true failure instant to the naming, and
-  whether the cable named is the broken one;
+  at the paper's instant): the delay from the failure's scheduled instant to the naming
+  (on the field plant the electromagnet's signal, from which the paper counts; elsewhere
+  the instant the cable breaks), and whether the cable named is the broken one;
 - failure-free runs (every motion, both directions, plant seeds the shipped calibration
   was not measured on): every naming is a false alarm (it would stop the robot), after
   which the supervisor starts afresh; false alarms per hour of judged motion, and the

@@ -3,8 +3,8 @@ that differ from it.
 
 One axis at a time, the plant is changed from the set-up's (`--config`) by a factor on
 the settled value of its keys: the end-effector's true mass ±10 %, the motors' viscous
-and Coulomb friction ×0.5–2, the cables' axial stiffness ×0.3–3 (and, where the plant
-has them, the drive's delays). Each cell is a set-up file in OUT/cells/ (the set-up's
+and Coulomb friction ×0.5–2, the cables' axial stiffness ×0.3–3, and on the field plant
+the drive's command delay ×0–4 (0–2 control periods). Each cell is a set-up file in OUT/cells/ (the set-up's
 own, with the change), so the controller, the twin and the detectors' calibration stay
 those of the nominal robot: only the plant differs, as a real robot differs from its
 model. In each cell every motion breaks cable 4 at the paper's instant and runs
@@ -34,18 +34,24 @@ SEEDS = (20,)
 
 @dataclass(frozen=True)
 class Axis:
-    """Plant keys (dotted) scaled together by each of `factors`."""
+    """Plant keys (dotted, per fidelity: the field plant has its own line) scaled together
+    by each of `factors`; an axis a fidelity has no keys for is left out."""
 
     name: str
-    keys: tuple[str, ...]
+    keys: dict[str, tuple[str, ...]]
     factors: tuple[float, ...]
 
 
+MISMATCH = 'plant.elastic.mismatch'
 AXES = (
-    Axis('end-effector mass', ('plant.elastic.mismatch.mass',), (0.9, 1.1)),
-    Axis('motor friction', ('plant.elastic.mismatch.viscous_friction',
-                            'plant.elastic.mismatch.static_friction'), (0.5, 2.0)),
-    Axis('cable stiffness', ('plant.elastic.cable_axial_stiffness_n',), (0.3, 3.0)),
+    Axis('end-effector mass', {fidelity: (f'{MISMATCH}.mass',) for fidelity in ('elastic', 'field')},
+         (0.9, 1.1)),
+    Axis('motor friction', {fidelity: (f'{MISMATCH}.viscous_friction', f'{MISMATCH}.static_friction')
+                            for fidelity in ('elastic', 'field')}, (0.5, 2.0)),
+    Axis('cable stiffness', {fidelity: (f'plant.{fidelity}.cable_axial_stiffness_n',)
+                             for fidelity in ('elastic', 'field')}, (0.3, 3.0)),
+    # the field drive's 1 ms: none, and one or two control periods
+    Axis('drive delay', {'field': ('plant.field.command_delay_s',)}, (0.0, 2.0, 4.0)),
 )
 FIGURES = ('identification_pct', 'false_alarms_per_hour') + tuple(
     f'{family}_delay_median_ms' for family in FAMILIES)
@@ -73,15 +79,16 @@ def cell_setup(config: Path, changes: dict[str, float]) -> dict:
     return document
 
 
-def cells(config: Path, out: Path) -> dict[str, Path]:
+def cells(config: Path, out: Path, fidelity: str) -> dict[str, Path]:
     """Cell label → its set-up file: the nominal plant, then each axis's factors."""
     settled = load_config(config).data
     folder = out / 'cells'
     folder.mkdir(parents=True, exist_ok=True)
     made = {}
     for label, changes in [('nominal', {})] + [
-            (f'{axis.name} ×{factor:g}', {key: settled_value(settled, key) * factor for key in axis.keys})
-            for axis in AXES for factor in axis.factors]:
+            (f'{axis.name} ×{factor:g}', {key: settled_value(settled, key) * factor
+                                          for key in axis.keys[fidelity]})
+            for axis in AXES if fidelity in axis.keys for factor in axis.factors]:
         path = folder / f'{len(made):02d}.yaml'
         path.write_text(f'# cdpr-bench sweep cell: {label}\n'
                         + yaml.safe_dump(cell_setup(config, changes), sort_keys=False))
@@ -93,7 +100,7 @@ def bench_sweep(config: str, out_dir: str | Path, fidelity: str = 'elastic',
                 jobs: int | None = None) -> dict:
     """{cell: {detector: figures}}; writes sweep.csv and sweep.png into `out_dir`."""
     out = Path(out_dir)
-    made = cells(config_file(config), out)
+    made = cells(config_file(config), out, fidelity)
     runs = [run for path in made.values()
             for run in roc_runs(str(path), fidelity, SEEDS, SEEDS, directions=(False,),
                                 factors=(NOMINAL,))]
