@@ -14,14 +14,14 @@ per motion family.
 """
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from cdpr_control.config import load_config, load_yaml
+from cdpr_control.config import load_config, load_yaml, with_defaults
+from cdpr_control.settings import unflatten
 from cdpr_fdi.detectors import DETECTORS
 
 from .bench_fdi import fmt
@@ -67,16 +67,12 @@ def settled_value(document: dict, key: str):
 def cell_setup(config: Path, changes: dict[str, float]) -> dict:
     """The set-up at `config` (a robot file or a set-up) with `changes` (dotted key → value),
     its robot file named by absolute path, so the cell can live in another folder."""
-    document = copy.deepcopy(load_yaml(config))
+    document = load_yaml(config)
     if 'robot_file' in document:
         document['robot_file'] = str((config.parent / document['robot_file']).resolve())
-    for key, value in changes.items():
-        *outer, last = key.split('.')
-        inner = document
-        for part in outer:
-            inner = inner.setdefault(part, {})
-        inner[last] = value
-    return document
+    # the changes, and the set-up's every other key
+    changed, _ = with_defaults(unflatten(changes), document)
+    return changed
 
 
 def cells(config: Path, out: Path, fidelity: str) -> dict[str, Path]:
