@@ -239,9 +239,11 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
         graph.wait(timeout_s=RUN_S[clock_mode] + 30.0)   # the plant completes its run
     finally:
         graph.stop()
-    # seconds of commands from each, half of them stamped as a state (fewer under load:
-    # the writers are plain processes, 124 of each in one fresh-clone CI run)
-    assert all(counts['copied_stamps'] > 50 for counts in sent.values()), sent
+    # commands from each, half of them stamped as a state. The writers answer best-effort
+    # states, so a loaded machine drops most of them (124 of each in one fresh-clone CI
+    # run, 7 in another): what matters is that each kind was sent, and all were refused.
+    assert all(counts['copied_stamps'] > 0 and counts['commands'] > counts['copied_stamps']
+               for counts in sent.values()), sent
     topics = [f'{namespace}/fdi/broken_cable', f'{namespace}/joint_states', '/diagnostics']
     found = read_messages(bag, topics)
     applied = [message.effort for _, message in found[topics[1]]]
@@ -259,8 +261,12 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
         pins |= {fact[f'{contract.EFFORT_COMMAND} writer'] for fact in facts
                  if '(GID ' in fact[f'{contract.EFFORT_COMMAND} writer']}
         last = facts[-1]
-        # the bag reader gives the level as a number, the message class as a byte
-        assert statuses[-1].level >= ord(DiagnosticStatus.WARN)
+        # WARN from the first status that counts a rejection (held warning_hold_s of wall
+        # time after the last one, which a slow lockstep run may outlast); the bag reader
+        # gives the level as a number, the message class as a byte
+        first = next(status for status, fact in zip(statuses, facts)
+                     if int(fact.get(f'rejected {contract.EFFORT_COMMAND}', 0)) > 0)
+        assert first.level >= ord(DiagnosticStatus.WARN)
         assert int(last[f'rejected {contract.EFFORT_COMMAND}']) > 0
         writers = last[f'rejected {contract.EFFORT_COMMAND} from']
         assert f'node {namespace}/outside_writer (GID ' in writers

@@ -388,9 +388,9 @@ def test_plant_rejects_bad_commands_and_applies_only_safe_torques(clock_mode, da
         applied = []
         model_step = node.plant.model.step
 
-        def recording_step(torque_nm, period_s):
+        def recording_step(torque_nm, period_s, **forces):
             applied.append(np.array(torque_nm, dtype=float))
-            model_step(torque_nm, period_s)
+            model_step(torque_nm, period_s, **forces)
 
         node.plant.model.step = recording_step
         if clock_mode == 'lockstep':
