@@ -1,6 +1,7 @@
 """Shared fixtures: the shipped robot configs, and a private ROS domain per session."""
 from __future__ import annotations
 
+import contextlib
 import faulthandler
 import functools
 import os
@@ -84,6 +85,24 @@ def wait_until_the_plant_runs(lines: list[str], timeout_s: float) -> None:
     while not any(line.startswith('[plant_simulator]') and 'starting' in line for line in lines):
         assert time.monotonic() < deadline, 'the plant did not start its run'
         time.sleep(0.05)
+
+
+@contextlib.contextmanager
+def judged_if_the_loop_kept_its_period(lines: list[str]):
+    """Checks of a realtime graph run (its launcher's log `lines`): a failed one is a
+    failure, unless the plant logged that its loop did not keep its period — a machine
+    too slow or too loaded for five Python nodes at 500 Hz on its cores, where late
+    messages and a starved recorder say nothing about the graph. Then the test is
+    skipped, saying so; `cdpr-bench graph` measures what the machine sustains."""
+    try:
+        yield
+    except AssertionError as failed:
+        slow = next((line for line in lines if line.startswith('[plant_simulator] [ERROR]')
+                     and 'does not keep its period' in line), None)
+        if slow is None:
+            raise
+        pytest.skip(f'not judged, the machine did not keep the realtime loop ({slow.split("]: ")[-1]}); '
+                    f'the check that failed: {str(failed).splitlines()[0]}')
 
 
 def load_robot(path):

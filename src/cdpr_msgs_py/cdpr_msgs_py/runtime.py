@@ -193,6 +193,7 @@ class Diagnostics:
         # as ERROR while it lasts; '' when none.
         self.error = ''
         self.health = Health(HealthLimits())
+        self.level = OK   # of the last status published
         self.activity = 0
         self.period_s = period_s
         self.last_publish = time.monotonic()
@@ -242,6 +243,11 @@ class Diagnostics:
             self.warn(key, text)
         errors, warnings = self.node.current_problems()
         level, text = self.health.assess(now, [self.error, *errors], warnings)
+        if level == ERROR and self.level != ERROR:
+            # the console too: whoever watches the node's output, not /diagnostics, learns
+            # that it cannot do its job (once per episode, not once a second)
+            self.node.get_logger().error(text)
+        self.level = level
         status = DiagnosticStatus(level=LEVELS[level], message=text, hardware_id='cdpr',
                                   name=self.node.get_fully_qualified_name())
         pairs = [(f'{key} total', str(value)) for key, value in self.totals.items()]
