@@ -38,6 +38,7 @@ bench: setup
 	$(VENV)/bin/cdpr-bench fdi
 	$(VENV)/bin/cdpr-bench roc
 	$(VENV)/bin/cdpr-bench sweep
+	$(VENV)/bin/cdpr-bench campaign
 
 clean:
 	rm -rf $(VENV) build install log .pytest_cache

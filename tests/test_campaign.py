@@ -3,11 +3,13 @@ real campaign that resumes without re-running."""
 from __future__ import annotations
 
 import csv
+import json
+import re
 
 import pytest
 
 from cdpr_bringup.campaign import (CSV_COLUMNS, PAPER_DETECTION_MS, RANDOM_FRACTION_RANGE, Run,
-                                   build_matrix, expand_motion_set, main, outcome, outcome_lines,
+                                   build_matrix, completed, expand_motion_set, main, outcome, outcome_lines,
                                    progress_bar, run_campaign, summarize, summary_markdown,
                                    write_summary_csv)
 from cdpr_control.motions import motion_names
@@ -191,6 +193,14 @@ def test_a_failed_run_is_a_row_and_the_campaign_goes_on(tmp_path):
     assert (tmp_path / 'runs' / bad.id / 'scenario.log').exists()
 
 
+def test_a_run_cut_short_by_ctrl_c_is_not_done(tmp_path):
+    assert not completed(tmp_path)
+    (tmp_path / 'metrics.json').write_text(json.dumps({'cycles': 10, 'interrupted': True}))
+    assert not completed(tmp_path)
+    (tmp_path / 'metrics.json').write_text(json.dumps({'cycles': 5000}))
+    assert completed(tmp_path)
+
+
 def test_tiny_campaign_runs_in_parallel_and_resumes(tmp_path):
     out = tmp_path / 'campaign'
     argv = ['--motion-set', 'along-4', '--cables', '4', '--directions', 'forward',
@@ -203,6 +213,7 @@ def test_tiny_campaign_runs_in_parallel_and_resumes(tmp_path):
     assert [(row['motion'], row['cable'], row['error']) for row in rows] == [
         ('along-4', '4', ''), ('along-4', '', '')]
     assert all(int(row['cycles']) > 0 for row in rows)
+    assert all(re.fullmatch(r'local:\d+', row['worker']) for row in rows)
     assert float(rows[0]['failure_time_s']) > 0 and rows[1]['failure_time_s'] == ''
     assert '| along-4 | forward | 50 |' in (out / 'summary.md').read_text()
 

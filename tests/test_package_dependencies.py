@@ -26,7 +26,7 @@ TESTS = REPO / 'tests'
 ROSDEP_KEYS = {'numpy': 'python3-numpy', 'yaml': 'python3-yaml', 'matplotlib': 'python3-matplotlib',
                'scipy': 'python3-scipy', 'pytest': 'python3-pytest', 'rosbags': 'python3-rosbags-pip'}
 # Modules with no rosdep key: installed with pip, as README's workspace section says.
-PIP_ONLY = {'mcap': 'mcap'}
+PIP_ONLY = {'mcap': 'mcap', 'distributed': 'distributed'}
 
 
 def imported_modules(path: Path, module_level_only: bool = False) -> set[str]:

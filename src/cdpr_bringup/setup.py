@@ -16,7 +16,8 @@ setup(
         ('share/' + package_name + '/config/params', glob('config/params/*.yaml')),
         ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
     ],
-    install_requires=['setuptools', 'numpy', 'PyYAML', 'matplotlib', 'rosbags', 'mcap'],
+    install_requires=['setuptools', 'numpy', 'PyYAML', 'matplotlib', 'rosbags', 'mcap',
+                      'distributed'],
     # colcon test runs pytest for a package that names it here
     extras_require={'test': ['pytest']},
     zip_safe=True,

@@ -5,6 +5,8 @@ in-process engine's speed against their targets (cdpr_bringup.bench_graph). fdi:
 detector's figures on a campaign (cdpr_bringup.bench_fdi). roc: detection delay against
 false alarms per hour (cdpr_bringup.bench_roc). sweep: the detectors on plants that differ
 from the one they were calibrated on (cdpr_bringup.bench_sweep). soak: a long realtime run.
+campaign: simulated hours per wall hour of a campaign on a local Dask scheduler with 1, 2
+workers (cdpr_bringup.bench_campaign).
 """
 from __future__ import annotations
 
@@ -75,15 +77,25 @@ def machine() -> str:
     return f'{platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}'
 
 
+def _counts(text: str) -> list[int]:
+    counts = [int(item) for item in text.split(',') if item.strip()]
+    if not counts or min(counts) < 1:
+        raise argparse.ArgumentTypeError('worker counts are positive integers, e.g. 1,2')
+    return counts
+
+
 @command('cdpr-bench')
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument('suite', choices=['model', 'graph', 'fdi', 'roc', 'sweep', 'soak'], help='what to measure')
+    parser.add_argument('suite', choices=['model', 'graph', 'fdi', 'roc', 'sweep', 'soak', 'campaign'], help='what to measure')
     parser.add_argument('--minutes', type=float, default=10.0, help='soak: how long')
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--json', action='store_true', help='print one JSON object last')
-    parser.add_argument('--out', help='fdi, roc, sweep: output folder (default runs/bench-SUITE)')
-    parser.add_argument('--fidelity', choices=FIDELITIES, default='elastic', help='fdi, roc, sweep: the plant')
+    parser.add_argument('--out', help='fdi, roc, sweep, campaign: output folder (default runs/bench-SUITE)')
+    parser.add_argument('--fidelity', choices=FIDELITIES, default='elastic',
+                        help='fdi, roc, sweep, campaign: the plant')
+    parser.add_argument('--workers', type=_counts, default=[1, 2],
+                        help='campaign: Dask worker counts, comma-separated (default 1,2)')
     parser.add_argument('--jobs', type=int, default=None, help='fdi, roc, sweep: parallel runs (default: cores)')
     args = parser.parse_args(argv)
     out = args.out or f'runs/bench-{args.suite}'
@@ -108,6 +120,11 @@ def main(argv=None):
         figures = bench_sweep(args.config, out, args.fidelity, args.jobs)
         print(f'cdpr-bench sweep on {machine()}, {args.fidelity} plant; {out}/sweep.csv, {out}/sweep.png')
         print('\n'.join(sweep_table(figures)))
+    elif args.suite == 'campaign':
+        from .bench_campaign import bench_campaign, table as campaign_table
+        figures = bench_campaign(args.config, out, args.fidelity, args.workers)
+        print(f'cdpr-bench campaign on {machine()}, {args.fidelity} plant; campaigns in {out}')
+        print('\n'.join(campaign_table(figures)))
     elif args.suite == 'graph':
         # rclpy is imported only for this suite
         from .bench_graph import bench_graph, table

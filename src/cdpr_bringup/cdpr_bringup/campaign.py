@@ -6,8 +6,13 @@ the move, at --fail-at-fraction, or (--random-instants) at a fraction drawn from
 seed, the same at every resumption. Failure-free runs of every
 motion × direction × fidelity × detector × seed are added by default (--no-failure-free
 drops them): without them the false-alarm rate has nothing to be measured on.
-A run whose metrics.json exists is not run again, so an interrupted campaign resumes;
-delete DIR/runs/<run id> (or all of DIR/runs) to re-run.
+A run whose metrics.json exists (and is not of a run cut short) is not run again, so an
+interrupted campaign resumes; delete DIR/runs/<run id> (or all of DIR/runs) to re-run.
+
+The runs go to a pool of local processes (--jobs), or with --scheduler tcp://HOST:PORT to
+the workers of a Dask scheduler (`dask scheduler`, `dask worker`, or dask-jobqueue on a
+SLURM cluster); the workers then write DIR/runs/<run id> themselves, so DIR must be on a
+filesystem they share (as a cluster's home or scratch).
 
 Writes DIR/summary.csv (one row per run) and DIR/summary.md: the outcome of every failure
 and failure-free run per detector × fidelity and per cable (any robot), the figures per
@@ -40,7 +45,7 @@ from cdpr_control.robot import load_robot
 from cdpr_msgs_py.contract import FAULT
 from cdpr_twin.plant import FIDELITIES
 
-from .cli import command
+from .cli import INTERRUPTED_EXIT_CODE, command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
 
 # Tables 4 and 6 define their motions with respect to exit point A4: "along" and
@@ -86,8 +91,14 @@ CSV_COLUMNS = (
     'fail_at_fraction', 'failure_time_s', 'detection_delay_ms', 'detection_delay_from_signal_ms',
     'identified_cables', 'correct_identification',
     'false_alarm', 'mode', 'fault', 'reached_safe_point', 'final_error_m', 'min_tension_n', 'min_height_m',
-    'duration_s', 'cycles', 'control_period_s', 'wall_time_s', 'error',
+    'duration_s', 'cycles', 'control_period_s', 'wall_time_s', 'worker', 'error',
 )
+
+# Written by the worker into the run's folder before the run: who ran it, also for the
+# rows of runs a resumed campaign skips, and of a run whose worker died.
+WORKER_FILE = 'worker.txt'
+# A --scheduler that does not answer within this is reported, not waited for.
+SCHEDULER_CONNECT_TIMEOUT_S = 10.0
 
 
 @dataclass(frozen=True)
@@ -181,14 +192,16 @@ def build_matrix(motions: list[str], cables: list[int], directions=DIRECTIONS,
 
 # ---- running -----------------------------------------------------------------------
 
-def run_scenario(run: Run, run_dir: Path) -> dict:
-    """Worker: one `cdpr-scenario` in this process, its output in run_dir/scenario.log.
+def run_scenario(run: Run, run_dir: Path, worker: str | None = None) -> dict:
+    """Worker: one `cdpr-scenario` in this process, its output in run_dir/scenario.log,
+    the name of the `worker` running it (default local:<pid>) in run_dir/WORKER_FILE.
 
     Returns {'error': None or why it failed, 'wall_time_s'}; never raises, so one bad run
     does not stop the campaign.
     """
     from . import scenario  # imported in the worker: the parent never loads rclpy
     run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / WORKER_FILE).write_text((worker or f'local:{os.getpid()}') + '\n')
     start = time.monotonic()
     error = None
     with open(run_dir / 'scenario.log', 'w') as log, \
@@ -209,6 +222,30 @@ def run_scenario(run: Run, run_dir: Path) -> dict:
     return {'error': error, 'wall_time_s': time.monotonic() - start}
 
 
+class SchedulerUnreachable(Exception):
+    """--scheduler names an address where no Dask scheduler answered."""
+
+
+@contextlib.contextmanager
+def local_pool(jobs: int | None):
+    """(submit, as_completed) of `jobs` local processes (default: all cores)."""
+    # spawn, not fork: the workers may start rclpy (graph engine), which must not
+    # inherit a forked copy of this process's threads.
+    context = multiprocessing.get_context('spawn')
+    pool = ProcessPoolExecutor(max_workers=jobs or os.cpu_count(), mp_context=context)
+    try:
+        yield (lambda run, run_dir: pool.submit(run_scenario, run, run_dir)), as_completed
+    finally:
+        # on Ctrl-C the runs not yet started are dropped, not run before the pool ends
+        pool.shutdown(cancel_futures=True)
+
+
+def completed(run_dir: Path) -> bool:
+    """A run is done when it wrote metrics.json, and not as one cut short by Ctrl-C."""
+    metrics = run_dir / 'metrics.json'
+    return metrics.exists() and not json.loads(metrics.read_text()).get('interrupted')
+
+
 def progress_bar(done: int, total: int, eta_s: float | None, width: int = 30) -> str:
     filled = round(width * done / total) if total else width
     eta = 'eta ?' if eta_s is None and done < total else f'eta {eta_s or 0:.0f} s'
@@ -216,11 +253,12 @@ def progress_bar(done: int, total: int, eta_s: float | None, width: int = 30) ->
 
 
 def run_campaign(runs: list[Run], out_dir: str | Path, jobs: int | None = None,
-                 show_progress: bool = True) -> list[dict]:
-    """Run what is not yet done (no metrics.json) on `jobs` processes (default: all
-    cores), with a progress bar on stderr; one row per run, in the order of `runs`."""
+                 show_progress: bool = True, scheduler: str | None = None) -> list[dict]:
+    """Run what is not yet done (see `completed`) on `jobs` local processes (default: all
+    cores), or on the workers of the Dask `scheduler` (an address), with a progress bar on
+    stderr; one row per run, in the order of `runs`."""
     runs_dir = Path(out_dir) / 'runs'
-    pending = [run for run in runs if not (runs_dir / run.id / 'metrics.json').exists()]
+    pending = [run for run in runs if not completed(runs_dir / run.id)]
     outcomes = {}
     done, total = len(runs) - len(pending), len(runs)
     start = time.monotonic()
@@ -234,18 +272,22 @@ def run_campaign(runs: list[Run], out_dir: str | Path, jobs: int | None = None,
         elif show_progress and (done == total or done % max(total // 10, 1) == 0):
             print(progress_bar(done, total, eta_s), file=sys.stderr, flush=True)
 
-    show(None)
-    if pending:
-        # spawn, not fork: the workers may start rclpy (graph engine), which must not
-        # inherit a forked copy of this process's threads.
-        context = multiprocessing.get_context('spawn')
-        with ProcessPoolExecutor(max_workers=jobs or os.cpu_count(), mp_context=context) as pool:
-            futures = {pool.submit(run_scenario, run, runs_dir / run.id): run for run in pending}
-            for fresh_done, future in enumerate(as_completed(futures), start=1):
+    if not pending:
+        show(None)
+    else:
+        if scheduler:
+            from .dask_cluster import dask_scheduler  # the local pool does not pay for Dask
+            workers = dask_scheduler(scheduler)
+        else:
+            workers = local_pool(jobs)
+        with workers as (submit, as_they_complete):
+            show(None)  # once connected: a scheduler that is not there is one line
+            futures = {submit(run, runs_dir / run.id): run for run in pending}
+            for fresh_done, future in enumerate(as_they_complete(futures), start=1):
                 run = futures[future]
                 try:
                     outcomes[run.id] = future.result()
-                except Exception as err:  # noqa: BLE001 - a worker process died
+                except Exception as err:  # noqa: BLE001 - a worker process died (or was lost)
                     outcomes[run.id] = {'error': f'worker failed: {type(err).__name__}: {err}',
                                         'wall_time_s': None}
                 done += 1
@@ -267,6 +309,8 @@ def row_of(run: Run, run_dir: Path, outcome: dict | None) -> dict:
                fidelity=run.fidelity, detector=run.detector, seed=run.seed,
                fail_at_fraction=run.fail_at_fraction if run.cable is not None else None,
                control_period_s=control_period_s(run.config))
+    worker_path = run_dir / WORKER_FILE
+    row['worker'] = worker_path.read_text().strip() if worker_path.exists() else None
     metrics_path = run_dir / 'metrics.json'
     error = outcome['error'] if outcome else None
     if error is None and not metrics_path.exists():
@@ -588,7 +632,11 @@ def parse_args(argv=None):
     parser.add_argument('--engine', choices=['inprocess', 'graph'], default='inprocess')
     parser.add_argument('--epsilon', type=float, metavar='NM', help='detection threshold (N·m)')
     parser.add_argument('--jobs', type=int, default=os.cpu_count(),
-                        help='parallel runs (default: all cores)')
+                        help='parallel runs on this machine (default: all cores)')
+    parser.add_argument('--scheduler', metavar='ADDRESS',
+                        help='run on the workers of this Dask scheduler (tcp://HOST:PORT) '
+                             'instead of local processes; --out must be on a filesystem the '
+                             'workers share')
     parser.add_argument('--out', required=True, help='campaign folder')
     return parser.parse_args(argv)
 
@@ -616,7 +664,16 @@ def main(argv=None):
                         motions_file=args.motions, engine=args.engine, epsilon_nm=args.epsilon)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    rows = run_campaign(runs, out, args.jobs)
+    try:
+        rows = run_campaign(runs, out, args.jobs, scheduler=args.scheduler)
+    except SchedulerUnreachable as err:
+        print(f'cdpr-campaign: {err}', file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        # after the progress bar's line on a terminal
+        print(('\n' if sys.stderr.isatty() else '') + 'cdpr-campaign: interrupted; the same '
+              'command runs what is missing', file=sys.stderr)
+        return INTERRUPTED_EXIT_CODE
     write_summary_csv(rows, out / 'summary.csv')
     (out / 'summary.md').write_text(summary_markdown(rows))
     failed = sum(row['error'] is not None for row in rows)

@@ -9,6 +9,8 @@ from cdpr_control.config import ConfigError
 
 # The exit code of a command-line mistake, as argparse uses it.
 USAGE_EXIT_CODE = 2
+# What a shell reports for a command ended by Ctrl-C (128 + SIGINT).
+INTERRUPTED_EXIT_CODE = 130
 DEBUG_FLAG = '--debug'
 
 

@@ -27,7 +27,7 @@ from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, shi
                               use_shipped_setup)
 from cdpr_msgs_py.runtime import READY_MARK, SHUTDOWN_LIMIT_S
 
-from .cli import command
+from .cli import INTERRUPTED_EXIT_CODE, command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
 from .scenario_setup import ScenarioOptions, add_push_option, build_scenario
 
@@ -38,9 +38,6 @@ STOP_GRACE_S = SHUTDOWN_LIMIT_S + 2.0
 UP_TIMEOUT_S = INITIALISATION_LIMIT_S + 10.0
 TEMP_PREFIX = 'cdpr-graph-'
 LAST_LINES = 5
-# What a shell reports for a command ended by Ctrl-C (128 + SIGINT).
-INTERRUPTED_EXIT_CODE = 130
-
 
 class GraphError(RuntimeError):
     """A node died or did not come up; the message names it."""

@@ -20,9 +20,9 @@ from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 from cdpr_twin.plant import FIDELITIES
 
 from .bag_io import BagWriter, read_messages, recording_from_bag, write_recording
-from .cli import command
+from .cli import INTERRUPTED_EXIT_CODE, command
 from .engine import run_inprocess
-from .graph import INTERRUPTED_EXIT_CODE, GraphError, graph_nodes, run_to_completion
+from .graph import GraphError, graph_nodes, run_to_completion
 from .metrics import (PAPER_KPI, KnownRun, broken_at_from_diagnostics, fdi_summary_from_diagnostics,
                       metrics_json)
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
