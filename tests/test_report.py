@@ -20,7 +20,8 @@ from cdpr_bringup.bag_io import BagWriter, recording_from_bag, write_recording
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.graph import graph_nodes, run_to_completion
 from cdpr_bringup.metrics import tracking_error_m, twin_kpis
-from cdpr_bringup.report import SETTLED_RUN, main, run_settings, write_report
+from cdpr_bringup.report import (SETTLED_RUN, main, run_of_recording, run_settings, write_report,
+                                 write_run_report)
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 
 from conftest import MOTIONS, PAPER_ROBOT, settled_parameters
@@ -125,6 +126,31 @@ def test_scenario_and_report_compute_the_same_metrics_of_one_run(failure_run, tm
               if not (recomputed[key] == own[key] if own[key] is None or isinstance(own[key], (bool, str))
                       else recomputed[key] == pytest.approx(own[key], rel=1e-12, abs=1e-12))}
     assert not differ, differ
+
+
+def test_the_report_of_a_run_in_memory_is_that_of_its_bag(failure_run, tmp_path):
+    """cdpr-scenario reports an in-process run from memory, cdpr-report from its bag: the
+    same metrics, key for key (times to the bag's 1 ns), and the same figures. The bag has
+    the run's metrics.json beside it, as cdpr-scenario leaves it."""
+    scenario, recording, folder, _ = failure_run
+    run = tmp_path / 'run'
+    shutil.copytree(folder / 'bag', run / 'bag')
+    own = scenario_cli.metrics_of(scenario, recording, wall_time_s=1.0)
+    (run / 'metrics.json').write_text(json.dumps(own))
+    settings = run_settings(run / 'bag', PAPER_ROBOT, coulomb_friction_nm=0.0)
+    from_bag = write_report(run / 'bag', run / 'plots', settings)
+    from_memory = write_run_report(run_of_recording(recording, settings, own['failure_time_s'],
+                                                    own['true_broken_cables']),
+                                   run / 'bag', tmp_path / 'plots')
+    from_bag, from_memory = flat(from_bag), flat(from_memory)
+    assert set(from_bag) == set(from_memory)
+    differ = {key: (from_bag[key], from_memory[key]) for key in sorted(from_bag)
+              if not (from_memory[key] == from_bag[key]
+                      if from_bag[key] is None or isinstance(from_bag[key], (bool, str, list))
+                      else from_memory[key] == pytest.approx(from_bag[key], rel=1e-9, abs=1e-9))}
+    assert not differ, differ
+    assert sorted(path.name for path in (tmp_path / 'plots').glob('*.png')) == \
+        sorted(path.name for path in (run / 'plots').glob('*.png'))
 
 
 def test_report_md_shows_every_figure_and_metric(failure_run):

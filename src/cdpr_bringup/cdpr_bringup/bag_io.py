@@ -25,6 +25,7 @@ from cdpr_fdi.markers import FRAME_ID, Frame, Shape
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.stamps import NANOSECONDS, ns_parts, stamp_to_ns
 
+from . import bulk_cdr
 from .recording import Recording
 
 # A chunk is what survives a SIGKILL whole, so chunks stay small; the recorder also
@@ -247,30 +248,27 @@ def write_recording(writer: BagWriter, recording: Recording,
             stamp=types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec),
             frame_id='')
 
-    def joints(k, position=(), velocity=(), effort=()):
-        return types['sensor_msgs/msg/JointState'](
-            header=header(k), name=names, position=np.asarray(position, dtype=float),
-            velocity=np.asarray(velocity, dtype=float), effort=np.asarray(effort, dtype=float))
-
-    def point(k, xyz):
-        x, y, z = (float(v) for v in xyz)
-        return types['geometry_msgs/msg/PointStamped'](
-            header=header(k), point=types['geometry_msgs/msg/Point'](x=x, y=y, z=z))
-
     r = recording
     applied = np.vstack([np.zeros_like(r.command_nm[:1]), r.command_nm[:-1]])
+    joint_state, point_stamped = 'sensor_msgs/msg/JointState', 'geometry_msgs/msg/PointStamped'
+    # topic → (type, serialised message of each tick), in the graph's order within a tick
     per_tick = {
-        contract.JOINT_STATES: lambda k: joints(k, r.angle_rad[k], r.angular_velocity_rad_s[k], applied[k]),
-        contract.EFFORT_COMMAND: lambda k: joints(k, effort=r.command_nm[k]),
-        contract.TWIN_JOINT_STATES: lambda k: joints(k, r.twin_angle_rad[k],
-                                                     r.twin_angular_velocity_rad_s[k], r.twin_torque_nm[k]),
-        contract.TWIN_POSE: lambda k: point(k, r.twin_position_m[k]),
-        contract.REFERENCE: lambda k: joints(k, r.reference_angle_rad[k]),
-        contract.REFERENCE_POSE: lambda k: point(k, r.reference_position_m[k]),
+        contract.JOINT_STATES: (joint_state, bulk_cdr.joint_states(
+            stamps, names, r.angle_rad, r.angular_velocity_rad_s, applied)),
+        contract.EFFORT_COMMAND: (joint_state, bulk_cdr.joint_states(stamps, names, effort=r.command_nm)),
+        contract.TWIN_JOINT_STATES: (joint_state, bulk_cdr.joint_states(
+            stamps, names, r.twin_angle_rad, r.twin_angular_velocity_rad_s, r.twin_torque_nm)),
+        contract.TWIN_POSE: (point_stamped, bulk_cdr.point_stampeds(stamps, r.twin_position_m)),
+        contract.REFERENCE: (joint_state, bulk_cdr.joint_states(stamps, names, r.reference_angle_rad)),
+        contract.REFERENCE_POSE: (point_stamped, bulk_cdr.point_stampeds(stamps, r.reference_position_m)),
     }
     if r.has_ground_truth:
-        per_tick[contract.GROUND_TRUTH_POSE] = lambda k: point(k, r.true_position_m[k])
-        per_tick[contract.GROUND_TRUTH_TENSIONS] = lambda k: joints(k, effort=r.true_tension_n[k])
+        per_tick[contract.GROUND_TRUTH_POSE] = (point_stamped,
+                                                bulk_cdr.point_stampeds(stamps, r.true_position_m))
+        per_tick[contract.GROUND_TRUTH_TENSIONS] = (joint_state,
+                                                    bulk_cdr.joint_states(stamps, names, effort=r.true_tension_n))
+    if r.residual_nm is not None:
+        residual = bulk_cdr.joint_states(stamps, names, effort=r.residual_nm)
     int32, string = types['std_msgs/msg/Int32'], types['std_msgs/msg/String']
     events: list[tuple[int, str, object]] = []  # (tick, topic, message)
     if r.fdi:
@@ -289,17 +287,20 @@ def write_recording(writer: BagWriter, recording: Recording,
     frame_ticks = (1 if frame is None or stamps.size < 2
                    else frame.style.frame_ticks(float(r.time_s[1] - r.time_s[0])))
 
-    def write(topic, k, message, order_ns):
+    def write_bytes(topic, msgtype, k, data, order_ns):
         if topic not in connections:
             # as ROS resolves names: /diagnostics stays outside the namespace
             name = topic if topic.startswith('/') else f'{namespace}/{topic}'
-            connections[topic] = writer.add_topic(name, message.__msgtype__)
-        writer.write(connections[topic], int(stamps[k]) + order_ns,
-                     TYPESTORE.serialize_cdr(message, message.__msgtype__))
+            connections[topic] = writer.add_topic(name, msgtype)
+        writer.write(connections[topic], int(stamps[k]) + order_ns, data)
+
+    def write(topic, k, message, order_ns):
+        write_bytes(topic, message.__msgtype__, k,
+                    TYPESTORE.serialize_cdr(message, message.__msgtype__), order_ns)
 
     for k in range(stamps.size):
-        for order, (topic, make) in enumerate(per_tick.items()):
-            write(topic, k, make(k), order)
+        for order, (topic, (msgtype, rows)) in enumerate(per_tick.items()):
+            write_bytes(topic, msgtype, k, rows[k].tobytes(), order)
         while events and events[0][0] == k:
             order += 1
             _, topic, message = events.pop(0)
@@ -307,7 +308,7 @@ def write_recording(writer: BagWriter, recording: Recording,
             if frame is not None and topic == contract.FDI_BROKEN_CABLE:
                 frame.on_broken_cable(message.data)
         if r.residual_nm is not None:
-            write(contract.FDI_RESIDUAL, k, joints(k, effort=r.residual_nm[k]), order + 1)
+            write_bytes(contract.FDI_RESIDUAL, joint_state, k, residual[k].tobytes(), order + 1)
         if frame is not None:
             frame.on_state(r.time_s[k], r.angle_rad[k], r.angular_velocity_rad_s[k], applied[k])
             frame.on_twin_pose(r.twin_position_m[k])

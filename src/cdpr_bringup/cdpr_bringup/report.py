@@ -212,11 +212,50 @@ def load_run(bag: str | Path, settings: RunSettings,
     failure_time, true_broken, source = failure_of(bag, recording)
     notes.append(source)
     bag_times = [t for t, _ in found[topics[contract.JOINT_STATES]]]
-    run = Run(robot=robot, recording=recording, residual_nm=residual,
-              epsilon_nm=fdi.epsilon_nm, friction=fdi.friction, verdicts=verdicts, modes=modes,
-              failure_time_s=failure_time, true_broken_cables=true_broken,
-              wall_time_s=(bag_times[-1] - bag_times[0]) / NANOSECONDS,
-              supervisor=fdi_summary_from_diagnostics(found[contract.DIAGNOSTICS]), notes=notes)
+    return with_safe_point(Run(
+        robot=robot, recording=recording, residual_nm=residual,
+        epsilon_nm=fdi.epsilon_nm, friction=fdi.friction, verdicts=verdicts, modes=modes,
+        failure_time_s=failure_time, true_broken_cables=true_broken,
+        wall_time_s=(bag_times[-1] - bag_times[0]) / NANOSECONDS,
+        supervisor=fdi_summary_from_diagnostics(found[contract.DIAGNOSTICS]), notes=notes), settings)
+
+
+def run_of_recording(recording: Recording, settings: RunSettings, failure_time_s: float | None,
+                     true_broken_cables: list[int]) -> Run:
+    """The run of an in-process engine's `recording`, as `load_run` reads it back from its
+    bag, without reading it: the verdicts and mode changes from the supervisor's summary
+    (`recording.fdi`), the failure as the plant recorded it (1-based cables)."""
+    summary, time_s = recording.fdi, recording.time_s
+    notes = [settings.source, 'failure time: the plant\'s own record']
+    verdicts, modes = [], []
+    if summary:
+        verdicts = [(float(time_s[0]), 0)]
+        if summary['identified_tick'] is not None:
+            verdicts += [(float(time_s[summary['identified_tick']]), cable)
+                         for cable in summary['broken_cables']]
+        changes = [(0, NOMINAL)] + sorted(((tick, mode) for mode, tick in summary['phase_ticks'].items()))
+        for tick, mode in changes:
+            if not modes or modes[-1][1] != mode:
+                modes.append((float(time_s[tick]), mode))
+    else:
+        notes.append('no supervisor: no detection signal, recovery phases unknown')
+    residual = recording.residual_nm
+    if residual is None:
+        residual = recording.command_nm - recording.twin_torque_nm
+        notes.append('no supervisor: residual computed as c − c_DT from the commanded and the '
+                     'twin torques')
+    return with_safe_point(Run(
+        robot=settings.robot, recording=recording, residual_nm=residual,
+        epsilon_nm=settings.fdi.epsilon_nm, friction=settings.fdi.friction, verdicts=verdicts,
+        modes=modes, failure_time_s=failure_time_s, true_broken_cables=true_broken_cables,
+        wall_time_s=float(time_s[-1] - time_s[0]), supervisor=dict(summary),
+        notes=notes), settings)
+
+
+def with_safe_point(run: Run, settings: RunSettings) -> Run:
+    """`run` with the safe point the supervisor reported, else the one its settings give
+    for the broken cables (or a note why there is none)."""
+    robot, notes = settings.robot, run.notes
     if run.supervisor.get('safe_point_m') is not None:
         run.safe_point_m = np.array(run.supervisor['safe_point_m'])
     if run.broken_cables:
@@ -277,7 +316,12 @@ def write_report(bag_path: str | Path, out_dir: str | Path, settings: RunSetting
     bag, out = Path(bag_path), Path(out_dir)
     if out.resolve() == bag.parent.resolve():
         raise ValueError(f'{out}: the run\'s own metrics.json is there; choose another folder')
-    run = load_run(bag, settings, namespace)
+    return write_run_report(load_run(bag, settings, namespace), bag, out)
+
+
+def write_run_report(run: Run, bag: Path, out: Path) -> dict:
+    """Plots (out/*.png), metrics.json and report.md of `run`, whose bag is `bag`; the
+    metrics."""
     out.mkdir(parents=True, exist_ok=True)
     figures = []
     for name, draw in plots.FIGURES.items():

@@ -26,7 +26,7 @@ from .graph import GraphError, graph_nodes, run_to_completion
 from .metrics import (PAPER_KPI, KnownRun, broken_at_from_diagnostics, fdi_summary_from_diagnostics,
                       metrics_json)
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
-from .report import SETTLED_RUN, RunSettings, write_report
+from .report import SETTLED_RUN, RunSettings, run_of_recording, write_report, write_run_report
 from .scenario_setup import ScenarioOptions, add_push_option, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
@@ -208,11 +208,17 @@ def run_scenario(args) -> int:
     print_summary(metrics, args.engine)
     print(f'metrics: {out / "metrics.json"}')
     if not args.no_plots:
+        settings = RunSettings(scenario.robot, scenario.fdi, scenario.recovery,
+                               f'settings: the run\'s own, {out / SETTLED_RUN}')
         if args.engine == 'inprocess':
+            # the bag for viewers and cdpr-report; the report from the run in memory, which
+            # reading the bag back would give (tests/test_report.py)
             record(recording, out / 'bag', args.namespace, scenario.marker_frame())
-        write_report(out / 'bag', out / 'plots', RunSettings(
-            scenario.robot, scenario.fdi, scenario.recovery, f'settings: the run\'s own, {out / SETTLED_RUN}'),
-            args.namespace)
+            write_run_report(run_of_recording(recording, settings, metrics['failure_time_s'],
+                                              metrics['true_broken_cables']),
+                             out / 'bag', out / 'plots')
+        else:
+            write_report(out / 'bag', out / 'plots', settings, args.namespace)
         print(f'bag: {out / "bag"}, plots and report: {out / "plots" / "report.md"}')
     return 0
 
