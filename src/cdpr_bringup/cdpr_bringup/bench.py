@@ -6,7 +6,8 @@ detector's figures on a campaign (cdpr_bringup.bench_fdi). roc: detection delay 
 false alarms per hour (cdpr_bringup.bench_roc). sweep: the detectors on plants that differ
 from the one they were calibrated on (cdpr_bringup.bench_sweep). soak: a long realtime run.
 campaign: simulated hours per wall hour of a campaign on a local Dask scheduler with 1, 2
-workers (cdpr_bringup.bench_campaign).
+workers (cdpr_bringup.bench_campaign). run: one whole cdpr-scenario run, and its stages
+(cdpr_bringup.bench_run).
 """
 from __future__ import annotations
 
@@ -87,11 +88,11 @@ def _counts(text: str) -> list[int]:
 @command('cdpr-bench')
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument('suite', choices=['model', 'graph', 'fdi', 'roc', 'sweep', 'soak', 'campaign'], help='what to measure')
+    parser.add_argument('suite', choices=['model', 'graph', 'fdi', 'roc', 'sweep', 'soak', 'campaign', 'run'], help='what to measure')
     parser.add_argument('--minutes', type=float, default=10.0, help='soak: how long')
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--json', action='store_true', help='print one JSON object last')
-    parser.add_argument('--out', help='fdi, roc, sweep, campaign: output folder (default runs/bench-SUITE)')
+    parser.add_argument('--out', help='fdi, roc, sweep, campaign, run: output folder (default runs/bench-SUITE)')
     parser.add_argument('--fidelity', choices=FIDELITIES, default='elastic',
                         help='fdi, roc, sweep, campaign: the plant')
     parser.add_argument('--workers', type=_counts, default=[1, 2],
@@ -125,6 +126,11 @@ def main(argv=None):
         figures = bench_campaign(args.config, out, args.fidelity, args.workers)
         print(f'cdpr-bench campaign on {machine()}, {args.fidelity} plant; campaigns in {out}')
         print('\n'.join(campaign_table(figures)))
+    elif args.suite == 'run':
+        from .bench_run import REPEATS, bench_run, table as run_table
+        figures = bench_run(args.config, out)
+        print(f'cdpr-bench run on {machine()}: best of {REPEATS} (s); {out}')
+        print('\n'.join(run_table(figures)))
     elif args.suite == 'graph':
         # rclpy is imported only for this suite
         from .bench_graph import bench_graph, table
