@@ -12,6 +12,7 @@ workers (cdpr_bringup.bench_campaign). run: one whole cdpr-scenario run, and its
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import platform
 import os
@@ -85,10 +86,25 @@ def _counts(text: str) -> list[int]:
     return counts
 
 
+# suite → (its bench function's arguments from the options and the output folder, heading)
+SUITES = {
+    'fdi': (lambda a, out: (a.config, out, a.jobs, a.fidelity),
+            '{fidelity} plant; campaigns in {out} (summary.md)'),
+    'roc': (lambda a, out: (a.config, out, a.fidelity, a.jobs),
+            '{fidelity} plant; {out}/roc.csv, {out}/roc.png'),
+    'sweep': (lambda a, out: (a.config, out, a.fidelity, a.jobs),
+              '{fidelity} plant; {out}/sweep.csv, {out}/sweep.png'),
+    'campaign': (lambda a, out: (a.config, out, a.fidelity, a.workers),
+                 '{fidelity} plant; campaigns in {out}'),
+    'run': (lambda a, out: (a.config, out), 'seconds, the best of its repeats; {out}'),
+    'graph': (lambda a, out: (a.config,), 'ROS_DOMAIN_ID {domain}'),
+}
+
+
 @command('cdpr-bench')
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument('suite', choices=['model', 'graph', 'fdi', 'roc', 'sweep', 'soak', 'campaign', 'run'], help='what to measure')
+    parser.add_argument('suite', choices=['model', 'soak', *SUITES], help='what to measure')
     parser.add_argument('--minutes', type=float, default=10.0, help='soak: how long')
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--json', action='store_true', help='print one JSON object last')
@@ -106,37 +122,14 @@ def main(argv=None):
         print(f'cdpr-bench soak on {machine()}: {args.minutes:g} min, realtime, failure-free')
         for key, value in figures.items():
             print(f'  {key:<28} {value}')
-    elif args.suite == 'fdi':
-        from .bench_fdi import bench_fdi, table as fdi_table
-        figures = bench_fdi(args.config, out, args.jobs, args.fidelity)
-        print(f'cdpr-bench fdi on {machine()}, {args.fidelity} plant; campaigns in {out} (summary.md)')
-        print('\n'.join(fdi_table(figures)))
-    elif args.suite == 'roc':
-        from .bench_roc import bench_roc, table as roc_table
-        figures = bench_roc(args.config, out, args.fidelity, args.jobs)
-        print(f'cdpr-bench roc on {machine()}, {args.fidelity} plant; {out}/roc.csv, {out}/roc.png')
-        print('\n'.join(roc_table(figures)))
-    elif args.suite == 'sweep':
-        from .bench_sweep import bench_sweep, table as sweep_table
-        figures = bench_sweep(args.config, out, args.fidelity, args.jobs)
-        print(f'cdpr-bench sweep on {machine()}, {args.fidelity} plant; {out}/sweep.csv, {out}/sweep.png')
-        print('\n'.join(sweep_table(figures)))
-    elif args.suite == 'campaign':
-        from .bench_campaign import bench_campaign, table as campaign_table
-        figures = bench_campaign(args.config, out, args.fidelity, args.workers)
-        print(f'cdpr-bench campaign on {machine()}, {args.fidelity} plant; campaigns in {out}')
-        print('\n'.join(campaign_table(figures)))
-    elif args.suite == 'run':
-        from .bench_run import REPEATS, bench_run, table as run_table
-        figures = bench_run(args.config, out)
-        print(f'cdpr-bench run on {machine()}: best of {REPEATS} (s); {out}')
-        print('\n'.join(run_table(figures)))
-    elif args.suite == 'graph':
-        # rclpy is imported only for this suite
-        from .bench_graph import bench_graph, table
-        figures = bench_graph(args.config)
-        print(f'cdpr-bench graph on {machine()}, ROS_DOMAIN_ID {os.environ["ROS_DOMAIN_ID"]}')
-        print('\n'.join(table(figures)))
+    elif args.suite in SUITES:
+        arguments, heading = SUITES[args.suite]
+        # imported only for its suite (bench_graph loads rclpy, bench_campaign Dask)
+        module = importlib.import_module(f'.bench_{args.suite}', __package__)
+        figures = getattr(module, f'bench_{args.suite}')(*arguments(args, out))
+        print(f'cdpr-bench {args.suite} on {machine()}, ' + heading.format(
+            fidelity=args.fidelity, out=out, domain=os.environ.get('ROS_DOMAIN_ID', '0')))
+        print('\n'.join(module.table(figures)))
     else:
         figures = bench_model(args.config)
         print(f'cdpr-bench model on {machine()}; median of {REPEATS} x {CALLS_PER_REPEAT} calls')

@@ -58,7 +58,7 @@ def bench_run(config: str, out: str | Path, repeats: int = REPEATS) -> dict:
             recording, settings, metrics['failure_time_s'], metrics['true_broken_cables']),
             folder / 'bag', folder / 'plots'))
         timed('report_from_bag_s', write_report, folder / 'bag', folder / 'bag-plots', settings)
-    figures = {'whole_process_best_s': min(whole), 'whole_process_median_s': float(np.median(whole)),
+    figures = {'repeats': repeats, 'whole_process_best_s': min(whole), 'whole_process_median_s': float(np.median(whole)),
                'goal_s': GOAL_S, 'robot_time_s': float(recording.time_s[-1]),
                'load_average_1min': os.getloadavg()[0]}
     figures.update({name: min(values) for name, values in stages.items()})
