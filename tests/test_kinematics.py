@@ -155,6 +155,24 @@ def test_three_cable_forward_kinematics_tilted_exit_planes(eight_cable_robot, rn
     assert checked > 50
 
 
+def test_three_cable_lengths_no_point_reaches_give_the_nearest_point_not_an_error(paper_robot):
+    """Lengths too short for the three spheres to meet (stale or inconsistent angles, as a
+    loaded realtime graph can hand the supervisor, whose node died of it): a point of the
+    exit points' plane that nearly fits them, where the solve used to raise. Gauss–Newton
+    on lengths no point fits need not reach the best one; a finite point is what counts."""
+    robot = paper_robot
+    cables = robot.cable_mask([3])
+    h = robot.exit_points_m[0, 2]
+    for shrink in (0.3, 0.5):
+        lengths = shrink * _lengths(robot, robot.home_position_m)
+        p_fk = forward_kinematics(robot, _angles_for_lengths(robot, lengths), cables)
+        assert np.all(np.isfinite(p_fk)) and p_fk[2] == pytest.approx(h)
+        reference = least_squares(lambda q: _lengths(robot, np.array([q[0], q[1], h]))[cables]
+                                  - lengths[cables], p_fk[:2], xtol=1e-14, ftol=1e-14)
+        misfit = np.linalg.norm(_lengths(robot, p_fk)[cables] - lengths[cables])
+        assert misfit <= 1.05 * np.linalg.norm(reference.fun)
+
+
 def test_forward_kinematics_needs_three_cables(paper_robot):
     with pytest.raises(KinematicsError):
         forward_kinematics(paper_robot, np.zeros(4), np.array([True, True, False, False]))

@@ -146,7 +146,13 @@ def _refine(exit_points: np.ndarray, lengths: np.ndarray, position: np.ndarray) 
         if np.max(np.abs(residual)) < FK_TOLERANCE_M:
             break
         # ∂d_i/∂p = −u_iᵀ: normal equations uᵀu δ = uᵀ r
-        step = solve3(u.T @ u, u.T @ residual)
+        try:
+            step = solve3(u.T @ u, u.T @ residual)
+        except np.linalg.LinAlgError:
+            # Lengths whose spheres do not meet (stale or inconsistent angles) start it
+            # in the plane of the exit points, where the directions span that plane
+            # only: the least-squares step within it.
+            step = np.linalg.lstsq(u, residual, rcond=None)[0]
         if np.max(np.abs(step)) < FK_TOLERANCE_M:
             break
         position = position + step

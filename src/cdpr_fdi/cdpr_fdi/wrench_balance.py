@@ -83,6 +83,7 @@ class WrenchBalance:
         velocity, *_ = np.linalg.lstsq(directions, -length_rate, rcond=None)
         return velocity, position
 
+
 def overstretch_m(robot: Robot, angle_rad: np.ndarray, taut: np.ndarray) -> np.ndarray:
     """Per cable, the distance from its exit point to the end-effector (placed by the
     `taut` cables' motor angles) less the length its motor has paid out, l_i0 + ρ θ_i (m):
