@@ -12,7 +12,7 @@ from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_control.workspace import contains
 from cdpr_fdi.markers import (BROKEN_GREY, LINE_LIST, LINE_STRIP, SPHERE_LIST, TENSION_SCALE,
-                              dashes, tension_colour)
+                              cable_shapes, dashes, tension_colour)
 from cdpr_fdi.residual import sensorless_tensions
 from cdpr_msgs_py import contract
 
@@ -113,6 +113,19 @@ def test_the_tension_scale_runs_from_blue_at_the_floor_to_red_at_the_ceiling():
     assert np.allclose(colours[tensions >= high], TENSION_SCALE[-1])
     assert np.all(np.diff(colours[:, 0]) >= -1e-12) and np.all(np.diff(colours[:, 2]) <= 1e-12)
     assert np.allclose(tension_colour((low + high) / 2, low, high), TENSION_SCALE[1])
+
+
+def test_a_broken_cable_is_not_drawn_where_the_end_effector_is_found_at_its_exit_height(run):
+    """Angles whose lengths no point fits (a loaded realtime graph) place the end-effector
+    in the exit points' plane: the broken cable then has no dashes, and no shape (an empty
+    one killed the markers node: its colour is its first point's)."""
+    scenario = run[0]
+    robot = scenario.robot
+    position = np.array([0.8, 0.9, robot.exit_points_m[BROKEN - 1, 2]])
+    shapes = cable_shapes(robot, scenario.markers, position, np.full(robot.cable_count, 20.0), [BROKEN])
+    assert [shape.id for shape in shapes] == [cable for cable in range(1, robot.cable_count + 1)
+                                              if cable != BROKEN]
+    assert all(len(shape.points_m) and len(shape.colours) for shape in shapes)
 
 
 def test_dashes_cover_the_line_with_gaps():

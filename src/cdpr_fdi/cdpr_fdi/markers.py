@@ -108,15 +108,18 @@ def cable_shapes(robot: Robot, style: MarkerStyle, position_m: np.ndarray,
                  tension_n: np.ndarray, broken_cables: list[int]) -> list[Shape]:
     """Per cable (id = its 1-based number): a line from its exit point to `position_m`
     coloured by its tension, or, for a broken cable, a dashed grey line hanging straight
-    down from its exit point to the end-effector's height."""
+    down from its exit point to the end-effector's height (none when the end-effector is
+    found at that height or above: a marker of no points has nothing to draw, nor a colour)."""
     colours = tension_colour(tension_n, robot.tension_min_n, robot.tension_max_n)
     shapes = []
     for index, exit_point in enumerate(robot.exit_points_m):
         cable = index + 1
         if cable in broken_cables:
             below = np.array([exit_point[0], exit_point[1], position_m[2]])
-            shapes.append(_single('cables', LINE_LIST, dashes(exit_point, below, style.dash_length_m),
-                                  BROKEN_GREY, style.broken_cable_width_m, cable))
+            hanging = dashes(exit_point, below, style.dash_length_m) if below[2] < exit_point[2] else []
+            if len(hanging):
+                shapes.append(_single('cables', LINE_LIST, hanging, BROKEN_GREY,
+                                      style.broken_cable_width_m, cable))
         else:
             shapes.append(_single('cables', LINE_LIST, [exit_point, position_m], colours[index],
                                   style.cable_width_m, cable))
