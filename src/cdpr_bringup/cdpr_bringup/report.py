@@ -198,10 +198,7 @@ def load_run(bag: str | Path, settings: RunSettings,
                if found[topics[contract.FDI_RESIDUAL]]
                else tick_time(found[topics[contract.JOINT_STATES]], following=False))
     verdicts = [(to_tick(t), int(m.data)) for t, m in found[topics[contract.FDI_BROKEN_CABLE]]]
-    modes = []
-    for t, message in found[topics[contract.MODE]]:
-        if not modes or modes[-1][1] != message.data:
-            modes.append((to_tick(t), message.data))
+    modes = mode_changes((to_tick(t), message.data) for t, message in found[topics[contract.MODE]])
     if not verdicts:
         notes.append(f'no {topics[contract.FDI_BROKEN_CABLE]} (no supervisor): no detection signal')
     if not modes:
@@ -233,10 +230,8 @@ def run_of_recording(recording: Recording, settings: RunSettings, failure_time_s
         if summary['identified_tick'] is not None:
             verdicts += [(float(time_s[summary['identified_tick']]), cable)
                          for cable in summary['broken_cables']]
-        changes = [(0, NOMINAL)] + sorted(((tick, mode) for mode, tick in summary['phase_ticks'].items()))
-        for tick, mode in changes:
-            if not modes or modes[-1][1] != mode:
-                modes.append((float(time_s[tick]), mode))
+        changes = [(0, NOMINAL)] + sorted((tick, mode) for mode, tick in summary['phase_ticks'].items())
+        modes = mode_changes((float(time_s[tick]), mode) for tick, mode in changes)
     else:
         notes.append('no supervisor: no detection signal, recovery phases unknown')
     residual = recording.residual_nm
@@ -250,6 +245,15 @@ def run_of_recording(recording: Recording, settings: RunSettings, failure_time_s
         modes=modes, failure_time_s=failure_time_s, true_broken_cables=true_broken_cables,
         wall_time_s=float(time_s[-1] - time_s[0]), supervisor=dict(summary),
         notes=notes), settings)
+
+
+def mode_changes(modes) -> list[tuple[float, str]]:
+    """Of (time s, mode) in time order, those where the mode changes (the first included)."""
+    changes = []
+    for t, mode in modes:
+        if not changes or changes[-1][1] != mode:
+            changes.append((t, mode))
+    return changes
 
 
 def with_safe_point(run: Run, settings: RunSettings) -> Run:

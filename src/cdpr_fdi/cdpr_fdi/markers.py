@@ -115,11 +115,10 @@ def cable_shapes(robot: Robot, style: MarkerStyle, position_m: np.ndarray,
     for index, exit_point in enumerate(robot.exit_points_m):
         cable = index + 1
         if cable in broken_cables:
-            below = np.array([exit_point[0], exit_point[1], position_m[2]])
-            hanging = dashes(exit_point, below, style.dash_length_m) if below[2] < exit_point[2] else []
-            if len(hanging):
-                shapes.append(_single('cables', LINE_LIST, hanging, BROKEN_GREY,
-                                      style.broken_cable_width_m, cable))
+            if position_m[2] < exit_point[2]:
+                below = np.array([exit_point[0], exit_point[1], position_m[2]])
+                shapes.append(_single('cables', LINE_LIST, dashes(exit_point, below, style.dash_length_m),
+                                      BROKEN_GREY, style.broken_cable_width_m, cable))
         else:
             shapes.append(_single('cables', LINE_LIST, [exit_point, position_m], colours[index],
                                   style.cable_width_m, cable))
