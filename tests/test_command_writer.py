@@ -262,6 +262,7 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
             # before the run the writer may not be known yet ('not seen yet')
             pins |= {fact[f'{contract.EFFORT_COMMAND} writer'] for fact in facts
                      if '(GID ' in fact[f'{contract.EFFORT_COMMAND} writer']}
+            assert facts, f'{node}: no status of it in the bag'
             last = facts[-1]
             # WARN from the first status that counts a rejection (held warning_hold_s of wall
             # time after the last one, which a slow lockstep run may outlast); the bag reader
