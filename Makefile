@@ -35,6 +35,7 @@ test: setup
 bench: setup
 	$(VENV)/bin/cdpr-bench model
 	$(VENV)/bin/cdpr-bench run
+	$(VENV)/bin/cdpr-bench cycle
 	$(VENV)/bin/cdpr-bench graph
 	$(VENV)/bin/cdpr-bench fdi
 	$(VENV)/bin/cdpr-bench roc

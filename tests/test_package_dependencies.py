@@ -24,7 +24,8 @@ TESTS = REPO / 'tests'
 
 # Python modules that are not ROS packages: their rosdep keys.
 ROSDEP_KEYS = {'numpy': 'python3-numpy', 'yaml': 'python3-yaml', 'matplotlib': 'python3-matplotlib',
-               'scipy': 'python3-scipy', 'pytest': 'python3-pytest', 'rosbags': 'python3-rosbags-pip'}
+               'scipy': 'python3-scipy', 'pytest': 'python3-pytest', 'rosbags': 'python3-rosbags-pip',
+               'numba': 'python3-numba'}
 # Modules with no rosdep key: installed with pip, as README's workspace section says.
 PIP_ONLY = {'mcap': 'mcap', 'distributed': 'distributed'}
 

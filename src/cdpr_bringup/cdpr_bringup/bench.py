@@ -7,7 +7,8 @@ false alarms per hour (cdpr_bringup.bench_roc). sweep: the detectors on plants t
 from the one they were calibrated on (cdpr_bringup.bench_sweep). soak: a long realtime run.
 campaign: simulated hours per wall hour of a campaign on a local Dask scheduler with 1, 2
 workers (cdpr_bringup.bench_campaign). run: one whole cdpr-scenario run, and its stages
-(cdpr_bringup.bench_run).
+(cdpr_bringup.bench_run). cycle: the in-process engine with the elastic sub-steps compiled
+and in pure Python, and the µs of each stage of a cycle (cdpr_bringup.bench_cycle).
 """
 from __future__ import annotations
 
@@ -97,6 +98,7 @@ SUITES = {
     'campaign': (lambda a, out: (a.config, out, a.fidelity, a.workers),
                  '{fidelity} plant; campaigns in {out}'),
     'run': (lambda a, out: (a.config, out), 'seconds, the best of its repeats; {out}'),
+    'cycle': (lambda a, out: (a.config,), 'in-process engine, elastic circle with the supervisor'),
     'graph': (lambda a, out: (a.config,), 'ROS_DOMAIN_ID {domain}'),
 }
 

@@ -25,10 +25,17 @@ def sensorless_tensions(motor: Motor, friction: FrictionModel, applied_torque_nm
 
     Friction is evaluated at the speed the period started with, as the drive integrates it.
     """
+    return _tensions(motor, friction.torque_nm(speed_before_rad_s), applied_torque_nm,
+                     speed_before_rad_s, speed_after_rad_s, period_s)
+
+
+def _tensions(motor: Motor, friction_before_nm: np.ndarray, applied_torque_nm: np.ndarray,
+              speed_before_rad_s: np.ndarray, speed_after_rad_s: np.ndarray,
+              period_s: float) -> np.ndarray:
     acceleration = (speed_after_rad_s - speed_before_rad_s) / period_s
     load = (motor.inertia_kg_m2 * acceleration
             + motor.viscous_friction_nm_s_rad * speed_before_rad_s
-            + friction.torque_nm(speed_before_rad_s) - applied_torque_nm)
+            + friction_before_nm - applied_torque_nm)
     return load / motor.drum_radius_m
 
 
@@ -36,9 +43,9 @@ def sensorless_tension_bounds(motor: Motor, friction: FrictionModel, applied_tor
                               speed_before_rad_s: np.ndarray, speed_after_rad_s: np.ndarray,
                               period_s: float) -> tuple[np.ndarray, np.ndarray]:
     """The lowest and highest τ̂ (N) the friction between the two speeds allows."""
-    at_start = sensorless_tensions(motor, friction, applied_torque_nm, speed_before_rad_s,
-                                   speed_after_rad_s, period_s)
-    friction_change = (friction.torque_nm(speed_after_rad_s)
-                       - friction.torque_nm(speed_before_rad_s)) / motor.drum_radius_m
-    other_end = at_start + friction_change
+    friction_before = friction.torque_nm(speed_before_rad_s)
+    at_start = _tensions(motor, friction_before, applied_torque_nm, speed_before_rad_s,
+                         speed_after_rad_s, period_s)
+    other_end = at_start + (friction.torque_nm(speed_after_rad_s)
+                            - friction_before) / motor.drum_radius_m
     return np.minimum(at_start, other_end), np.maximum(at_start, other_end)

@@ -91,11 +91,11 @@ class Supervisor:
             self.tension_bounds_n = sensorless_tension_bounds(
                 self.robot.motor, self.fdi.friction, self.felt_torque_nm(applied),
                 self.previous_speed, np.asarray(angular_velocity_rad_s, float), self.period_s)
-            self.balance.record(tick, angle_rad, angular_velocity_rad_s,
-                                np.mean(self.tension_bounds_n, axis=0))
+            low, high = self.tension_bounds_n
+            self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
         events: list[str] = []
         alarm = False
-        if self.previous_command is not None and not np.array_equal(applied, self.previous_command):
+        if self.previous_command is not None and not (applied == self.previous_command).all():
             # The drive applied something other than the last command (it came late, or
             # its watchdog acted). After a burst of that the robot differs from the twin by
             # timing, not by a failure: the residual is not evidence until that has died out.

@@ -10,15 +10,14 @@ standstill (Stribeck), swivel pulleys whose wrap changes a cable's length with i
 direction, and a mass left hanging on a cable's drum side once it breaks (the
 electromagnet's half). Its defaults add nothing: that is the `elastic` fidelity.
 
-The sub-steps run on plain floats: 8 of them every 2 ms on m ≈ 4 cables, where numpy's
-per-call overhead (~0.3–0.8 µs a call, dozens of calls a sub-step) would be most of
-the cost.
+The sub-steps are `elastic_substeps.integrate`: plain Python, or compiled by numba when
+installed (`kernel`, the plant's `plant.elastic.kernel`).
 """
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from math import exp, sqrt, tanh
+from math import exp
 
 import numpy as np
 
@@ -26,6 +25,8 @@ from cdpr_control.kinematics import cable_vectors
 from cdpr_control.robot import Robot
 from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.statics import static_tensions
+
+from .elastic_substeps import kernel as substep_kernel
 
 
 @dataclass(frozen=True)
@@ -69,8 +70,10 @@ class ElasticCableRobot:
 
     def __init__(self, robot: Robot, position_m, substeps: int, axial_stiffness_n: float,
                  damping_n_s_m: float, coulomb_friction_nm: float,
-                 coulomb_velocity_rad_s: float, drive: DriveTrain = DriveTrain()):
+                 coulomb_velocity_rad_s: float, drive: DriveTrain = DriveTrain(),
+                 kernel: str = 'compiled'):
         self.robot = robot
+        self.kernel = substep_kernel(kernel)
         self.drive = drive
         self.substeps = int(substeps)
         self.axial_stiffness_n = axial_stiffness_n
@@ -87,27 +90,44 @@ class ElasticCableRobot:
         _, d = cable_vectors(robot.exit_points_m, self.position_m)
         unstretched = d / (1.0 + tension / axial_stiffness_n)
         radius = robot.motor.drum_radius_m
-        self.angle_rad = (unstretched - robot.cable_length_offset_m) / radius
-        self.angular_velocity_rad_s = np.zeros(robot.cable_count)
         self.tension_n = tension
-        # The drive's speed estimate (rad/s) and the torque its loop applies (N·m): both
-        # lag the true speed and the command.
-        self.speed_estimate_rad_s = np.zeros(robot.cable_count)
-        self.torque_applied_nm = (-radius * tension).tolist()
+        # Rows per motor, replaced by each step: θ (rad), θ̇ (rad/s), the spring–damper
+        # tension τ (N) of the current state (each sub-step ends by evaluating it for the
+        # next), and the drive's speed estimate (rad/s) and the torque its loop applies
+        # (N·m), which lag the true speed and the command.
+        self.motors = np.array([(unstretched - robot.cable_length_offset_m) / radius,
+                                np.zeros(robot.cable_count), np.zeros(robot.cable_count),
+                                np.zeros(robot.cable_count), -radius * tension])
         # The pulleys lengthen each cable by their wrap; the cable lengths were homed at
         # the start, so only the change since then is felt (m, per control period).
         self.start_pulley_excess_m = self.pulley_excess_m()
-        self.pulley_change_m = [0.0] * robot.cable_count
-        # Per cable: mass (kg) hanging on its drum once broken (0 while attached).
-        self.hanging_kg = [0.0] * robot.cable_count
-        # Per cable: exit point A_i and length offset l_i0 (m).
-        self.cables = [(ax, ay, az, offset) for (ax, ay, az), offset in
-                       zip(robot.exit_points_m.tolist(), robot.cable_length_offset_m.tolist())]
-        # The spring–damper tensions (N) of the current state and their net force Σ τ_i u_i
-        # on the end-effector (N): each sub-step ends by evaluating them for the next.
-        self.spring_tension_n = [0.0] * robot.cable_count
+        # Rows per cable, the sub-steps' inputs: the torque commanded (N·m), 1 while
+        # attached, the mass (kg) hanging on its drum once broken, the pulleys' length
+        # change (m).
+        self.inputs = np.zeros((4, robot.cable_count))
+        self.inputs[1] = 1.0
+        # Per cable: exit point A_i and length offset l_i0 (m), as the kernel takes them.
+        self.cables = self.kernel.view(np.array([*robot.exit_points_m.T,
+                                                 robot.cable_length_offset_m]))
+        # The net force Σ τ_i u_i (N) of the tensions on the end-effector.
         self.cable_force_n = (0.0, 0.0, 0.0)
         self.evaluate_tensions()
+
+    @property
+    def angle_rad(self) -> np.ndarray:
+        return self.motors[0]
+
+    @property
+    def angular_velocity_rad_s(self) -> np.ndarray:
+        return self.motors[1]
+
+    @property
+    def spring_tension_n(self) -> np.ndarray:
+        return self.motors[2]
+
+    @property
+    def speed_estimate_rad_s(self) -> np.ndarray:
+        return self.motors[3]
 
     def pulley_excess_m(self) -> np.ndarray:
         """How much longer (m) each cable is over its pulley than to the exit point."""
@@ -120,16 +140,17 @@ class ElasticCableRobot:
     def break_cables(self, cables) -> None:
         for index in cables:
             self.attached[index] = False
+            self.inputs[1, index] = 0.0
             if self.drive.hanging_mass_kg:
                 # The mass was carried at the end-effector's end of the cable: it leaves it.
-                self.hanging_kg[index] = self.drive.hanging_mass_kg[index]
+                self.inputs[2, index] = self.drive.hanging_mass_kg[index]
                 self.robot = dataclasses.replace(
-                    self.robot, mass_kg=self.robot.mass_kg - self.hanging_kg[index])
+                    self.robot, mass_kg=self.robot.mass_kg - self.drive.hanging_mass_kg[index])
         self.evaluate_tensions()
 
     def evaluate_tensions(self) -> None:
         """The spring–damper tensions of the current state, for the next sub-step."""
-        self.integrate([0.0] * self.robot.cable_count, 0.0, 1, NO_FORCE)
+        self.integrate(np.zeros(self.robot.cable_count), 0.0, 1, NO_FORCE)
 
     def step(self, torque_nm: np.ndarray, period_s: float, substeps: int | None = None,
              external_force_n=NO_FORCE) -> None:
@@ -139,98 +160,31 @@ class ElasticCableRobot:
         its start."""
         substeps = substeps or self.substeps
         if self.drive.pulley_radius_m:
-            self.pulley_change_m = (self.pulley_excess_m() - self.start_pulley_excess_m).tolist()
-        self.integrate(np.asarray(torque_nm, dtype=float).tolist(), period_s / substeps,
-                       substeps, tuple(external_force_n))
-        self.tension_n = np.array(self.spring_tension_n)
+            self.inputs[3] = self.pulley_excess_m() - self.start_pulley_excess_m
+        self.integrate(torque_nm, period_s / substeps, substeps, tuple(external_force_n))
+        self.tension_n = self.spring_tension_n
 
-    def integrate(self, torque_nm: list[float], h: float, substeps: int,
+    def integrate(self, torque_nm, h: float, substeps: int,
                   external_force_n: tuple[float, float, float]) -> None:
-        """`substeps` semi-implicit Euler sub-steps of `h` s under `torque_nm` and
-        `external_force_n`.
-
-        A sub-step moves the state with the tensions of its start, then evaluates the
-        tensions of its end, which the next sub-step starts from. With h = 0 the state
-        stays as it is and only its tensions are evaluated.
-        """
-        motor = self.robot.motor
-        radius, inertia = motor.drum_radius_m, motor.inertia_kg_m2
-        viscous, coulomb = motor.viscous_friction_nm_s_rad, self.coulomb_friction_nm
-        smoothing = self.coulomb_velocity_rad_s
-        drive = self.drive
-        breakaway, stribeck = drive.breakaway_friction_nm, drive.stribeck_speed_rad_s
+        """`substeps` semi-implicit Euler sub-steps of `h` s under `torque_nm` (N·m) and
+        `external_force_n` (N); h = 0 only evaluates the tensions of the current state."""
+        motor, drive, mass = self.robot.motor, self.drive, self.robot.mass_kg
         # First-order lags discretised exactly over a sub-step (gain 1: no lag).
         torque_gain = 1.0 - exp(-h / drive.torque_lag_s) if drive.torque_lag_s else 1.0
         speed_gain = 1.0 - exp(-h / drive.speed_filter_s) if drive.speed_filter_s else 1.0
-        estimate = self.speed_estimate_rad_s.tolist()
-        applied = self.torque_applied_nm
-        stiffness, damping = self.axial_stiffness_n, self.damping_n_s_m
-        mass = self.robot.mass_kg
         # gravity and the external force, as accelerations of the end-effector
         gx, gy, gz = (g + f / mass for g, f in zip(self.robot.gravity_m_s2.tolist(), external_force_n))
-        px, py, pz = self.position_m.tolist()
-        vx, vy, vz = self.velocity_m_s.tolist()
-        angle = self.angle_rad.tolist()
-        speed = self.angular_velocity_rad_s.tolist()
-        attached = self.attached.tolist()
-        tensions = self.spring_tension_n
-        fx, fy, fz = self.cable_force_n
-        for _ in range(substeps):
-            vx, vy, vz = (vx + h * (fx / mass + gx), vy + h * (fy / mass + gy),
-                          vz + h * (fz / mass + gz))
-            px, py, pz = px + h * vx, py + h * vy, pz + h * vz
-            fx = fy = fz = 0.0
-            next_angle, next_speed, next_tensions, next_estimate, next_applied = [], [], [], [], []
-            for (ax, ay, az, offset), theta, w, c, tension, is_attached, w_est, c_applied, \
-                    hanging, pulley in zip(self.cables, angle, speed, torque_nm, tensions,
-                                           attached, estimate, applied, self.hanging_kg,
-                                           self.pulley_change_m):
-                c_applied += torque_gain * (c - c_applied)
-                if self.drums_locked:
-                    w = 0.0
-                else:
-                    # Motor: J θ̈ = c − (b θ̇ + f_c tanh(θ̇ / ω_c)) + ρ τ, with f_c raised by
-                    # the breakaway excess near standstill, and a broken cable's hanging
-                    # mass m_h on the drum: (J + m_h ρ²) θ̈ = … + ρ m_h g.
-                    friction = coulomb
-                    if breakaway:
-                        ratio = w / stribeck
-                        friction += breakaway * exp(-ratio * ratio)
-                    w += h * ((c_applied - (viscous * w + friction * tanh(w / smoothing))
-                               + radius * (tension - hanging * gz))
-                              / (inertia + hanging * radius * radius))
-                    theta += h * w
-                w_est += speed_gain * (w - w_est)
-                next_speed.append(w)
-                next_angle.append(theta)
-                next_estimate.append(w_est)
-                next_applied.append(c_applied)
-                # Cable: stiffness EA / l on the stretch beyond its unstretched length
-                # l = l_0 + ρ θ, damping on the stretch rate; it pulls, never pushes.
-                # Over a pulley the path to the end-effector is longer by its wrap's change.
-                rx, ry, rz = ax - px, ay - py, az - pz
-                d = sqrt(rx * rx + ry * ry + rz * rz)
-                length = offset + radius * theta
-                stretch = d + pulley - length
-                tension = 0.0
-                if stretch > 0.0 and is_attached:
-                    ux, uy, uz = rx / d, ry / d, rz / d
-                    stretch_rate = -(ux * vx + uy * vy + uz * vz) - radius * w
-                    tension = (stiffness / length) * stretch + damping * stretch_rate
-                    if tension > 0.0:
-                        fx += tension * ux
-                        fy += tension * uy
-                        fz += tension * uz
-                    else:
-                        tension = 0.0
-                next_tensions.append(tension)
-            angle, speed, tensions = next_angle, next_speed, next_tensions
-            estimate, applied = next_estimate, next_applied
-        self.speed_estimate_rad_s = np.array(estimate)
-        self.torque_applied_nm = applied
+        constants = (motor.drum_radius_m, motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad,
+                     self.coulomb_friction_nm, self.coulomb_velocity_rad_s,
+                     drive.breakaway_friction_nm, drive.stribeck_speed_rad_s, torque_gain,
+                     speed_gain, self.axial_stiffness_n, self.damping_n_s_m, mass, gx, gy, gz,
+                     self.drums_locked)
+        self.inputs[0] = torque_nm
+        motors = self.kernel.view(self.motors.copy())
+        px, py, pz, vx, vy, vz, fx, fy, fz = self.kernel.integrate(
+            substeps, h, constants, self.cables, self.kernel.view(self.inputs), motors,
+            (*self.position_m.tolist(), *self.velocity_m_s.tolist(), *self.cable_force_n))
         self.position_m = np.array((px, py, pz))
         self.velocity_m_s = np.array((vx, vy, vz))
-        self.angle_rad = np.array(angle)
-        self.angular_velocity_rad_s = np.array(speed)
-        self.spring_tension_n = tensions
+        self.motors = np.asarray(motors, dtype=float)
         self.cable_force_n = (fx, fy, fz)

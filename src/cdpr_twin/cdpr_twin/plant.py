@@ -23,6 +23,7 @@ from cdpr_control.robot import Robot
 from cdpr_control.statics import holding_torque_nm
 
 from .elastic_model import DriveTrain, ElasticCableRobot
+from .elastic_substeps import KERNELS
 from .rigid_model import RigidCableRobot
 
 FIDELITIES = ('rigid', 'elastic', 'field')
@@ -71,6 +72,7 @@ class PlantConfig:
     velocity_noise_rad_s: float
     counts_per_revolution: int
     seed: int
+    kernel: str = 'compiled'    # of the elastic sub-steps: elastic_substeps.KERNELS
     # The field fidelity's drive train and rig (no effect on the others).
     drive: DriveTrain = DriveTrain()
     command_delay_s: float = 0.0
@@ -134,6 +136,7 @@ class PlantConfig:
             velocity_noise_rad_s=resolver.number('velocity_noise_rad_s', non_negative=True),
             counts_per_revolution=resolver.integer('counts_per_revolution', minimum=1),
             seed=plant.integer('seed', minimum=0) if seed is None else seed,
+            kernel=elastic.string('kernel', choices=KERNELS),
             **(field_values if fidelity == 'field' else {}),
         )
 
@@ -176,7 +179,7 @@ class PlantSimulator:
             self.model = ElasticCableRobot(
                 true_robot, start_position_m, config.substeps, config.axial_stiffness_n,
                 config.damping_n_s_m, true_robot.motor.static_friction_nm,
-                config.coulomb_velocity_rad_s, drive_train(robot, config))
+                config.coulomb_velocity_rad_s, drive_train(robot, config), config.kernel)
         self.failures = sorted((float(t), int(c)) for t, c in failures)
         self.pushes = list(pushes)
         self.broken: list[int] = []

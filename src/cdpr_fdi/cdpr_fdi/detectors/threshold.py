@@ -18,7 +18,7 @@ class ThresholdDetector(Detector):
 
     def update(self, residual_nm: np.ndarray, twin_speed_rad_s: np.ndarray) -> bool:
         self.statistic = np.abs(residual_nm)
-        return bool(np.max(self.statistic) > self.epsilon_nm)
+        return bool(self.statistic.max() > self.epsilon_nm)
 
     @property
     def threshold(self) -> float:
