@@ -23,6 +23,7 @@ $(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps $(foreach p,$(PACKAGES),-e src/$(p))
 	sed -i '/^# cdpr environment/,$$d' $(VENV)/bin/activate
 	cat tools/venv-activate.sh >> $(VENV)/bin/activate
+	$(PY) -c 'from cdpr_twin.elastic_substeps import kernel; kernel("compiled")'
 	touch $(STAMP)
 
 demo: setup

@@ -105,10 +105,17 @@ def _compiled() -> Kernel | None:
     # numba takes ~0.5 s to import: only for a model that asks for it
     try:
         import numba
+        from numba import types
     except ImportError:
         return None
-    # cache: compiled once per installation, not per process (campaign workers, tests)
-    return Kernel('compiled', numba.njit(cache=True)(integrate), lambda array: array)
+    floats, rows = types.float64, types.float64[:, :]
+    state = types.UniTuple(floats, 9)
+    signature = state(types.intp, floats, types.Tuple((floats,) * 15 + (types.boolean,)),
+                      rows, rows, rows, state)
+    # Compiled here, for these types only (a call with others is an error, not a silent
+    # compile of seconds in a realtime loop); cached once per installation, which
+    # `make setup` does, so that a process only loads it.
+    return Kernel('compiled', numba.njit(signature, cache=True)(integrate), lambda array: array)
 
 
 def kernel(name: str) -> Kernel:
