@@ -2,9 +2,10 @@
 
 `integrate` is written on indexable sequences and scalars only. CPython runs it on lists
 of floats (on m ≈ 4 cables numpy's per-call overhead would be most of the cost); numba,
-when installed, compiles it for float64 arrays, about 20x faster. Both do the same
-floating-point operations in the same order (tests/test_elastic_substeps.py compares
-them).
+when installed, compiles it for float64 arrays: a period of 8 sub-steps then takes ~12
+instead of ~65 µs (2-core EPYC), for ~1 s of loading numba in each process. Both do the
+same floating-point operations in the same order (tests/test_elastic_substeps.py
+compares them).
 """
 from __future__ import annotations
 
