@@ -153,6 +153,20 @@ def test_the_report_of_a_run_in_memory_is_that_of_its_bag(failure_run, tmp_path)
         sorted(path.name for path in (run / 'plots').glob('*.png'))
 
 
+def test_phases_entered_on_one_tick_keep_their_order_in_a_run_in_memory(failure_run):
+    """On some robots recovery phase 2 starts on the tick of phase 1 (the tensions need
+    no settling): the report shows phase 1, then 2, as the supervisor entered them."""
+    scenario, recording, folder, _ = failure_run
+    ticks = recording.fdi['phase_ticks']
+    assert list(ticks) == ['RECOVERY_TENSION', 'RECOVERY_MOVE', 'SAFE_HOLD']
+    same_tick = dict(ticks, RECOVERY_MOVE=ticks['RECOVERY_TENSION'])
+    run = run_of_recording(dataclasses.replace(recording, fdi=dict(recording.fdi, phase_ticks=same_tick)),
+                           run_settings(folder / 'bag', PAPER_ROBOT, coulomb_friction_nm=0.0),
+                           scenario.failure_time_s, [4])
+    assert [mode for _, mode in run.modes] == ['NOMINAL', 'RECOVERY_TENSION', 'RECOVERY_MOVE',
+                                              'SAFE_HOLD']
+
+
 def test_report_md_shows_every_figure_and_metric(failure_run):
     _, _, folder, metrics = failure_run
     text = (folder / 'plots' / 'report.md').read_text()

@@ -230,7 +230,9 @@ def run_of_recording(recording: Recording, settings: RunSettings, failure_time_s
         if summary['identified_tick'] is not None:
             verdicts += [(float(time_s[summary['identified_tick']]), cable)
                          for cable in summary['broken_cables']]
-        changes = [(0, NOMINAL)] + sorted((tick, mode) for mode, tick in summary['phase_ticks'].items())
+        # by tick only: two phases entered on one tick stay in the order they were entered
+        changes = [(0, NOMINAL)] + sorted(((tick, mode) for mode, tick in summary['phase_ticks'].items()),
+                                          key=lambda change: change[0])
         modes = mode_changes((float(time_s[tick]), mode) for tick, mode in changes)
     else:
         notes.append('no supervisor: no detection signal, recovery phases unknown')
