@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import itertools
 import re
+import time
 
+import numpy as np
 import pytest
 import rclpy
 
@@ -15,6 +17,7 @@ from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
 from cdpr_fdi.markers_node import MarkersNode
 from cdpr_fdi.supervisor_node import SupervisorNode
 from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.conversions import joint_state
 from cdpr_twin.digital_twin_node import DigitalTwinNode
 from cdpr_twin.plant_simulator_node import PlantSimulatorNode
 
@@ -302,6 +305,58 @@ def test_each_node_writes_and_reads_what_the_table_says(clock_mode, name):
         assert set(read) - before == {resolve(topic.name) for topic, reader in reads.items()
                                       if reader.tick}
     finally:
+        node.destroy_node()
+
+
+# ---- topics only the recorder or a display reads go out only to a reader ------------------
+
+MATCH_TIMEOUT_S = 10.0
+
+
+def a_tick(name: str, node, tick: int) -> None:
+    """What makes `node` write its per-tick topics: the state of `tick` for the generator
+    (its time base), the reference at home (angles 0) for the twin, the plant's state."""
+    names = contract.joint_names(node.robot.cable_count)
+    at_home = joint_state(names, tick * node.period_ns, np.zeros(len(names)), np.zeros(len(names)),
+                          np.zeros(len(names)))
+    {contract.TRAJECTORY_GENERATOR: lambda: node.on_state(at_home),
+     contract.DIGITAL_TWIN: lambda: node.on_reference(at_home),
+     contract.PLANT_SIMULATOR: lambda: node.publish_state()}[name]()
+
+
+def written_in_a_tick(name: str, node, tick: int) -> set[str]:
+    """The topics (as the contract names them) `node` publishes on in `tick`."""
+    written = set()
+    for publisher in node.publishers:
+        publisher.publish = lambda message, topic=publisher.topic_name: written.add(topic)
+    a_tick(name, node, tick)
+    return {topic.name for topic in contract.TOPICS.values()
+            if node.resolve_topic_name(topic.name) in written}
+
+
+@pytest.mark.parametrize('name', sorted({topic.writer for topic in contract.TOPICS.values()
+                                         if topic.on_demand}))
+def test_a_topic_only_the_recorder_or_a_display_reads_is_written_only_while_read(clock_mode, name):
+    writes = [topic for topic in contract.TOPICS.values() if topic.writer == name and topic.every_tick
+              and (clock_mode == 'lockstep' or not topic.lockstep)]
+    node = NODES[name]()
+    listener = rclpy.create_node('on_demand_listener')
+    try:
+        assert written_in_a_tick(name, node, 0) == {topic.name for topic in writes if not topic.on_demand}
+        on_demand = [topic for topic in writes if topic.on_demand]
+        for topic in on_demand:
+            listener.create_subscription(contract.message_class(topic.type),
+                                         node.resolve_topic_name(topic.name), lambda message: None,
+                                         qos.of_readers(topic.name))
+        publishers = [publisher for publisher in node.publishers
+                      if publisher.topic_name in {node.resolve_topic_name(topic.name) for topic in on_demand}]
+        deadline = time.monotonic() + MATCH_TIMEOUT_S
+        while not all(publisher.get_subscription_count() for publisher in publishers):
+            assert time.monotonic() < deadline, 'the listener did not match'
+            time.sleep(0.01)
+        assert written_in_a_tick(name, node, 1) == {topic.name for topic in writes}
+    finally:
+        listener.destroy_node()
         node.destroy_node()
 
 

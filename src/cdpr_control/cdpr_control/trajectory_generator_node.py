@@ -74,7 +74,8 @@ class TrajectoryGeneratorNode(CdprNode):
         self.reference.publish(joint_state(
             self.names, stamp, table.angle_rad[row], table.angular_velocity_rad_s[row],
             table.feedforward_nm[row]))
-        self.pose.publish(point_stamped(stamp, table.position_m[row]))
+        # for the recorder and viewers only (contract.Topic.on_demand)
+        self.pose.publish_if_subscribed(lambda: point_stamped(stamp, table.position_m[row]))
         self.diagnostics.count('references')
 
     def on_goal(self, message: PointStamped) -> None:

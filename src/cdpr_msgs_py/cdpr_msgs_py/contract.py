@@ -110,6 +110,15 @@ class Topic:
     lockstep: bool = False
     simulated: bool = False
 
+    @property
+    def on_demand(self) -> bool:
+        """Written at every tick but read by no node of the loop, only by the recorder or
+        a display: its writer builds and publishes it only while it has a reader
+        (GuardedPublisher.publish_if_subscribed). It keeps its place in the start
+        handshake, so a recording has it from the first tick."""
+        return self.every_tick and all(reader.node == BAG_RECORDER or reader.display
+                                       for reader in self.readers)
+
 
 # The recorder reads every topic; like the loop's nodes it is driven by joint_states.
 _RECORDER = Reader(BAG_RECORDER)

@@ -357,6 +357,16 @@ class GuardedPublisher(Publisher):
         except rclpy_implementation.RCLError as err:
             self.failed(self.topic_name, err)
 
+    def publish_if_subscribed(self, build) -> None:
+        """Publish `build()` only while a reader is matched: for a topic that no node of
+        the loop reads, only the recorder or a viewer (contract.Topic.on_demand). A
+        volatile topic loses nothing to an empty room, and building and publishing a
+        message costs ~15 µs of CPU (several times that on a loaded machine); the start
+        handshake has the recorder matched before the first tick, and a reader that
+        joins later gets every message from then on."""
+        if self.get_subscription_count():
+            self.publish(build())
+
 
 def parse_matches(entries) -> list[tuple[str, str, int]]:
     """'publisher:TOPIC=N' / 'subscription:TOPIC=N' entries as (kind, topic, N)."""

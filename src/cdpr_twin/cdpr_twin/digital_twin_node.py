@@ -65,7 +65,8 @@ class DigitalTwinNode(CdprNode):
         output = self.twin.step(self.last_reference, self.period_s)
         self.joints.publish(joint_state(self.names, joints.stamp_ns, output.angle_rad,
                                         output.angular_velocity_rad_s, output.torque_nm))
-        self.pose.publish(point_stamped(joints.stamp_ns, output.position_m))
+        # for the markers, the recorder and viewers only (contract.Topic.on_demand)
+        self.pose.publish_if_subscribed(lambda: point_stamped(joints.stamp_ns, output.position_m))
         self.diagnostics.count('ticks')
 
 
