@@ -189,13 +189,15 @@ SHIPPED_CONFIGS: dict = {}
 
 
 class Recorder:
-    """Everything a node publishes, kept per topic instead of sent."""
+    """Everything a node publishes, kept per topic instead of sent. It reads every topic,
+    as a bag recorder would: the topics published only while read are published too."""
 
     def __init__(self, node):
         self.node = node
         self.messages = defaultdict(list)
         for publisher in node.publishers:
             publisher.publish = self.messages[publisher.topic_name].append
+            publisher.get_subscription_count = lambda: 1
 
     def __getitem__(self, topic: str) -> list:
         return self.messages[self.node.resolve_topic_name(topic)]
