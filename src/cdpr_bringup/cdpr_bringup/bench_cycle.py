@@ -100,10 +100,10 @@ def table(figures: dict) -> list[str]:
                      f'{"met" if factor >= figures["goal_realtime_factor"] else "NO"}')
     lines.append(f'  compiled / python speed: {figures["compiled_speedup"]:.2f}; '
                  f'{figures["cycles"]} cycles of {MOTION}, best of {REPEATS}')
-    lines.append(f'  {"µs per cycle by stage (one timed run each)":<42}'
+    lines.append(f'  {"µs per cycle by stage (one timed run each)":<44}'
                  + ' '.join(f'{name:>9}' for name in KERNELS))
     for stage in [*STAGES, 'cycle']:
-        lines.append(f'    {stage:<40}' + ' '.join(
+        lines.append(f'    {stage:<42}' + ' '.join(
             f'{figures[f"{name}_stage_us"][stage]:9.1f}' for name in KERNELS))
     lines.append(f'  machine load average (1 min) at the end: {figures["load_average_1min"]}')
     return lines
