@@ -84,7 +84,11 @@ class ElasticCableRobot:
         self.velocity_m_s = np.zeros(3)
         # A brake holds every drum still (θ̇ = 0), whatever the torque.
         self.drums_locked = False
-        self.attached = np.ones(robot.cable_count, dtype=bool)
+        # Rows per cable, the sub-steps' inputs: the torque commanded (N·m), 1 while
+        # attached, the mass (kg) hanging on its drum once broken, the pulleys' length
+        # change (m).
+        self.inputs = np.zeros((4, robot.cable_count))
+        self.inputs[1] = 1.0
         # Start in equilibrium: each cable stretched by its static tension.
         tension = np.maximum(static_tensions(robot, self.position_m, self.attached), 0.0)
         _, d = cable_vectors(robot.exit_points_m, self.position_m)
@@ -101,17 +105,17 @@ class ElasticCableRobot:
         # The pulleys lengthen each cable by their wrap; the cable lengths were homed at
         # the start, so only the change since then is felt (m, per control period).
         self.start_pulley_excess_m = self.pulley_excess_m()
-        # Rows per cable, the sub-steps' inputs: the torque commanded (N·m), 1 while
-        # attached, the mass (kg) hanging on its drum once broken, the pulleys' length
-        # change (m).
-        self.inputs = np.zeros((4, robot.cable_count))
-        self.inputs[1] = 1.0
         # Per cable: exit point A_i and length offset l_i0 (m), as the kernel takes them.
         self.cables = self.kernel.view(np.array([*robot.exit_points_m.T,
                                                  robot.cable_length_offset_m]))
         # The net force Σ τ_i u_i (N) of the tensions on the end-effector.
         self.cable_force_n = (0.0, 0.0, 0.0)
         self.evaluate_tensions()
+
+    @property
+    def attached(self) -> np.ndarray:
+        """Which cables are still attached (bool per cable)."""
+        return self.inputs[1] != 0.0
 
     @property
     def angle_rad(self) -> np.ndarray:
@@ -139,7 +143,6 @@ class ElasticCableRobot:
 
     def break_cables(self, cables) -> None:
         for index in cables:
-            self.attached[index] = False
             self.inputs[1, index] = 0.0
             if self.drive.hanging_mass_kg:
                 # The mass was carried at the end-effector's end of the cable: it leaves it.
