@@ -55,6 +55,36 @@ def _check_newton_and_motor_laws(robot, p, v, c, theta_dot, result, attached):
     assert np.all(result.tension_n[~result.taut] == 0.0)
 
 
+@pytest.mark.parametrize('method', ['pseudo_inverse', 'bounded_minimum_norm'])
+def test_inverse_dynamics_of_a_stack_of_poses_is_that_of_each(robot, rng, method):
+    """A reference is tabulated a whole trajectory at once: every row of the stack must
+    be the single pose's figures, with a broken cable too, and an infeasible pose in the
+    stack must be named as it is alone (the first one)."""
+    distribution = _distribution(robot, method)
+    for _, attached in list(cable_masks(robot))[:3]:
+        alone, poses = [], []
+        for p, v, a, _ in _random_states(robot, rng, 40, attached):
+            try:
+                alone.append(inverse_dynamics(robot, distribution, p, v, a, attached))
+            except InfeasibleTensionError:
+                continue
+            poses.append((p, v, a))
+        assert len(poses) >= 10
+        stack = inverse_dynamics(robot, distribution, *map(np.array, zip(*poses)), attached)
+        for name in ('torque_nm', 'tension_n', 'joint_velocity_rad_s', 'joint_acceleration_rad_s2'):
+            np.testing.assert_allclose(getattr(stack, name), [getattr(one, name) for one in alone],
+                                       rtol=1e-12, atol=1e-12, err_msg=name)
+    p, v, a = poses[0]
+    # driven down faster than it falls: no cable can push
+    downward = np.array([0.0, 0.0, -30.0])
+    with pytest.raises(InfeasibleTensionError) as alone_error:
+        inverse_dynamics(robot, distribution, p, v, downward, attached)
+    with pytest.raises(InfeasibleTensionError) as stack_error:
+        inverse_dynamics(robot, distribution, np.array([p, p, p]), np.array([v, v, v]),
+                         np.array([a, downward, downward]), attached)
+    assert str(stack_error.value) == str(alone_error.value)
+
+
 def test_inverse_then_direct_round_trip(robot, rng):
     for _, attached in cable_masks(robot):
         for p, v, a, inverse in _random_states(robot, rng, 6, attached, acceleration=1.5):

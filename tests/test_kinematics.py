@@ -173,6 +173,26 @@ def test_three_cable_lengths_no_point_reaches_give_the_nearest_point_not_an_erro
         assert misfit <= 1.05 * np.linalg.norm(reference.fun)
 
 
+def test_forward_kinematics_of_a_stack_of_angles_is_that_of_each_row(robot, rng):
+    """A recorded run is read all its ticks at once: each row must be the pose the angles
+    give alone, with exact, noisy and unreachable lengths (no point of three spheres
+    shrunk to a third), every cable or one broken, down to where the single pose stops."""
+    positions = random_positions(robot, rng, 20, margin_m=0.02)
+    lengths = cable_vectors(robot.exit_points_m, positions)[1]
+    exact = inverse_kinematics(robot, positions)
+    noisy = _angles_for_lengths(robot, lengths + rng.normal(scale=3e-3, size=lengths.shape))
+    unreachable = _angles_for_lengths(robot, 0.3 * lengths)
+    for label, cables in list(cable_masks(robot))[:3]:
+        for name, angles in (('exact', exact), ('noisy', noisy), ('unreachable', unreachable)):
+            if name == 'unreachable' and np.count_nonzero(cables) != 3:
+                continue
+            stack = forward_kinematics(robot, angles, cables)
+            assert stack.shape == (angles.shape[0], 3)
+            for row, alone in enumerate(forward_kinematics(robot, angle, cables) for angle in angles):
+                np.testing.assert_allclose(stack[row], alone, rtol=0.0, atol=1e-12,
+                                           err_msg=f'{label}, {name}, row {row}')
+
+
 def test_forward_kinematics_needs_three_cables(paper_robot):
     with pytest.raises(KinematicsError):
         forward_kinematics(paper_robot, np.zeros(4), np.array([True, True, False, False]))

@@ -6,11 +6,14 @@ import numpy as np
 import pytest
 
 from cdpr_control.config import load_section
+from cdpr_control.dynamics import inverse_dynamics
+from cdpr_control.kinematics import inverse_kinematics
+from cdpr_control.motions import load_motion
 from cdpr_control.reference import tabulate_reference
 from cdpr_control.reference_schedule import GoalRejected, PlannedMove, ReferenceSchedule
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_control.trajectories import QUINTIC_PEAK_SPEED_RATIO, Hold, quintic_profile
-from conftest import PAPER_ROBOT
+from conftest import MOTIONS, PAPER_ROBOT
 
 PERIOD_S = 0.002
 PEAK_SPEED_M_S = 0.5
@@ -30,6 +33,29 @@ def schedule(paper_robot, distribution):
     first = tabulate_reference(paper_robot, distribution,
                                Hold(paper_robot.home_position_m, (FIRST_ROWS - 1) * PERIOD_S), PERIOD_S)
     return ReferenceSchedule(paper_robot, distribution, PERIOD_S, PEAK_SPEED_M_S, first)
+
+
+@pytest.mark.parametrize('broken', [None, 3])
+def test_a_tabulated_reference_is_each_tick_s_inverse_kinematics_and_dynamics(paper_robot, distribution,
+                                                                            broken):
+    """The table is computed for all its rows at once; each row must be what the tick's
+    pose gives alone (a part of the motion, with cable 4 detached too)."""
+    trajectory = load_motion(MOTIONS, 'circle').trajectory
+    attached = None if broken is None else paper_robot.cable_mask([broken])
+    start_s, rows = 1.0, 400
+    table = tabulate_reference(paper_robot, distribution, trajectory, PERIOD_S, start_s,
+                               (rows - 1) * PERIOD_S, attached)
+    assert len(table) == rows
+    for row in range(0, rows, 7):
+        position, velocity, acceleration = trajectory.sample(start_s + row * PERIOD_S)
+        alone = inverse_dynamics(paper_robot, distribution, position, velocity, acceleration, attached)
+        angle = inverse_kinematics(paper_robot, position)
+        if attached is not None:
+            angle[~attached] = 0.0
+        for column, expected in zip(COLUMNS, (position, velocity, angle, alone.joint_velocity_rad_s,
+                                              alone.torque_nm)):
+            np.testing.assert_allclose(getattr(table, column)[row], expected, rtol=1e-12, atol=1e-12,
+                                       err_msg=f'{column}, row {row}')
 
 
 def move_duration_s(start_m, goal_m) -> float:

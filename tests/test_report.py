@@ -153,6 +153,35 @@ def test_the_report_of_a_run_in_memory_is_that_of_its_bag(failure_run, tmp_path)
         sorted(path.name for path in (run / 'plots').glob('*.png'))
 
 
+def test_the_bag_is_written_beside_the_report_and_a_bag_that_fails_is_said(failure_run, tmp_path,
+                                                                          monkeypatch, capfd):
+    """cdpr-scenario has a forked process write an in-process run's bag while it draws the
+    report: the bag must read back as the run, the report be there; a bag the machine
+    cannot take fails the run in a line that says so, and the report is still drawn."""
+    scenario, recording, folder, _ = failure_run
+    settings = run_settings(folder / 'bag', PAPER_ROBOT, coulomb_friction_nm=0.0)
+    own = scenario_cli.metrics_of(scenario, recording, wall_time_s=1.0)
+    out = tmp_path / 'run'
+    assert scenario_cli.record_beside_report(recording, settings, own, out, '/cdpr', scenario.marker_frame())
+    back = recording_from_bag(out / 'bag')
+    for name in ('time_s', 'angle_rad', 'command_nm', 'twin_torque_nm', 'true_position_m'):
+        np.testing.assert_allclose(getattr(back, name), getattr(recording, name), rtol=0.0, atol=1e-9,
+                                   err_msg=name)
+    assert (out / 'plots' / 'report.md').exists()
+
+    def disk_full(recording, bag, namespace, frame):
+        raise OSError(28, 'No space left on device')
+    monkeypatch.setattr(scenario_cli, 'record', disk_full)
+    out = tmp_path / 'full'
+    assert not scenario_cli.record_beside_report(recording, settings, own, out, '/cdpr',
+                                                 scenario.marker_frame())
+    err = capfd.readouterr().err
+    assert f'cdpr-scenario: writing the bag {out / "bag"}: [Errno 28] No space left on device' in err
+    assert f'cdpr-scenario: no whole bag in {out / "bag"}: its writer ended with exit code 1' in err
+    assert 'Traceback' not in err
+    assert (out / 'plots' / 'report.md').exists()
+
+
 def test_phases_entered_on_one_tick_keep_their_order_in_a_run_in_memory(failure_run):
     """On some robots recovery phase 2 starts on the tick of phase 1 (the tensions need
     no settling): the report shows phase 1, then 2, as the supervisor entered them."""

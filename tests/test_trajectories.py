@@ -8,7 +8,7 @@ from cdpr_control.config import load_section
 from cdpr_control.kinematics import structure_matrix
 from cdpr_control.motions import load_motion, motion_names
 from cdpr_control.tension_distribution import minimum_norm
-from cdpr_control.trajectories import Circle, Hold, Sequence, StraightLine
+from cdpr_control.trajectories import Circle, HermiteQuintic, Hold, Sequence, StraightLine
 from conftest import MOTIONS, PAPER_ROBOT
 
 LINE = StraightLine([0.4, 0.5, 1.0], [1.3, 1.5, 1.8], 2.5)
@@ -114,6 +114,24 @@ def test_sequence_segments_follow_each_other():
     assert SEQUENCE.duration_s == pytest.approx(0.7 + 2.5 + 0.4 + 1.5 + 0.3)
     np.testing.assert_allclose(SEQUENCE.sample(0.7 + 1.25)[0], 0.5 * (LINE.start + LINE.end), atol=1e-12)
     np.testing.assert_allclose(SEQUENCE.sample(0.7 + 2.5 + 0.2)[0], LINE.end, atol=1e-12)
+
+
+@pytest.mark.parametrize('trajectory', [
+    *TRAJECTORIES.values(), Hold(LINE.end, 0.5),
+    HermiteQuintic([0.5, 0.6, 1.1], [0.2, -0.1, 0.05], [1.0, 1.1, 1.3], [0.0, 0.1, 0.0], 1.5)],
+    ids=[*TRAJECTORIES, 'hold', 'hermite'])
+def test_an_array_of_times_samples_each_time_as_alone(trajectory):
+    """A reference is tabulated by sampling all its times at once: each row must be the
+    sample of its time, at the ends, before and after the motion and on the seams of a
+    sequence."""
+    times = np.concatenate([np.linspace(-0.3, trajectory.duration_s + 0.3, 301),
+                            SEQUENCE.starts_s, [0.0, trajectory.duration_s]])
+    rows = trajectory.sample(times)
+    for figure in rows:
+        assert figure.shape == (times.size, 3)
+    for index, t in enumerate(times):
+        for figure, alone in zip(rows, trajectory.sample(float(t))):
+            np.testing.assert_allclose(figure[index], alone, rtol=0.0, atol=1e-12)
 
 
 # ---- the paper's named motions --------------------------------------------------------

@@ -22,7 +22,7 @@ def twin_kpis(robot: Robot, recording, ticks: slice = slice(None)) -> dict:
     ticks before it.
     """
     angles = recording.angle_rad[ticks]
-    measured = np.array([forward_kinematics(robot, angle) for angle in angles])
+    measured = forward_kinematics(robot, angles)
     return {
         'K_c_m': float(np.max(np.linalg.norm(measured - recording.twin_position_m[ticks], axis=1))),
         'K_j_rad': float(np.max(np.abs(angles - recording.twin_angle_rad[ticks]))),

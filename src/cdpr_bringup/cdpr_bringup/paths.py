@@ -10,6 +10,8 @@ from cdpr_control.config import load_yaml, resolve_config
 
 DEFAULT_ROBOT = 'paper_robot.yaml'
 DEFAULT_MOTIONS = 'motions.yaml'
+# The settled run cdpr-scenario writes beside its bag.
+SETTLED_RUN = 'run.yaml'
 
 
 @lru_cache(maxsize=1)

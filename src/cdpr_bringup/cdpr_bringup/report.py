@@ -39,12 +39,8 @@ from . import plots
 from .bag_io import read_messages, recording_from_bag, stamp_ns
 from .cli import command
 from .metrics import KnownRun, fdi_summary_from_diagnostics, metrics_json
-from .paths import DEFAULT_ROBOT, config_file
+from .paths import DEFAULT_ROBOT, SETTLED_RUN, config_file
 from .recording import Recording
-
-
-# The settled run cdpr-scenario writes beside its bag.
-SETTLED_RUN = 'run.yaml'
 
 
 @dataclass(frozen=True)
@@ -137,10 +133,14 @@ class Run:
         over the remaining cables once a failure was detected (m)."""
         if self.has_ground_truth:
             return self.recording.true_position_m
+        angles = self.recording.angle_rad
         after = (self.time_s >= self.detection_time_s if self.detection_time_s is not None
                  else np.zeros(self.time_s.size, dtype=bool))
-        return np.array([forward_kinematics(self.robot, angle, self.attached if late else None)
-                         for angle, late in zip(self.recording.angle_rad, after)])
+        position = np.empty((angles.shape[0], 3))
+        position[~after] = forward_kinematics(self.robot, angles[~after])
+        if after.any():
+            position[after] = forward_kinematics(self.robot, angles[after], self.attached)
+        return position
 
     @cached_property
     def tension_estimate_n(self) -> tuple[np.ndarray, np.ndarray]:

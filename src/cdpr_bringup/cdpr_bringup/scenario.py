@@ -3,11 +3,16 @@
 Writes into --out: run.yaml (the run as settled: every setting it used), bag/ (graph engine:
 every /cdpr topic), metrics.json (docs/design.md §7) and plots/, and prints the detection, identification and recovery figures and the
 twin-vs-robot KPIs next to the paper's.
+
+The node graph (rclpy) and the bag and plot stack (rosbags, matplotlib) are imported by
+the runs that use them only: together they take ~0.7 s to import, a third of a short
+in-process run with --no-plots, which is what every campaign run is.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import shutil
 import sys
 import time
@@ -19,17 +24,18 @@ from cdpr_fdi.markers import Frame
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 from cdpr_twin.plant import FIDELITIES
 
-from .bag_io import BagWriter, read_messages, recording_from_bag, write_recording
 from .cli import INTERRUPTED_EXIT_CODE, command
 from .engine import run_inprocess
-from .graph import GraphError, graph_nodes, run_to_completion
 from .metrics import (PAPER_KPI, KnownRun, broken_at_from_diagnostics, fdi_summary_from_diagnostics,
                       metrics_json)
-from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
-from .report import SETTLED_RUN, RunSettings, run_of_recording, write_report, write_run_report
+from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, SETTLED_RUN
 from .scenario_setup import ScenarioOptions, add_push_option, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
+# How long the process writing an in-process run's bag may take, per control tick and
+# fixed (s): ~0.25 ms a tick on a 2-core machine, with a margin of 20x for a loaded one.
+BAG_WRITE_LIMIT_S_PER_TICK = 5e-3
+BAG_WRITE_LIMIT_S = 30.0
 
 
 def parse_args(argv=None):
@@ -67,7 +73,10 @@ def parse_args(argv=None):
 
 def run_graph(args, scenario, out: Path):
     """The graph's recording, and whether Ctrl-C cut the run short (the graph is stopped
-    cleanly either way, so the bag holds what ran)."""
+    cleanly either way, so the bag holds what ran); None when the graph failed (said on
+    stderr)."""
+    from .bag_io import read_messages, recording_from_bag
+    from .graph import GraphError, graph_nodes, run_to_completion
     bag = out / 'bag'
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
     timeout = RUN_TIMEOUT_FACTOR * scenario.cycles * scenario.period_s + 30.0
@@ -77,6 +86,9 @@ def run_graph(args, scenario, out: Path):
                           args.namespace, timeout, log)
     except KeyboardInterrupt:
         interrupted = True
+    except GraphError as err:
+        print(f'cdpr-scenario: {err}', file=sys.stderr)
+        return None
     if interrupted and not bag.exists():
         return None, True
     try:
@@ -190,15 +202,14 @@ def run_scenario(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     (out / SETTLED_RUN).write_text(yaml.safe_dump(scenario.settings.data, sort_keys=False))
     start = time.monotonic()
-    try:
-        if args.engine == 'graph':
-            recording, interrupted = run_graph(args, scenario, out)
-        else:
-            recording = run_inprocess(scenario)
-            interrupted = recording.interrupted
-    except GraphError as err:
-        print(f'cdpr-scenario: {err}', file=sys.stderr)
-        return 1
+    if args.engine == 'graph':
+        outcome = run_graph(args, scenario, out)
+        if outcome is None:
+            return 1
+        recording, interrupted = outcome
+    else:
+        recording = run_inprocess(scenario)
+        interrupted = recording.interrupted
     metrics = metrics_of(scenario, recording, time.monotonic() - start, interrupted)
     (out / 'metrics.json').write_text(json.dumps(metrics, indent=2))
     if interrupted:
@@ -208,15 +219,13 @@ def run_scenario(args) -> int:
     print_summary(metrics, args.engine)
     print(f'metrics: {out / "metrics.json"}')
     if not args.no_plots:
+        from .report import RunSettings, write_report
         settings = RunSettings(scenario.robot, scenario.fdi, scenario.recovery,
                                f'settings: the run\'s own, {out / SETTLED_RUN}')
         if args.engine == 'inprocess':
-            # the bag for viewers and cdpr-report; the report from the run in memory, which
-            # reading the bag back would give (tests/test_report.py)
-            record(recording, out / 'bag', args.namespace, scenario.marker_frame())
-            write_run_report(run_of_recording(recording, settings, metrics['failure_time_s'],
-                                              metrics['true_broken_cables']),
-                             out / 'bag', out / 'plots')
+            if not record_beside_report(recording, settings, metrics, out, args.namespace,
+                                        scenario.marker_frame()):
+                return 1
         else:
             write_report(out / 'bag', out / 'plots', settings, args.namespace)
         print(f'bag: {out / "bag"}, plots and report: {out / "plots" / "report.md"}')
@@ -225,12 +234,49 @@ def run_scenario(args) -> int:
 
 def record(recording, bag: Path, namespace: str, frame: Frame) -> None:
     """The in-process run as a bag, as the graph would have recorded it, markers included."""
+    from .bag_io import BagWriter, write_recording
     writer = BagWriter(bag)
     writer.open()
     try:
         write_recording(writer, recording, namespace, frame)
     finally:
         writer.close()
+
+
+def record_beside_report(recording, settings, metrics: dict, out: Path, namespace: str,
+                         frame: Frame) -> bool:
+    """The bag of an in-process run (for viewers and cdpr-report) written by a forked
+    process while this one draws the report from the run in memory, which reading the bag
+    back would give (tests/test_report.py): the two share nothing but the recording and
+    each takes about as long. False when the bag could not be written (said on stderr)."""
+    from .report import run_of_recording, write_run_report
+    writer = multiprocessing.get_context('fork').Process(
+        target=write_bag, args=(recording, out / 'bag', namespace, frame), name='bag writer')
+    writer.start()
+    try:
+        write_run_report(run_of_recording(recording, settings, metrics['failure_time_s'],
+                                          metrics['true_broken_cables']),
+                         out / 'bag', out / 'plots')
+    finally:
+        writer.join(BAG_WRITE_LIMIT_S + BAG_WRITE_LIMIT_S_PER_TICK * recording.time_s.size)
+        if writer.exitcode is None:
+            writer.kill()
+            writer.join(BAG_WRITE_LIMIT_S)
+    if writer.exitcode != 0:
+        print(f'cdpr-scenario: no whole bag in {out / "bag"}: its writer ended with exit code '
+              f'{writer.exitcode}', file=sys.stderr)
+        return False
+    return True
+
+
+def write_bag(recording, bag: Path, namespace: str, frame: Frame) -> None:
+    """`record`, in the forked writer: a bag the machine cannot take (disk full, no
+    permission) is said in one line and exit code 1."""
+    try:
+        record(recording, bag, namespace, frame)
+    except OSError as err:
+        print(f'cdpr-scenario: writing the bag {bag}: {err}', file=sys.stderr)
+        sys.exit(1)
 
 
 if __name__ == '__main__':

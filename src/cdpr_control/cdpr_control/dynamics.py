@@ -46,23 +46,28 @@ def inverse_dynamics(robot: Robot, tension_distribution: TensionDistribution,
     w = m_e p̈ − m_e g is shared among the attached cables by `tension_distribution`;
     c = J θ̈ + b θ̇ − ρ τ. A detached (broken) cable carries no tension and its motor
     is not tied to p: its torque, velocity and acceleration are reported as 0.
+    p, ṗ, p̈ are one pose (3,) or a stack (n × 3), which gives rows (n × m) of each figure;
+    an infeasible pose names its position (the first of a stack).
     """
     if attached is None:
         attached = np.ones(robot.cable_count, dtype=bool)
     motor = robot.motor
+    position_m = np.asarray(position_m, dtype=float)
     structure, lengths = structure_matrix(robot, position_m)
     rate = structure_matrix_rate(structure, lengths, velocity_m_s)
     wrench = robot.mass_kg * (acceleration_m_s2 - robot.gravity_m_s2)
-    tension = np.zeros(robot.cable_count)
+    tension = np.zeros(lengths.shape)
+    distribute = (tension_distribution.distribute if position_m.ndim == 1
+                  else tension_distribution.distribute_rows)
     try:
-        tension[attached] = tension_distribution.distribute(structure[:, attached], wrench)
+        tension[..., attached] = distribute(structure[..., attached], wrench)
     except InfeasibleTensionError as err:
-        raise err.at(position_m) from None
+        raise err.at(position_m if err.row is None else position_m[err.row]) from None
     theta_dot = joint_velocity(structure, velocity_m_s, motor.drum_radius_m)
     theta_ddot = joint_acceleration(structure, rate, velocity_m_s, acceleration_m_s2,
                                     motor.drum_radius_m)
-    theta_dot[~attached] = 0.0
-    theta_ddot[~attached] = 0.0
+    theta_dot[..., ~attached] = 0.0
+    theta_ddot[..., ~attached] = 0.0
     torque = (motor.inertia_kg_m2 * theta_ddot + motor.viscous_friction_nm_s_rad * theta_dot
               - motor.drum_radius_m * tension)
     return InverseDynamics(torque, tension, theta_dot, theta_ddot)

@@ -40,22 +40,14 @@ def tabulate_reference(robot: Robot, tension_distribution: TensionDistribution,
     """
     duration_s = trajectory.duration_s - start_s if duration_s is None else duration_s
     count = int(round(duration_s / period_s)) + 1
-    columns = {name: np.empty((count, size)) for name, size in
-               (('p', 3), ('v', 3), ('q', robot.cable_count), ('qd', robot.cable_count),
-                ('c', robot.cable_count))}
-    for k in range(count):
-        position, velocity, acceleration = trajectory.sample(start_s + k * period_s)
-        dynamics = inverse_dynamics(robot, tension_distribution, position, velocity, acceleration,
-                                    attached)
-        columns['p'][k] = position
-        columns['v'][k] = velocity
-        columns['q'][k] = inverse_kinematics(robot, position)
-        if attached is not None:
-            columns['q'][k][~attached] = 0.0
-        columns['qd'][k] = dynamics.joint_velocity_rad_s
-        columns['c'][k] = dynamics.torque_nm
-    return ReferenceTable(period_s, columns['p'], columns['v'], columns['q'], columns['qd'],
-                          columns['c'])
+    position, velocity, acceleration = trajectory.sample(start_s + np.arange(count) * period_s)
+    dynamics = inverse_dynamics(robot, tension_distribution, position, velocity, acceleration,
+                                attached)
+    angle = inverse_kinematics(robot, position)
+    if attached is not None:
+        angle[:, ~attached] = 0.0
+    return ReferenceTable(period_s, position, velocity, angle, dynamics.joint_velocity_rad_s,
+                          dynamics.torque_nm)
 
 
 class IncrementalTabulation:

@@ -1,7 +1,9 @@
 """Cartesian reference trajectories that start and end at rest.
 
 Every trajectory gives position (m), velocity (m/s) and acceleration (m/s²) at time t
-(s) from its start; before 0 and after `duration_s` it rests at its ends.
+(s) from its start; before 0 and after `duration_s` it rests at its ends. t is a number
+(each figure a 3-vector) or an array of n times (each figure n × 3), which is how a
+reference is tabulated.
 """
 from __future__ import annotations
 
@@ -13,9 +15,10 @@ import numpy as np
 QUINTIC_PEAK_SPEED_RATIO = 1.875
 
 
-def quintic_profile(t: float, duration_s: float):
-    """s, ṡ, s̈ of s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, τ = t / T clipped to [0, 1]."""
-    tau = min(max(t / duration_s, 0.0), 1.0)
+def quintic_profile(t, duration_s: float):
+    """s, ṡ, s̈ of s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, τ = t / T clipped to [0, 1]; of each element
+    for an array t."""
+    tau = _fraction(t, duration_s)
     tau2 = tau * tau
     s = tau2 * tau * (10.0 - 15.0 * tau + 6.0 * tau2)
     s_dot = 30.0 * tau2 * (1.0 - tau) ** 2 / duration_s
@@ -37,12 +40,25 @@ def quintic_time_at_fraction(fraction: float, duration_s: float) -> float:
     return 0.5 * (low + high)
 
 
+def _fraction(t, duration_s: float):
+    """t / T clipped to [0, 1], elementwise for an array t."""
+    if isinstance(t, np.ndarray):
+        return np.clip(t / duration_s, 0.0, 1.0)
+    # numpy's clip costs microseconds on a number: the recovery's tension phase asks every tick
+    return min(max(t / duration_s, 0.0), 1.0)
+
+
+def _column(value):
+    """A number, or n numbers as an n × 1 column, to scale 3-vectors row by row."""
+    return np.asarray(value)[..., None]
+
+
 class Trajectory(ABC):
 
     duration_s: float
 
     @abstractmethod
-    def sample(self, t: float):
+    def sample(self, t):
         """(p, ṗ, p̈) at time t (s)."""
 
     @abstractmethod
@@ -75,10 +91,11 @@ class StraightLine(Trajectory):
             raise ValueError('start and goal coincide')
         return cls(start_m, goal_m, QUINTIC_PEAK_SPEED_RATIO * length / peak_speed_m_s)
 
-    def sample(self, t: float):
+    def sample(self, t):
         s, s_dot, s_ddot = quintic_profile(t, self.duration_s)
         delta = self.goal_m - self.start_m
-        return self.start_m + s * delta, s_dot * delta, s_ddot * delta
+        return (self.start_m + _column(s) * delta, _column(s_dot) * delta,
+                _column(s_ddot) * delta)
 
     def reversed(self) -> 'StraightLine':
         return StraightLine(self.goal_m, self.start_m, self.duration_s)
@@ -104,17 +121,19 @@ class Circle(Trajectory):
         return cls(centre_m, radius_m, start_angle_rad, sweep_rad,
                    QUINTIC_PEAK_SPEED_RATIO * arc / peak_speed_m_s)
 
-    def sample(self, t: float):
+    def sample(self, t):
         s, s_dot, s_ddot = quintic_profile(t, self.duration_s)
         angle = self.start_angle_rad + s * self.sweep_rad
         rate = s_dot * self.sweep_rad
         angular_acceleration = s_ddot * self.sweep_rad
-        radial = np.array([np.cos(angle), np.sin(angle), 0.0])
-        tangent = np.array([-np.sin(angle), np.cos(angle), 0.0])
+        cos, sin = np.cos(angle), np.sin(angle)
+        radial = np.stack([cos, sin, np.zeros_like(cos)], axis=-1)
+        tangent = np.stack([-sin, cos, np.zeros_like(cos)], axis=-1)
         r = self.radius_m
         position = self.centre_m + r * radial
-        velocity = r * rate * tangent
-        acceleration = r * angular_acceleration * tangent - r * rate ** 2 * radial
+        velocity = r * _column(rate) * tangent
+        acceleration = (r * _column(angular_acceleration) * tangent
+                        - r * _column(rate ** 2) * radial)
         return position, velocity, acceleration
 
     def reversed(self) -> 'Circle':
@@ -147,12 +166,12 @@ class HermiteQuintic(Trajectory):
                 1.0 - 18.0 * tau2 + 32.0 * tau2 * tau - 15.0 * tau2 * tau2,
                 -36.0 * tau + 96.0 * tau2 - 60.0 * tau2 * tau)
 
-    def sample(self, t: float):
+    def sample(self, t):
         duration = self.duration_s
-        tau = min(max(t / duration, 0.0), 1.0)
-        s, s_dot, s_ddot = quintic_profile(t, duration)
-        w, w_d, w_dd = self._velocity_blend(tau)
-        v, v_d, v_dd = self._velocity_blend(1.0 - tau)
+        tau = _fraction(t, duration)
+        s, s_dot, s_ddot = (_column(value) for value in quintic_profile(t, duration))
+        w, w_d, w_dd = (_column(value) for value in self._velocity_blend(tau))
+        v, v_d, v_dd = (_column(value) for value in self._velocity_blend(1.0 - tau))
         delta = self.goal_m - self.start_m
         v0, v1 = self.start_velocity_m_s, self.goal_velocity_m_s
         position = self.start_m + s * delta + duration * (v0 * w - v1 * v)
@@ -172,8 +191,9 @@ class Hold(Trajectory):
         self.position_m = np.array(position_m, dtype=float)
         self.duration_s = float(duration_s)
 
-    def sample(self, t: float):
-        return self.position_m.copy(), np.zeros(3), np.zeros(3)
+    def sample(self, t):
+        rows = np.shape(t) + (3,)
+        return np.broadcast_to(self.position_m, rows).copy(), np.zeros(rows), np.zeros(rows)
 
     def reversed(self) -> 'Hold':
         return Hold(self.position_m, self.duration_s)
@@ -192,10 +212,18 @@ class Sequence(Trajectory):
         self.starts_s = np.cumsum([0.0] + [s.duration_s for s in self.segments[:-1]])
         self.duration_s = float(sum(s.duration_s for s in self.segments))
 
-    def sample(self, t: float):
-        index = int(np.searchsorted(self.starts_s, t, side='right')) - 1
-        index = min(max(index, 0), len(self.segments) - 1)
-        return self.segments[index].sample(t - self.starts_s[index])
+    def sample(self, t):
+        index = np.clip(np.searchsorted(self.starts_s, t, side='right') - 1, 0,
+                        len(self.segments) - 1)
+        if not isinstance(t, np.ndarray):
+            return self.segments[index].sample(t - self.starts_s[index])
+        figures = tuple(np.empty(t.shape + (3,)) for _ in range(3))
+        for number, segment in enumerate(self.segments):
+            rows = index == number
+            if rows.any():
+                for figure, part in zip(figures, segment.sample(t[rows] - self.starts_s[number])):
+                    figure[rows] = part
+        return figures
 
     def reversed(self) -> 'Sequence':
         return Sequence([s.reversed() for s in reversed(self.segments)])

@@ -11,8 +11,9 @@ from ..linalg3 import solve3
 class InfeasibleTensionError(ValueError):
     """No tensions within the bounds produce the wrench; names the pose when known."""
 
-    def __init__(self, reason: str, position_m=None):
+    def __init__(self, reason: str, position_m=None, row: int | None = None):
         self.reason = reason
+        self.row = row
         self.position_m = None if position_m is None else np.array(position_m, dtype=float)
         where = '' if position_m is None else ' at p = ({:.4f}, {:.4f}, {:.4f}) m'.format(*position_m)
         super().__init__(f'no feasible cable tensions{where}: {reason}')
@@ -20,6 +21,10 @@ class InfeasibleTensionError(ValueError):
     def at(self, position_m) -> 'InfeasibleTensionError':
         """The same error, naming the end-effector position."""
         return InfeasibleTensionError(self.reason, position_m)
+
+    def in_row(self, row: int) -> 'InfeasibleTensionError':
+        """The same error, naming the row of a stack it came from."""
+        return InfeasibleTensionError(self.reason, self.position_m, row)
 
 
 class TensionDistribution(ABC):
@@ -38,6 +43,17 @@ class TensionDistribution(ABC):
     def distribute(self, structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
         """Tensions τ within [tension_min_n, tension_max_n]; InfeasibleTensionError if none."""
 
+    def distribute_rows(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+        """`distribute` of every row of a stack: S (n × 3 × k) and w (n × 3) give τ (n × k).
+        The first infeasible row raises its error, with `row` set to its index."""
+        tensions = np.empty(structures.shape[:-2] + structures.shape[-1:])
+        for row, (structure, wrench) in enumerate(zip(structures, wrenches_n)):
+            try:
+                tensions[row] = self.distribute(structure, wrench)
+            except InfeasibleTensionError as err:
+                raise err.in_row(row) from None
+        return tensions
+
     def _check_bounds(self, tensions: np.ndarray) -> np.ndarray:
         low = np.min(tensions)
         high = np.max(tensions)
@@ -49,9 +65,9 @@ class TensionDistribution(ABC):
 
 
 def minimum_norm(structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
-    """S⁺ w = Sᵀ (S Sᵀ)⁻¹ w for S of full row rank."""
-    gram = structure @ structure.T
+    """S⁺ w = Sᵀ (S Sᵀ)⁻¹ w for S of full row rank; of each row for stacks (n × 3 × k, n × 3)."""
+    gram = structure @ np.swapaxes(structure, -1, -2)
     try:
-        return structure.T @ solve3(gram, wrench_n)
+        return np.einsum('...ij,...i->...j', structure, solve3(gram, wrench_n))
     except np.linalg.LinAlgError:
         raise InfeasibleTensionError('the cables span less than 3 directions') from None

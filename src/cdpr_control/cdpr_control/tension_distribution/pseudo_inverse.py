@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import TensionDistribution, minimum_norm
+from .base import InfeasibleTensionError, TensionDistribution, minimum_norm
 
 
 class PseudoInverse(TensionDistribution):
@@ -13,3 +13,10 @@ class PseudoInverse(TensionDistribution):
 
     def distribute(self, structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
         return self._check_bounds(minimum_norm(structure, wrench_n))
+
+    def distribute_rows(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+        try:
+            return self._check_bounds(minimum_norm(structures, wrenches_n))
+        except InfeasibleTensionError:
+            # row by row, to name the first row that has no tensions
+            return super().distribute_rows(structures, wrenches_n)
