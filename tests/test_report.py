@@ -19,7 +19,7 @@ from cdpr_bringup import scenario as scenario_cli
 from cdpr_bringup.bag_io import BagWriter, recording_from_bag, write_recording
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.graph import graph_nodes, run_to_completion
-from cdpr_bringup.metrics import tracking_error_m, twin_kpis
+from cdpr_bringup.metrics import metrics_json, tracking_error_m, twin_kpis
 from cdpr_bringup.report import (SETTLED_RUN, main, run_of_recording, run_settings, write_report,
                                  write_run_report)
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
@@ -153,33 +153,49 @@ def test_the_report_of_a_run_in_memory_is_that_of_its_bag(failure_run, tmp_path)
         sorted(path.name for path in (run / 'plots').glob('*.png'))
 
 
-def test_the_bag_is_written_beside_the_report_and_a_bag_that_fails_is_said(failure_run, tmp_path,
-                                                                          monkeypatch, capfd):
-    """cdpr-scenario has a forked process write an in-process run's bag while it draws the
-    report: the bag must read back as the run, the report be there; a bag the machine
-    cannot take fails the run in a line that says so, and the report is still drawn."""
+def test_the_bag_is_written_beside_the_report_and_what_fails_is_said(failure_run, tmp_path,
+                                                                    monkeypatch, capfd):
+    """cdpr-scenario has a forked process draw an in-process run's report while it writes
+    the bag: the bag must read back as the run, the report be the one drawn here; a bag
+    the machine cannot take, or a drawer that dies, fails the run in a line that says so,
+    and the other output is still written."""
     scenario, recording, folder, _ = failure_run
     settings = run_settings(folder / 'bag', PAPER_ROBOT, coulomb_friction_nm=0.0)
     own = scenario_cli.metrics_of(scenario, recording, wall_time_s=1.0)
+    frame = scenario.marker_frame()
     out = tmp_path / 'run'
-    assert scenario_cli.record_beside_report(recording, settings, own, out, '/cdpr', scenario.marker_frame())
+    assert scenario_cli.record_beside_report(scenario_cli.ReportDrawer(), recording, settings, own,
+                                             out, '/cdpr', frame)
     back = recording_from_bag(out / 'bag')
     for name in ('time_s', 'angle_rad', 'command_nm', 'twin_torque_nm', 'true_position_m'):
         np.testing.assert_allclose(getattr(back, name), getattr(recording, name), rtol=0.0, atol=1e-9,
                                    err_msg=name)
-    assert (out / 'plots' / 'report.md').exists()
+    here = run_of_recording(recording, settings, own['failure_time_s'], own['true_broken_cables'])
+    assert json.loads((out / 'plots' / 'metrics.json').read_text()) == \
+        json.loads(json.dumps(metrics_json(here.known)))
+    assert len(list((out / 'plots').glob('*.png'))) == len(plots.FIGURES)
 
     def disk_full(recording, bag, namespace, frame):
         raise OSError(28, 'No space left on device')
-    monkeypatch.setattr(scenario_cli, 'record', disk_full)
-    out = tmp_path / 'full'
-    assert not scenario_cli.record_beside_report(recording, settings, own, out, '/cdpr',
-                                                 scenario.marker_frame())
+    with monkeypatch.context() as patched:
+        patched.setattr(scenario_cli, 'record', disk_full)
+        out = tmp_path / 'full'
+        assert not scenario_cli.record_beside_report(scenario_cli.ReportDrawer(), recording, settings,
+                                                     own, out, '/cdpr', frame)
     err = capfd.readouterr().err
-    assert f'cdpr-scenario: writing the bag {out / "bag"}: [Errno 28] No space left on device' in err
-    assert f'cdpr-scenario: no whole bag in {out / "bag"}: its writer ended with exit code 1' in err
-    assert 'Traceback' not in err
+    assert err == f'cdpr-scenario: writing the bag {out / "bag"}: [Errno 28] No space left on device\n'
     assert (out / 'plots' / 'report.md').exists()
+
+    def dies(*args):
+        raise SystemExit(3)
+    with monkeypatch.context() as patched:
+        patched.setattr('cdpr_bringup.report.write_run_report', dies)
+        out = tmp_path / 'dead'
+        assert not scenario_cli.record_beside_report(scenario_cli.ReportDrawer(), recording, settings,
+                                                     own, out, '/cdpr', frame)
+    err = capfd.readouterr().err
+    assert err == f'cdpr-scenario: no whole report in {out / "plots"}: its drawer ended with exit code 3\n'
+    assert recording_from_bag(out / 'bag').time_s.size == recording.time_s.size
 
 
 def test_phases_entered_on_one_tick_keep_their_order_in_a_run_in_memory(failure_run):

@@ -4,8 +4,8 @@ The whole process of `cdpr-scenario --engine inprocess --fidelity elastic --moti
 --fail-cable 4` (bag, metrics and plots included; imports too) against the goal of
 issue 16, and where its time goes, stage by stage in this process: settling the run,
 the simulation, the bag, the report from the run in memory, both as cdpr-scenario runs
-them (the bag written by a forked process beside the report) and, for comparison, the
-report read back from the bag (what cdpr-report does).
+them (the report drawn by a forked process while the bag is written) and, for
+comparison, the report read back from the bag (what cdpr-report does).
 """
 from __future__ import annotations
 
@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from .engine import run_inprocess
-from .report import RunSettings, run_of_recording, write_report, write_run_report
-from .scenario import metrics_of, record, record_beside_report
+from .metrics import RunSettings
+from .report import run_of_recording, write_report, write_run_report
+from .scenario import ReportDrawer, metrics_of, record, record_beside_report
 from .scenario_setup import ScenarioOptions, build_scenario
 
 OPTIONS = ('--engine', 'inprocess', '--fidelity', 'elastic', '--motion', 'along-2', '--fail-cable', '4')
@@ -59,8 +60,8 @@ def bench_run(config: str, out: str | Path, repeats: int = REPEATS) -> dict:
             recording, settings, metrics['failure_time_s'], metrics['true_broken_cables']),
             folder / 'bag', folder / 'plots'))
         timed('report_from_bag_s', write_report, folder / 'bag', folder / 'bag-plots', settings)
-        timed('bag_beside_report_s', record_beside_report, recording, settings, metrics,
-              folder / 'beside', '/cdpr', scenario.marker_frame())
+        timed('bag_beside_report_s', record_beside_report, ReportDrawer(), recording, settings,
+              metrics, folder / 'beside', '/cdpr', scenario.marker_frame())
     figures = {'repeats': repeats, 'whole_process_best_s': min(whole), 'whole_process_median_s': float(np.median(whole)),
                'goal_s': GOAL_S, 'robot_time_s': float(recording.time_s[-1]),
                'load_average_1min': os.getloadavg()[0]}

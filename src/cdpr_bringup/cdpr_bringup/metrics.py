@@ -8,6 +8,7 @@ import numpy as np
 
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.robot import Robot
+from cdpr_fdi.config import FdiConfig, RecoveryConfig
 from cdpr_msgs_py.contract import BROKEN_AT_KEY, SAFE_HOLD
 
 from .recording import Recording
@@ -47,6 +48,16 @@ def ticks_before(recording, time_s: float | None) -> int:
     if time_s is None:
         return recording.time_s.size
     return int(np.searchsorted(recording.time_s, time_s, side='left'))
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """Of a run's settings, what its report needs."""
+
+    robot: Robot
+    fdi: FdiConfig
+    recovery: RecoveryConfig
+    source: str
 
 
 @dataclass

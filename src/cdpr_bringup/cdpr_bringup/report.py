@@ -27,8 +27,7 @@ from cdpr_control.config import Section, load_yaml
 from cdpr_control.friction import FrictionModel
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.robot import Robot, load_robot, robot_from_section
-from cdpr_fdi.config import (FdiConfig, RecoveryConfig, load_fdi_config, load_recovery_config,
-                             settled_fdi)
+from cdpr_fdi.config import load_fdi_config, load_recovery_config, settled_fdi
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_fdi.residual import sensorless_tensions
 from cdpr_msgs_py import contract
@@ -38,19 +37,9 @@ from cdpr_msgs_py.stamps import NANOSECONDS
 from . import plots
 from .bag_io import read_messages, recording_from_bag, stamp_ns
 from .cli import command
-from .metrics import KnownRun, fdi_summary_from_diagnostics, metrics_json
+from .metrics import KnownRun, RunSettings, fdi_summary_from_diagnostics, metrics_json
 from .paths import DEFAULT_ROBOT, SETTLED_RUN, config_file
 from .recording import Recording
-
-
-@dataclass(frozen=True)
-class RunSettings:
-    """Of a run's settings, what its report needs."""
-
-    robot: Robot
-    fdi: FdiConfig
-    recovery: RecoveryConfig
-    source: str
 
 
 def run_settings(bag: str | Path, config_path: str | Path | None = None,

@@ -14,6 +14,7 @@ import argparse
 import json
 import multiprocessing
 import shutil
+import signal
 import sys
 import time
 from pathlib import Path
@@ -26,16 +27,16 @@ from cdpr_twin.plant import FIDELITIES
 
 from .cli import INTERRUPTED_EXIT_CODE, command
 from .engine import run_inprocess
-from .metrics import (PAPER_KPI, KnownRun, broken_at_from_diagnostics, fdi_summary_from_diagnostics,
-                      metrics_json)
+from .metrics import (PAPER_KPI, KnownRun, RunSettings, broken_at_from_diagnostics,
+                      fdi_summary_from_diagnostics, metrics_json)
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, SETTLED_RUN
 from .scenario_setup import ScenarioOptions, add_push_option, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
-# How long the process writing an in-process run's bag may take, per control tick and
-# fixed (s): ~0.25 ms a tick on a 2-core machine, with a margin of 20x for a loaded one.
-BAG_WRITE_LIMIT_S_PER_TICK = 5e-3
-BAG_WRITE_LIMIT_S = 30.0
+# How long the report's drawer may take beyond the bag, per control tick and fixed (s):
+# ~0.3 ms a tick on a 2-core machine, with a margin of 20x for a loaded one.
+DRAW_LIMIT_S_PER_TICK = 6e-3
+DRAW_LIMIT_S = 30.0
 
 
 def parse_args(argv=None):
@@ -201,16 +202,29 @@ def run_scenario(args) -> int:
         shutil.rmtree(out / 'bag')
     out.mkdir(parents=True, exist_ok=True)
     (out / SETTLED_RUN).write_text(yaml.safe_dump(scenario.settings.data, sort_keys=False))
-    start = time.monotonic()
     if args.engine == 'graph':
+        start = time.monotonic()
         outcome = run_graph(args, scenario, out)
         if outcome is None:
             return 1
         recording, interrupted = outcome
-    else:
+        return outputs(args, scenario, out, recording, interrupted, time.monotonic() - start)
+    drawer = None if args.no_plots else ReportDrawer()
+    try:
+        start = time.monotonic()
         recording = run_inprocess(scenario)
-        interrupted = recording.interrupted
-    metrics = metrics_of(scenario, recording, time.monotonic() - start, interrupted)
+        return outputs(args, scenario, out, recording, recording.interrupted,
+                       time.monotonic() - start, drawer)
+    finally:
+        if drawer is not None:
+            drawer.finish(DRAW_LIMIT_S)
+
+
+def outputs(args, scenario, out: Path, recording, interrupted: bool, wall_time_s: float,
+            drawer: ReportDrawer | None = None) -> int:
+    """metrics.json, the summary, and unless --no-plots the bag and the report (an
+    in-process run's drawn by `drawer`); the exit code."""
+    metrics = metrics_of(scenario, recording, wall_time_s, interrupted)
     (out / 'metrics.json').write_text(json.dumps(metrics, indent=2))
     if interrupted:
         print(f'cdpr-scenario: interrupted after {metrics["cycles"]} of {scenario.cycles} cycles; '
@@ -219,15 +233,14 @@ def run_scenario(args) -> int:
     print_summary(metrics, args.engine)
     print(f'metrics: {out / "metrics.json"}')
     if not args.no_plots:
-        from .report import RunSettings, write_report
         settings = RunSettings(scenario.robot, scenario.fdi, scenario.recovery,
                                f'settings: the run\'s own, {out / SETTLED_RUN}')
-        if args.engine == 'inprocess':
-            if not record_beside_report(recording, settings, metrics, out, args.namespace,
-                                        scenario.marker_frame()):
-                return 1
-        else:
+        if drawer is None:
+            from .report import write_report
             write_report(out / 'bag', out / 'plots', settings, args.namespace)
+        elif not record_beside_report(drawer, recording, settings, metrics, out, args.namespace,
+                                      scenario.marker_frame()):
+            return 1
         print(f'bag: {out / "bag"}, plots and report: {out / "plots" / "report.md"}')
     return 0
 
@@ -243,40 +256,67 @@ def record(recording, bag: Path, namespace: str, frame: Frame) -> None:
         writer.close()
 
 
-def record_beside_report(recording, settings, metrics: dict, out: Path, namespace: str,
-                         frame: Frame) -> bool:
-    """The bag of an in-process run (for viewers and cdpr-report) written by a forked
-    process while this one draws the report from the run in memory, which reading the bag
-    back would give (tests/test_report.py): the two share nothing but the recording and
-    each takes about as long. False when the bag could not be written (said on stderr)."""
+class ReportDrawer:
+    """A forked process that draws the report of an in-process run from the run in memory,
+    which reading its bag back would give (tests/test_report.py). Started before the run,
+    it imports the report's stack (matplotlib, ~0.5 s) while this process simulates; once
+    sent the run it draws the figures while this process writes the bag: the two take
+    about as long and share nothing but the run."""
+
+    def __init__(self):
+        context = multiprocessing.get_context('fork')
+        self.connection, drawer_end = context.Pipe()
+        self.process = context.Process(target=draw_when_sent, args=(drawer_end,),
+                                       name='report drawer')
+        self.process.start()
+        drawer_end.close()
+
+    def draw(self, recording, settings, metrics: dict, out: Path) -> None:
+        self.connection.send((recording, settings, metrics['failure_time_s'],
+                              metrics['true_broken_cables'], out))
+
+    def finish(self, limit_s: float) -> int | None:
+        """Its exit code once it has drawn what it was sent (or, sent nothing, at once),
+        killed after `limit_s`: None then."""
+        self.connection.close()
+        self.process.join(limit_s)
+        if self.process.exitcode is None:
+            self.process.kill()
+            self.process.join(limit_s)
+            return None
+        return self.process.exitcode
+
+
+def draw_when_sent(connection) -> None:
+    """The drawer's work. Ctrl-C is the parent's to handle: it closes the pipe, and a
+    drawer sent nothing ends."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     from .report import run_of_recording, write_run_report
-    writer = multiprocessing.get_context('fork').Process(
-        target=write_bag, args=(recording, out / 'bag', namespace, frame), name='bag writer')
-    writer.start()
     try:
-        write_run_report(run_of_recording(recording, settings, metrics['failure_time_s'],
-                                          metrics['true_broken_cables']),
-                         out / 'bag', out / 'plots')
-    finally:
-        writer.join(BAG_WRITE_LIMIT_S + BAG_WRITE_LIMIT_S_PER_TICK * recording.time_s.size)
-        if writer.exitcode is None:
-            writer.kill()
-            writer.join(BAG_WRITE_LIMIT_S)
-    if writer.exitcode != 0:
-        print(f'cdpr-scenario: no whole bag in {out / "bag"}: its writer ended with exit code '
-              f'{writer.exitcode}', file=sys.stderr)
-        return False
-    return True
+        recording, settings, failure_time_s, true_broken_cables, out = connection.recv()
+    except EOFError:
+        return
+    write_run_report(run_of_recording(recording, settings, failure_time_s, true_broken_cables),
+                     out / 'bag', out / 'plots')
 
 
-def write_bag(recording, bag: Path, namespace: str, frame: Frame) -> None:
-    """`record`, in the forked writer: a bag the machine cannot take (disk full, no
-    permission) is said in one line and exit code 1."""
+def record_beside_report(drawer: ReportDrawer, recording, settings, metrics: dict, out: Path,
+                         namespace: str, frame: Frame) -> bool:
+    """The run's bag, written here while `drawer` draws its report; False (said on stderr)
+    when either is missing."""
+    drawer.draw(recording, settings, metrics, out)
+    written = False
     try:
-        record(recording, bag, namespace, frame)
+        record(recording, out / 'bag', namespace, frame)
+        written = True
     except OSError as err:
-        print(f'cdpr-scenario: writing the bag {bag}: {err}', file=sys.stderr)
-        sys.exit(1)
+        print(f'cdpr-scenario: writing the bag {out / "bag"}: {err}', file=sys.stderr)
+    finally:
+        code = drawer.finish(DRAW_LIMIT_S + DRAW_LIMIT_S_PER_TICK * recording.time_s.size)
+    if code != 0:
+        print(f'cdpr-scenario: no whole report in {out / "plots"}: its drawer ended with '
+              + ('no exit (killed)' if code is None else f'exit code {code}'), file=sys.stderr)
+    return written and code == 0
 
 
 if __name__ == '__main__':
