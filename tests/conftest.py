@@ -66,7 +66,8 @@ def private_shm_allowed() -> bool:
 
 needs_private_shm = pytest.mark.skipif(
     not private_shm_allowed(), reason='unshare -m with a tmpfs /dev/shm is not allowed here '
-                                      '(needs root or user namespaces)')
+                                      '(needs root or user namespaces): these tests run as root, or as '
+                                      'a user under `unshare -r`; see docs/testing.md, "Private /dev/shm"')
 
 
 def in_private_shm(command: list[str], stale: tuple[str, ...] = STALE) -> list[str]:
@@ -78,31 +79,92 @@ def in_private_shm(command: list[str], stale: tuple[str, ...] = STALE) -> list[s
     return ['unshare', '-m', 'sh', '-c', script, 'sh', *command]
 
 
-def wait_until_the_plant_runs(lines: list[str], timeout_s: float) -> None:
+def wait_until_the_plant_runs(lines, timeout_s: float) -> None:
     """Until a started graph's plant logs that it starts its run (the launcher's log
-    lines gathered in `lines`): the start handshake is over, the ticks flow."""
+    lines gathered in `lines`, a list or a GraphLog): the start handshake is over, the
+    ticks flow."""
     deadline = time.monotonic() + timeout_s
     while not any(line.startswith('[plant_simulator]') and 'starting' in line for line in lines):
         assert time.monotonic() < deadline, 'the plant did not start its run'
         time.sleep(0.05)
 
 
+# CDPR_STRICT_REALTIME=1 (a reference machine): no timing check is excused.
+STRICT_REALTIME = os.environ.get('CDPR_STRICT_REALTIME', '') == '1'
+# The plant reports its loop's window once per /diagnostics period (s): a slip inside a
+# judged window is logged up to this long after the window ended.
+LOOP_REPORT_PERIOD_S = 1.0
+# This session's excused timing checks, for the closing summary.
+EXCUSED: list[str] = []
+
+
+class GraphLog:
+    """A graph launcher's log (its `log` callback): each line with the monotonic instant
+    (s) it reached the test. Iterating gives the lines."""
+
+    def __init__(self):
+        self.entries: list[tuple[float, str]] = []
+
+    def __call__(self, line: str) -> None:
+        self.entries.append((time.monotonic(), line))
+
+    def __iter__(self):
+        return (line for _, line in self.entries)
+
+    def plant_started_s(self) -> float:
+        """When the plant logged that it starts its run (the first tick)."""
+        return next(at for at, line in self.entries
+                    if line.startswith('[plant_simulator]') and 'starting' in line)
+
+    def loop_slips(self, start_s: float, end_s: float) -> list[tuple[float, float, str]]:
+        """The episodes in which the plant's loop did not keep its period that overlap
+        [start_s, end_s] (monotonic s): (start, end, the plant's figures). The plant logs
+        an episode's first window as an ERROR and its end as 'no longer in error'; an
+        episode still open at the end of the log lasts to its end."""
+        episodes, opened = [], None
+        for at, line in self.entries:
+            if not line.startswith('[plant_simulator]'):
+                continue
+            if opened is None and '[ERROR]' in line and 'does not keep its period' in line:
+                opened = (at - LOOP_REPORT_PERIOD_S, line.split(']: ', 1)[-1])
+            elif opened is not None and 'no longer in error' in line:
+                episodes.append((opened[0], at, opened[1]))
+                opened = None
+        if opened is not None:
+            episodes.append((opened[0], self.entries[-1][0], opened[1]))
+        return [(begin, end, text) for begin, end, text in episodes
+                if begin <= end_s + LOOP_REPORT_PERIOD_S and end >= start_s]
+
+
 @contextlib.contextmanager
-def judged_if_the_loop_kept_its_period(lines: list[str]):
-    """Checks of a realtime graph run (its launcher's log `lines`): a failed one is a
-    failure, unless the plant logged that its loop did not keep its period — a machine
-    too slow or too loaded for five Python nodes at 500 Hz on its cores, where late
-    messages and a starved recorder say nothing about the graph. Then the test is
-    skipped, saying so; `cdpr-bench graph` measures what the machine sustains."""
+def timing_check(log: GraphLog, window_s: tuple[float, float], check: str):
+    """A check of a realtime graph run that holds only where the plant's loop kept its
+    period over `window_s` (monotonic s, the part of the run the check judges): a slow
+    or loaded machine starves the late messages and the niced recorder it is about. It
+    fails, unless the plant reported its loop not keeping its period inside that window:
+    then the check is excused, saying so with the plant's figures, and counted in the
+    session's summary. CDPR_STRICT_REALTIME=1 excuses nothing. Checks that do not depend
+    on timing stay outside: they are judged in every run."""
     try:
         yield
     except AssertionError as failed:
-        slow = next((line for line in lines if line.startswith('[plant_simulator] [ERROR]')
-                     and 'does not keep its period' in line), None)
-        if slow is None:
+        slips = log.loop_slips(*window_s)
+        if not slips or STRICT_REALTIME:
             raise
-        pytest.skip(f'not judged, the machine did not keep the realtime loop ({slow.split("]: ")[-1]}); '
-                    f'the check that failed: {str(failed).splitlines()[0]}')
+        start, end = window_s
+        overlap = sum(min(end, stop) - max(start, begin) for begin, stop, _ in slips)
+        excuse = (f'{check}: {str(failed).splitlines()[0]} -- excused: the plant did not keep its '
+                  f'period for {max(overlap, 0.0):.1f} s of the {end - start:.1f} s judged '
+                  f'({"; ".join(text for _, _, text in slips)})')
+        EXCUSED.append(excuse)
+        print(f'\n{excuse}')
+
+
+def pytest_terminal_summary(terminalreporter):
+    terminalreporter.write_sep('-', f'realtime timing checks excused: {len(EXCUSED)}'
+                                    f'{" (CDPR_STRICT_REALTIME=1 excuses none)" if STRICT_REALTIME else ""}')
+    for excuse in EXCUSED:
+        terminalreporter.write_line(excuse)
 
 
 def load_robot(path):

@@ -4,22 +4,24 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from cdpr_bringup import fdi_offline
-from cdpr_bringup.bag_io import read_messages, read_topics, recording_from_bag
+from cdpr_bringup.bag_io import read_messages, recording_from_bag
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.graph import Graph, graph_nodes, node_environment, run_to_completion
 from cdpr_bringup.metrics import fdi_summary_from_diagnostics
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 
 from cdpr_msgs_py.dds import PROFILE_VARIABLE
+from cdpr_msgs_py.stamps import stamp_to_ns
 
-from conftest import (MOTIONS, PAPER_ROBOT, in_private_shm, judged_if_the_loop_kept_its_period,
-                      private_shm_allowed, settled_parameters)
+from conftest import (MOTIONS, PAPER_ROBOT, GraphLog, in_private_shm, private_shm_allowed,
+                      settled_parameters, timing_check)
 
 pytestmark = pytest.mark.graph
 QUIET = lambda line: None  # noqa: E731
@@ -88,15 +90,27 @@ def test_failure_in_the_graph_frees_the_plant_motor_not_the_twin(lockstep_bags):
 
 
 def test_realtime_smoke_run_answers_every_state(tmp_path):
-    lines = []
-    bag = run(tmp_path, 'realtime', clock_mode='realtime', log=lines.append, duration_s=2.0)
-    topics = read_topics(bag, ['/cdpr_test_realtime/joint_states', '/cdpr_test_realtime/effort_command'])
-    states = set(topics['/cdpr_test_realtime/joint_states'])
-    commands = set(topics['/cdpr_test_realtime/effort_command'])
-    with judged_if_the_loop_kept_its_period(lines):
-        assert len(states) >= 990, 'about 2 s at 500 Hz'
+    log = GraphLog()
+    bag = run(tmp_path, 'realtime', clock_mode='realtime', log=log, duration_s=2.0)
+    window = (log.plant_started_s(), time.monotonic())
+    namespace = '/cdpr_test_realtime'
+    topics = read_messages(bag, [f'{namespace}/joint_states', f'{namespace}/effort_command',
+                                 f'{namespace}/fdi/broken_cable'])
+    states = [stamp_to_ns(message.header.stamp) for _, message in topics[f'{namespace}/joint_states']]
+    commands = [stamp_to_ns(message.header.stamp) for _, message in topics[f'{namespace}/effort_command']]
+    # whatever the machine's speed: the ticks in order, a command only for a state that
+    # was sent, no failure alarm
+    assert states and commands, 'the bag holds the run'
+    assert all(later > earlier for earlier, later in zip(states, states[1:]))
+    assert set(commands) <= set(states)
+    assert all(message.data == 0 for _, message in topics[f'{namespace}/fdi/broken_cable'])
+    with timing_check(log, window, 'realtime smoke run: every tick in the bag'):
+        assert len(states) >= 990, f'{len(states)} states of about 1000 (2 s at 500 Hz)'
+    with timing_check(log, window, 'realtime smoke run: every state answered'):
         # every state but possibly the very last one got its command
-        assert len(states - commands) <= 1
+        assert len(set(states) - set(commands)) <= 1, f'{len(set(states) - set(commands))} states unanswered'
+    with timing_check(log, window, 'realtime smoke run: the verdict recorded'):
+        assert topics[f'{namespace}/fdi/broken_cable'], 'no failure verdict in the bag'
 
 
 def user_environment() -> dict:

@@ -247,6 +247,9 @@ class Diagnostics:
             # the console too: whoever watches the node's output, not /diagnostics, learns
             # that it cannot do its job (once per episode, not once a second)
             self.node.get_logger().error(text)
+        elif self.level == ERROR and level != ERROR:
+            # and that the episode is over, so a log alone tells how long it lasted
+            self.node.get_logger().info(f'no longer in error: {text}')
         self.level = level
         status = DiagnosticStatus(level=LEVELS[level], message=text, hardware_id='cdpr',
                                   name=self.node.get_fully_qualified_name())
