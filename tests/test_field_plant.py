@@ -6,7 +6,9 @@ detection delay of the Table 4 motions (failure at the midpoint, counted from th
 electromagnet's signal as the paper counts) within ±30 % of Table 5's, and those of
 Table 6 and of the circle within ±30 % of Table 7's and of 190 ms. What the field plant
 does not reproduce is marked xfail (strict: it fails the suite once it passes), with the
-reason; notes/issue15-field-plant.md has the whole table.
+reason, and only a figure off the paper's (an AssertionError) counts as that failure; what
+must hold around it (the run detected, the cable named) is judged in tests of its own.
+notes/issue15-field-plant.md has the whole table.
 """
 from __future__ import annotations
 
@@ -37,6 +39,8 @@ PAPER_EPSILON_NM = 0.3
 TOLERANCE = 0.3
 # Detections come within 0.3 s of the signal: the recovery after them is not needed.
 RECOVERY_BUDGET_S = 0.5
+# Once the cable has really parted, the detector needs a few periods.
+DETECTED_AFTER_PARTING_MS = 20.0
 
 
 def within(value, paper) -> bool:
@@ -69,6 +73,21 @@ def along_runs():
 @pytest.fixture(scope='module')
 def orthogonal_runs():
     return [field_run(f'orthogonal-{motion}') for motion in PAPER_ORTHOGONAL_MS]
+
+
+@pytest.fixture(scope='module')
+def circle_with_failure():
+    return field_run('circle')
+
+
+def assert_detected_soon_after_parting_and_named(runs, count):
+    """Each of the `count` runs detected its failure of cable 4, named it and no other,
+    and (their median) within a few periods of the real parting."""
+    assert len(runs) == count
+    assert not any(run['false_alarm'] for run in runs)
+    assert None not in [run['detection_delay_from_signal_ms'] for run in runs]
+    assert all(run['identified_cables'] == [4] for run in runs)
+    assert statistics.median(run['detection_delay_ms'] for run in runs) < DETECTED_AFTER_PARTING_MS
 
 
 # ---- physics -------------------------------------------------------------------------
@@ -163,7 +182,15 @@ def test_failure_free_circle_torque_gap_is_the_papers(circle_without_failure):
     assert within(circle_without_failure['kpi']['K_t_nm'], PAPER_KPI['K_t_nm'])
 
 
-@pytest.mark.xfail(strict=True, reason=(
+def test_failure_free_circle_position_gaps_are_measured_and_below_the_papers(circle_without_failure):
+    """The shortfall the xfail below names: gaps there are, but the stiff joint PD keeps
+    them under the paper's."""
+    kpi = circle_without_failure['kpi']
+    assert 0.0 < kpi['K_c_m'] < PAPER_KPI['K_c_m']
+    assert 0.0 < kpi['K_j_rad'] < PAPER_KPI['K_j_rad']
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
     "K_c and K_j stay far below the paper's (0.4 mm, 0.007 rad): with the controller's 12 Hz joint PD "
     "(~24 N·m/rad) a joint gap of 0.058 rad would take ~1.4 N·m, nine times the paper's "
     "K_t; see notes/issue15-field-plant.md"))
@@ -177,12 +204,16 @@ def test_along_cable_4_the_median_delay_is_table_5s(along_runs):
     assert None not in delays and not any(run['false_alarm'] for run in along_runs)
     paper = statistics.median(d for pair in PAPER_ALONG_MS.values() for d in pair)
     assert within(statistics.median(delays), paper)
-    # Most of it is the electromagnet letting go: once the cable has really parted, the
-    # detector needs a few periods.
-    assert statistics.median(run['detection_delay_ms'] for run in along_runs) < 20.0
+    # Most of it is the electromagnet letting go.
+    assert statistics.median(run['detection_delay_ms'] for run in along_runs) < DETECTED_AFTER_PARTING_MS
 
 
-@pytest.mark.xfail(strict=True, reason=(
+def test_every_orthogonal_failure_is_detected_soon_after_the_parting_and_named(orthogonal_runs):
+    """What the xfail below leaves out: the figure is off, the detection is not."""
+    assert_detected_soon_after_parting_and_named(orthogonal_runs, len(PAPER_ORTHOGONAL_MS))
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
     'the detector sees the freed motor within a few ms of the real parting, which the '
     'electromagnet delays by its release (~80 ms at the ~10 N of cable 4 here); the '
     "paper's slow rise after it (Fig. 18) is not produced: notes/issue15-field-plant.md"))
@@ -197,7 +228,6 @@ def test_orthogonal_failures_are_detected_later_than_along_ones(along_runs, orth
     the magnet lets it go later (and its motor loses less load)."""
     assert (statistics.median(run['detection_delay_from_signal_ms'] for run in orthogonal_runs)
             > 1.2 * statistics.median(run['detection_delay_from_signal_ms'] for run in along_runs))
-    assert all(run['identified_cables'] == [4] for run in orthogonal_runs)
 
 
 def test_every_cable_4_failure_along_it_is_named(along_runs):
@@ -207,10 +237,13 @@ def test_every_cable_4_failure_along_it_is_named(along_runs):
     assert all(run['identified_cables'] == [4] for run in along_runs)
 
 
-@pytest.mark.xfail(strict=True, reason=(
+def test_the_circle_failure_after_135_degrees_is_detected_soon_after_the_parting_and_named(
+        circle_with_failure):
+    assert_detected_soon_after_parting_and_named([circle_with_failure], 1)
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
     'cable 4 carries ~14 N where the circle passes nearest A4, so the magnet lets it go '
     "after ~50 ms and it is detected soon after: the paper's 190 ms is not reproduced"))
-def test_the_circle_failure_after_135_degrees_is_detected_as_late_as_the_papers():
-    run = field_run('circle')
-    assert run['identified_cables'] == [4]
-    assert within(run['detection_delay_from_signal_ms'], PAPER_CIRCLE_MS)
+def test_the_circle_failure_after_135_degrees_is_detected_as_late_as_the_papers(circle_with_failure):
+    assert within(circle_with_failure['detection_delay_from_signal_ms'], PAPER_CIRCLE_MS)
