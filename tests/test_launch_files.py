@@ -75,8 +75,9 @@ def test_the_launch_files_are_installed_with_the_package():
 
 @pytest.mark.workspace
 @pytest.mark.skipif(LAUNCH_MISSING is not None,
-                    reason=f'the `{LAUNCH_MISSING}` package is not importable (it is not on PyPI; '
-                           'README, "ROS 2 workspace", says how to put it on PYTHONPATH)')
+                    reason=f'the `{LAUNCH_MISSING}` package is not importable (it is not on PyPI): '
+                           'this test runs where ros2/launch and ros2/launch_ros are on PYTHONPATH '
+                           '(pip-installed from their sources), see docs/testing.md, "The real-launch test"')
 def test_the_demo_launch_file_runs_the_papers_failure_with_real_launch(tmp_path):
     """Built with colcon, started as `ros2 launch cdpr_bringup cdpr_demo.launch.py` would:
     the run completes, names cable 4 and ends at the safe point."""
