@@ -59,6 +59,8 @@ def test_the_points_count_false_alarms_per_hour_and_medians_per_family():
              for family, delay in (('along', 40.0), ('along', 60.0), ('along', None),
                                    ('orthogonal', 200.0))]
     points = {d: {p['factor']: p for p in curve} for d, curve in roc_points(rows).items()}
+    # a curve for each of the paper's two detectors
+    assert set(points) == set(DETECTORS) == {'threshold', 'cusum'}
     for detector in DETECTORS:
         assert points[detector][0.5]['false_alarms_per_hour'] == 3.0
         assert points[detector][0.5]['alarm_time_pct'] == 3.0

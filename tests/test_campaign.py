@@ -13,6 +13,7 @@ from cdpr_bringup.campaign import (CSV_COLUMNS, PAPER_DETECTION_MS, RANDOM_FRACT
                                    progress_bar, run_campaign, summarize, summary_markdown,
                                    write_summary_csv)
 from cdpr_control.motions import motion_names
+from cdpr_control.robot import load_robot
 
 from conftest import CONFIG_DIR, MOTIONS
 
@@ -45,6 +46,8 @@ def test_matrix_counts_and_ids():
 def test_random_instants_are_drawn_per_run_inside_the_move_and_again_the_same():
     runs = build_matrix(['along-1', 'circle'], cables=[1, 2, 3, 4], seeds=[0, 1],
                         random_instants=True, failure_free=False)
+    # 2 motions × 4 cables × 2 directions × 3 fidelities × 2 detectors × 2 seeds
+    assert len(runs) == 2 * 4 * 2 * 3 * 2 * 2
     fractions = [run.fail_at_fraction for run in runs]
     low, high = RANDOM_FRACTION_RANGE
     assert all(low <= fraction <= high for fraction in fractions)
@@ -245,7 +248,9 @@ def test_every_cable_of_a_new_robot_at_a_random_instant_is_named_and_recovered(r
         rows = list(csv.DictReader(stream))
     failures = [row for row in rows if row['cable']]
     cables = {int(row['cable']) for row in failures}
-    assert cables == set(range(1, max(cables) + 1)) and len(failures) == 2 * len(cables)
+    cable_count = load_robot(CONFIG_DIR / f'{robot}_robot.yaml').cable_count
+    # every cable of the robot, once per detector
+    assert cables == set(range(1, cable_count + 1)) and len(failures) == 2 * cable_count
     for row in failures:
         assert row['identified_cables'] == row['cable'], row['run_id']
         assert row['mode'] == 'SAFE_HOLD' and row['reached_safe_point'] == 'True', row['run_id']

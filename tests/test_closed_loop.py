@@ -45,6 +45,9 @@ def test_injected_failure_frees_the_motor_but_not_the_twin(rigid_run):
     n = healthy.time_s.size
     after = broken.time_s[:n] > failure + scenario.period_s
     before = broken.time_s[:n] <= failure
+    # the rest of the motion, half of it at least, is judged after the failure
+    motion_left_s = scenario.motion.trajectory.duration_s - failure
+    assert np.count_nonzero(after) >= 0.5 * motion_left_s / scenario.period_s
     # the twin never sees the plant: identical with and without the failure
     np.testing.assert_array_equal(broken.twin_torque_nm[:n], healthy.twin_torque_nm)
     # the plant: identical up to the failure, then cable 4 carries nothing ...

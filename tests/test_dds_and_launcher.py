@@ -19,7 +19,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from cdpr_bringup.graph import STOP_GRACE_S, TEMP_PREFIX, node_environment, parser, requested_graph
+from cdpr_bringup.graph import (STOP_GRACE_S, TEMP_PREFIX, graph_nodes, node_environment, parser,
+                                 requested_graph)
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_msgs_py import dds
 from cdpr_twin.plant import FIDELITIES
@@ -174,9 +175,12 @@ def test_ctrl_c_writes_the_metrics_of_what_ran_and_exits_130(tmp_path):
     assert not any('Traceback' in line for line in lines), '\n'.join(lines)
     assert not any('killing it' in line for line in lines), 'a node was SIGKILLed on stop'
     metrics = json.loads((out / 'metrics.json').read_text())
-    assert metrics['interrupted'] and 0 < metrics['cycles'] < build_scenario(
-        ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS), motion='along-2',
-                        fail_cables=[4], fidelity='rigid')).cycles
+    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+                                              motion='along-2', fail_cables=[4], fidelity='rigid'))
+    assert metrics['interrupted'] and 0 < metrics['cycles'] < scenario.cycles
+    # every node of the run's graph, its recorder too, was started, and none is left
+    graph = graph_nodes(scenario.node_parameters('lockstep'), str(out / 'bag'))
+    assert set(pids) == {spec.name for spec in graph}, sorted(pids)
     assert not any(alive(pid) for pid in pids.values())
     assert not list(Path(tempfile.gettempdir()).glob(f'{TEMP_PREFIX}{process.pid}-*'))
 

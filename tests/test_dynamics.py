@@ -61,7 +61,9 @@ def test_inverse_dynamics_of_a_stack_of_poses_is_that_of_each(robot, rng, method
     be the single pose's figures, with a broken cable too, and an infeasible pose in the
     stack must be named as it is alone (the first one)."""
     distribution = _distribution(robot, method)
+    stacked = 0
     for _, attached in list(cable_masks(robot))[:3]:
+        stacked += 1
         alone, poses = [], []
         for p, v, a, _ in _random_states(robot, rng, 40, attached):
             try:
@@ -74,6 +76,7 @@ def test_inverse_dynamics_of_a_stack_of_poses_is_that_of_each(robot, rng, method
         for name in ('torque_nm', 'tension_n', 'joint_velocity_rad_s', 'joint_acceleration_rad_s2'):
             np.testing.assert_allclose(getattr(stack, name), [getattr(one, name) for one in alone],
                                        rtol=1e-12, atol=1e-12, err_msg=name)
+    assert stacked == 3     # every cable, cable 1 broken, cable 2 broken
     p, v, a = poses[0]
     # driven down faster than it falls: no cable can push
     downward = np.array([0.0, 0.0, -30.0])
@@ -86,8 +89,10 @@ def test_inverse_dynamics_of_a_stack_of_poses_is_that_of_each(robot, rng, method
 
 
 def test_inverse_then_direct_round_trip(robot, rng):
+    states, checked = 6, 0
     for _, attached in cable_masks(robot):
-        for p, v, a, inverse in _random_states(robot, rng, 6, attached, acceleration=1.5):
+        for p, v, a, inverse in _random_states(robot, rng, states, attached, acceleration=1.5):
+            checked += 1
             result = direct_dynamics(robot, p, v, inverse.torque_nm, inverse.joint_velocity_rad_s,
                                      attached)
             np.testing.assert_allclose(result.acceleration_m_s2, a, atol=1e-9)
@@ -97,6 +102,8 @@ def test_inverse_then_direct_round_trip(robot, rng):
                                        inverse.joint_acceleration_rad_s2, atol=1e-7)
             _check_newton_and_motor_laws(robot, p, v, inverse.torque_nm,
                                          inverse.joint_velocity_rad_s, result, attached)
+    # every cable, then each one broken
+    assert checked == states * (robot.cable_count + 1)
 
 
 def test_inverse_dynamics_satisfies_the_model(robot, rng):

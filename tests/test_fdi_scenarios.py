@@ -6,6 +6,8 @@ where the residual is not zero.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import yaml
@@ -15,8 +17,10 @@ from cdpr_bringup import scenario as scenario_cli
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_control.controller import PdGains
+from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.motions import motion_names
 from cdpr_control.workspace import contains, sew_cross_section
+from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
 from cdpr_twin.run_length import RunLength
 
 from conftest import CONFIG_DIR, MOTIONS, PAPER_ROBOT
@@ -280,3 +284,80 @@ def test_a_break_near_a_corner_swings_into_the_frame_not_up_to_its_exit_points()
     lowest_exit_point_m = np.min(scenario.robot.exit_points_m[:, 2])
     assert np.max(recording.true_position_m[after][:, 2]) < lowest_exit_point_m - 0.15
     assert np.max(recording.true_tension_n[after]) < scenario.robot.tension_max_n
+
+
+# The hardest recoveries we can make on the paper robot (rigid plant, ε = 0.03 N·m as in
+# §3.3): (motion, broken cable, the motion's peak speed m/s or None for the paper's 0.5,
+# recovery settings changed from the paper's).
+WORST_CASE_RECOVERIES = [
+    # the paper's hard case: outside the residual SEW at the break
+    ('along-1', 4, None, {}),
+    # inside it at twice the paper's speed: braked from 1 m/s on a re-planned move
+    ('orthogonal-1', 4, 1.0, {}),
+    # at 1 m/s no plan from where it breaks fits: held by tension, then planned
+    ('circle', 2, 1.0, {}),
+    # every phase at its longest: it never settles (phase 2 waits out the timeout) and its
+    # move is too fast to plan until every re-plan has slowed it. The hard brake shrinks
+    # the budget's brake term to minimum_move_s, so little else is left to hide a
+    # re-plan the budget forgot.
+    ('along-1', 4, None, {'settle_speed_m_s': 1e-6, 'move_peak_speed_m_s': 4.0,
+                          'minimum_move_s': 0.1, 'brake_deceleration_m_s2': 10.0}),
+]
+
+
+def recovery_run(folder, motion, cable, peak_speed_m_s, recovery):
+    """The run of the paper robot with `recovery` settings changed (a set-up in `folder`)
+    and `motion` at `peak_speed_m_s`, cable `cable` breaking midway: scenario, recording,
+    metrics."""
+    setup = folder / 'setup.yaml'
+    setup.write_text(yaml.safe_dump({'robot_file': str(PAPER_ROBOT), 'recovery': recovery}))
+    motions = yaml.safe_load(MOTIONS.read_text())
+    if peak_speed_m_s is not None:
+        motions['motions'][motion]['peak_speed_m_s'] = peak_speed_m_s
+    (folder / 'motions.yaml').write_text(yaml.safe_dump(motions))
+    scenario = build_scenario(ScenarioOptions(
+        config=str(setup), motions=str(folder / 'motions.yaml'), motion=motion,
+        fail_cables=[cable], fidelity='rigid', epsilon_nm=0.03))
+    recording = run_inprocess(scenario)
+    return scenario, recording, scenario_cli.metrics_of(scenario, recording, wall_time_s=0.0)
+
+
+def re_plans_of_the_move(scenario, recording, phase_times_s, cable) -> int:
+    """How often the move that ran was re-planned, read off the recovery reference: each
+    re-plan divides the peak speed of its straight quintic to SP by replan_slowdown, and
+    that peak lies midway along it, in the second half of RECOVERY_MOVE (the brake comes
+    first)."""
+    config = scenario.recovery
+    second_half = ((recording.time_s >= 0.5 * (phase_times_s[RECOVERY_MOVE] + phase_times_s[SAFE_HOLD]))
+                   & (recording.time_s < phase_times_s[SAFE_HOLD]))
+    path = forward_kinematics(scenario.robot, recording.recovery_reference_angle_rad[second_half],
+                              scenario.robot.cable_mask([cable - 1]))
+    peak = np.max(np.linalg.norm(np.diff(path, axis=0), axis=1)) / scenario.period_s
+    re_plans = math.log(config.move_peak_speed_m_s / peak) / math.log(config.replan_slowdown)
+    assert re_plans == pytest.approx(round(re_plans), abs=0.02), f'peak {peak:.4f} m/s: not whole re-plans'
+    return round(re_plans)
+
+
+def test_no_worst_case_recovery_outlasts_its_budget(tmp_path):
+    """From the failure to SAFE_HOLD, and the hold after it, within the budget the run
+    was scheduled for (Scenario.recovery_budget_s), in the cases above; one of them has
+    used every re-plan the budget allows for."""
+    judged = []
+    for number, (motion, cable, speed, recovery) in enumerate(WORST_CASE_RECOVERIES):
+        folder = tmp_path / str(number)
+        folder.mkdir()
+        scenario, recording, metrics = recovery_run(folder, motion, cable, speed, recovery)
+        case = f'{motion} at {speed or 0.5} m/s, cable {cable}, {recovery}'
+        assert metrics['identified_cables'] == [cable], case
+        assert metrics['mode'] == SAFE_HOLD, (
+            f'{case}: {metrics["mode"]} when the run, scheduled for the budget '
+            f'{scenario.recovery_budget_s:.3f} s after the failure, ended')
+        phases = metrics['recovery']['phase_times_s']
+        used_s = phases[SAFE_HOLD] - metrics['failure_time_s'] + scenario.recovery.hold_after_s
+        assert used_s <= scenario.recovery_budget_s, (
+            f'{case}: {used_s:.3f} s to SAFE_HOLD and its hold, budget {scenario.recovery_budget_s:.3f} s')
+        judged.append((re_plans_of_the_move(scenario, recording, phases, cable),
+                       scenario.recovery.replan_attempts))
+    assert len(judged) == len(WORST_CASE_RECOVERIES) == 4
+    assert any(re_plans > 0 for re_plans, _ in judged)
+    assert any(re_plans == attempts for re_plans, attempts in judged), judged

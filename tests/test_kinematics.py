@@ -88,8 +88,10 @@ def test_joint_rates_match_finite_differences_of_inverse_kinematics(robot, t):
 
 def test_forward_inverse_round_trip_all_and_one_broken(robot, rng):
     positions = random_positions(robot, rng, 25, margin_m=0.02)
+    checked = 0
     for label, cables in cable_masks(robot):
         for p in positions:
+            checked += 1
             theta = inverse_kinematics(robot, p)
             p_fk = forward_kinematics(robot, theta, cables)
             np.testing.assert_allclose(p_fk, p, atol=1e-9, err_msg=f'{label}, p = {p}')
@@ -98,6 +100,8 @@ def test_forward_inverse_round_trip_all_and_one_broken(robot, rng):
             noisy[~cables] += 123.0
             np.testing.assert_allclose(forward_kinematics(robot, noisy, cables), p, atol=1e-9)
             np.testing.assert_allclose(inverse_kinematics(robot, p_fk), theta, atol=1e-7)
+    # every cable, then each one broken
+    assert checked == len(positions) * (robot.cable_count + 1)
 
 
 def test_forward_kinematics_least_squares_with_noisy_lengths(robot, rng):

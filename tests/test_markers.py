@@ -43,7 +43,18 @@ def run():
             frame.on_recovery_reference(recording.recovery_reference_angle_rad[k])
         if k % ticks == 0:
             frames.append((k, {(s.namespace, s.id): s for s in frame.shapes()}))
+    # at the markers' rate, the frames of the whole motion at least
+    assert len(frames) >= scenario.motion.trajectory.duration_s * scenario.markers.rate_hz, len(frames)
     return scenario, recording, frames, ticks
+
+
+def assert_judged_once_identified(run, judged: int) -> None:
+    """`judged` frames from the identification on were checked: at least half of those
+    after the scheduled failure, else a check of what is drawn once the cable is named
+    judged next to nothing."""
+    scenario, recording, _, ticks = run
+    after_failure = recording.time_s.size - scenario.failure_time_s / scenario.period_s
+    assert judged >= 0.5 * after_failure / ticks, (judged, after_failure / ticks)
 
 
 def test_cables_run_from_the_exit_points_to_the_true_end_effector(run):
@@ -65,11 +76,13 @@ def test_the_broken_cable_hangs_grey_thin_and_dashed_once_identified(run):
     scenario, recording, frames, _ = run
     style, exit_point = scenario.markers, scenario.robot.exit_points_m[BROKEN - 1]
     identified = recording.fdi['identified_tick']
+    hung = 0
     for k, shapes in frames:
         shape = shapes['cables', BROKEN]
         if k < identified:
             assert shape.scale_m == style.cable_width_m
             continue
+        hung += 1
         assert shape.scale_m == style.broken_cable_width_m < style.cable_width_m
         assert np.all(shape.colours == BROKEN_GREY)
         assert len(shape.points_m) > 2 and len(shape.points_m) % 2 == 0, 'dashes, not one line'
@@ -81,6 +94,7 @@ def test_the_broken_cable_hangs_grey_thin_and_dashed_once_identified(run):
         assert shape.points_m[-1, 2] - height <= 2 * style.dash_length_m
         for other in set(range(1, 5)) - {BROKEN}:
             assert not np.any(np.all(shapes['cables', other].colours == BROKEN_GREY, axis=1))
+    assert_judged_once_identified(run, hung)
 
 
 def test_a_cable_is_coloured_by_its_sensorless_tension_over_the_frame(run):
@@ -138,10 +152,12 @@ def test_dashes_cover_the_line_with_gaps():
 def test_the_safe_point_is_the_supervisors_inside_the_sew_outline_at_its_height(run):
     scenario, recording, frames, _ = run
     identified = recording.fdi['identified_tick']
+    placed = 0
     for k, shapes in frames:
         if k < identified:
             assert ('safe_point', 0) not in shapes and ('sew_outline', 0) not in shapes
             continue
+        placed += 1
         safe_point = shapes['safe_point', 0]
         outline = shapes['sew_outline', 0]
         assert safe_point.kind == SPHERE_LIST and outline.kind == LINE_STRIP
@@ -149,6 +165,7 @@ def test_the_safe_point_is_the_supervisors_inside_the_sew_outline_at_its_height(
         assert np.allclose(outline.points_m[:, 2], scenario.recovery.safe_height_m)
         assert np.allclose(outline.points_m[0], outline.points_m[-1]), 'closed'
         assert contains(outline.points_m[:-1, :2], safe_point.points_m[0, :2])
+    assert_judged_once_identified(run, placed)
     # the remaining exit points' projections: cable 4's corner is cut off
     corners = {tuple(p) for p in np.round(outline.points_m[:-1, :2], 9)}
     assert corners == {tuple(p[:2]) for i, p in enumerate(scenario.robot.exit_points_m) if i != BROKEN - 1}
@@ -162,8 +179,11 @@ def test_the_recovery_path_follows_the_setpoints_to_the_safe_point(run):
     assert np.linalg.norm(path[-1] - recording.fdi['safe_point_m']) < scenario.recovery.reached_tolerance_m
     steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
     assert np.all(steps >= scenario.markers.path_spacing_m - 1e-12)
-    move = recording.fdi['phase_ticks']['RECOVERY_MOVE']
-    assert not any(('recovery_path', 0) in s for k, s in frames if k < move)
+    identified, move = recording.fdi['identified_tick'], recording.fdi['phase_ticks']['RECOVERY_MOVE']
+    before_move = [(k, s) for k, s in frames if k < move]
+    # the tension phase, where a path drawn too early would show, has its frames
+    assert any(k >= identified for k, _ in before_move)
+    assert not any(('recovery_path', 0) in s for _, s in before_move)
 
 
 def test_an_inprocess_bag_carries_the_same_markers(run, tmp_path):
@@ -200,10 +220,12 @@ def test_the_node_sends_the_shapes_as_markers(run):
     from visualization_msgs.msg import Marker
 
     from cdpr_fdi.markers_node import marker_array
-    _, _, frames, _ = run
+    scenario, _, frames, _ = run
     k, shapes = frames[-1]
     message = marker_array(list(shapes.values()), 123)
     assert message.markers[0].action == Marker.DELETEALL
+    # one marker per shape, every cable's at least: the pairs below leave none out
+    assert len(message.markers) == 1 + len(shapes) > scenario.robot.cable_count
     for m, shape in zip(message.markers[1:], shapes.values()):
         assert (m.ns, m.id, m.type) == (shape.namespace, shape.id, getattr(Marker, shape.kind))
         assert m.header.frame_id == 'world' and m.header.stamp.nanosec == 123

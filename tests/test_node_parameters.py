@@ -19,6 +19,7 @@ from cdpr_control.config import load_yaml
 from cdpr_control.controller_node import ControllerNode
 from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
 from cdpr_fdi.supervisor_node import SupervisorNode
+from cdpr_msgs_py import contract
 from cdpr_twin.digital_twin_node import DigitalTwinNode
 from cdpr_twin.plant_simulator_node import PlantSimulatorNode
 
@@ -41,6 +42,9 @@ def supervisor(*arguments: str):
 def test_the_shipped_parameter_files_are_the_default_runs():
     """cdpr-params writes them again unchanged (else run it: they are stale)."""
     written = parameter_files(parser().parse_args([]))
+    # the default graph has no recorder (no bag): a file for each of its other nodes
+    assert set(written) == {contract.TRAJECTORY_GENERATOR, contract.CONTROLLER, contract.DIGITAL_TWIN,
+                            contract.SUPERVISOR, contract.MARKERS_NODE, contract.PLANT_SIMULATOR}
     assert sorted(path.stem for path in SHIPPED.glob('*.yaml')) == sorted(written)
     for name, text in written.items():
         assert (SHIPPED / f'{name}.yaml').read_text() == text, name

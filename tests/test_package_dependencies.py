@@ -99,6 +99,10 @@ def test_its_colcon_tests_need_only_what_it_declares(package):
 
 def test_each_test_file_runs_under_one_package_at_most():
     files = Counter(path for package in PACKAGES for path in colcon_tests(package))
+    # every package the tests import is found; a file checked per package at least
+    tested = {module for path in TESTS.glob('test_*.py') for module in imported_modules(path)}
+    assert {module for module in tested if module.startswith('cdpr_')} <= set(PACKAGES)
+    assert len(files) >= len(PACKAGES)
     assert all(path.is_file() for path in files), [str(p) for p in files if not p.is_file()]
     assert {path: count for path, count in files.items() if count > 1} == {}
 

@@ -39,14 +39,18 @@ def _signed_area(polygon):
 
 
 def test_static_tensions_balance_gravity(robot, rng):
+    positions, checked = 10, 0
     for label, attached in cable_masks(robot):
-        for p in random_positions(robot, rng, 10):
+        for p in random_positions(robot, rng, positions):
+            checked += 1
             tensions = static_tensions(robot, p, attached)
             s, _ = structure_matrix(robot, p)
             np.testing.assert_allclose(s @ tensions, -robot.weight_wrench_n, atol=1e-9, err_msg=label)
             assert np.all(tensions[~attached] == 0.0)
             np.testing.assert_allclose(tensions[attached], np.linalg.pinv(s[:, attached]) @ -robot.weight_wrench_n,
                                        atol=1e-9)
+    # every cable, then each one broken
+    assert checked == positions * (robot.cable_count + 1)
 
 
 def test_static_tensions_symmetric_at_paper_frame_centre(paper_robot):
@@ -130,8 +134,11 @@ def test_paper_safe_points_by_symmetry(paper_robot, broken):
 
 
 def test_eight_cable_safe_points_hold(robot):
+    heights = (robot.workspace_min_m[2] + 0.3, 1.5, robot.workspace_max_m[2] - 0.1)
+    checked = 0
     for label, attached in cable_masks(robot):
-        for height in (robot.workspace_min_m[2] + 0.3, 1.5, robot.workspace_max_m[2] - 0.1):
+        for height in heights:
+            checked += 1
             sp = safe_point(robot, attached, height)
             polygon = sew_cross_section(robot, attached, height)
             assert sp[2] == height
@@ -139,6 +146,8 @@ def test_eight_cable_safe_points_hold(robot):
             assert _distance_to_border(polygon, sp[:2]) > 0.1, label
             assert in_static_equilibrium(robot, sp, attached), label
             assert _holdable(robot, sp, attached), label
+    # every cable, then each one broken
+    assert checked == len(heights) * (robot.cable_count + 1)
 
 
 def test_polygon_centroid_closed_forms():

@@ -68,12 +68,16 @@ def _kkt_certificate_exists(s, tensions, low, high, reference, tol=1e-7):
 @pytest.mark.parametrize('method', ['pseudo_inverse', 'bounded_minimum_norm'])
 def test_tensions_produce_the_wrench(robot, rng, method):
     distribution = make_tension_distribution(method, 0.0, 1e6)
-    for _, s, w in _cases(robot, rng, 30, 3.0):
+    cases, produced = 30, 0
+    for _, s, w in _cases(robot, rng, cases, 3.0):
         try:
             tensions = distribution.distribute(s, w)
         except InfeasibleTensionError:
             continue
         np.testing.assert_allclose(s @ tensions, w, atol=1e-9 * np.linalg.norm(w))
+        produced += 1
+    # below gravity's acceleration the cables hold most wrenches, even without bounds
+    assert produced >= cases // 2
 
 
 def test_pseudo_inverse_equals_numpy_pinv(robot, rng):
@@ -162,10 +166,12 @@ def test_bounded_active_set_engages(paper_robot, rng):
 def test_reference_tension_shifts_the_solution(paper_robot, rng):
     """With τ_ref the result is τ_ref + S⁺(w − S τ_ref) when that is within bounds."""
     low, high = paper_robot.tension_min_n, paper_robot.tension_max_n
+    cases = 20
     for reference in (5.0, 30.0):
         distribution = make_tension_distribution('bounded_minimum_norm', low, high,
                                                  reference_tension_n=reference)
-        for _, s, w in _cases(paper_robot, rng, 20, 1.0):
+        shifted = 0
+        for _, s, w in _cases(paper_robot, rng, cases, 1.0):
             ref = np.full(4, reference)
             expected = ref + np.linalg.pinv(s) @ (w - s @ ref)
             if expected.min() >= low and expected.max() <= high:
@@ -173,19 +179,25 @@ def test_reference_tension_shifts_the_solution(paper_robot, rng):
                 # and it is the projection of τ_ref on {S τ = w}: the change is in row(S)
                 change = expected - ref
                 np.testing.assert_allclose(np.linalg.pinv(s) @ s @ change, change, atol=1e-9)
+                shifted += 1
+        assert shifted >= cases // 2, reference
 
 
 def test_three_cables_have_one_solution(paper_robot, rng):
     low, high = paper_robot.tension_min_n, paper_robot.tension_max_n
     bounded = make_tension_distribution('bounded_minimum_norm', low, high, reference_tension_n=20.0)
-    for _, s, w in _cases(paper_robot, rng, 20, 1.0):
+    cases, solved = 20, 0
+    for _, s, w in _cases(paper_robot, rng, cases, 1.0):
         s3 = s[:, :3]
         exact = np.linalg.solve(s3, w)
         if exact.min() >= low and exact.max() <= high:
             np.testing.assert_allclose(bounded.distribute(s3, w), exact, atol=1e-9)
+            solved += 1
         else:
             with pytest.raises(InfeasibleTensionError):
                 bounded.distribute(s3, w)
+    # both outcomes judged, on a quarter of the cases at least
+    assert min(solved, cases - solved) >= cases // 4
 
 
 @pytest.mark.parametrize('method', ['pseudo_inverse', 'bounded_minimum_norm'])

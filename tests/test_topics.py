@@ -350,6 +350,8 @@ def test_a_topic_only_the_recorder_or_a_display_reads_is_written_only_while_read
                                          qos.of_readers(topic.name))
         publishers = [publisher for publisher in node.publishers
                       if publisher.topic_name in {node.resolve_topic_name(topic.name) for topic in on_demand}]
+        # a writer of topics on demand in this clock mode, each with its publisher to wait for
+        assert len(publishers) == len(on_demand) > 0, [topic.name for topic in on_demand]
         deadline = time.monotonic() + MATCH_TIMEOUT_S
         while not all(publisher.get_subscription_count() for publisher in publishers):
             assert time.monotonic() < deadline, 'the listener did not match'

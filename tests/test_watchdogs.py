@@ -295,6 +295,8 @@ def test_twin_bridges_a_gap_in_the_references_as_the_controller_does(realtime_ro
         twin = DigitalTwin(paper_robot, PdGains.from_section(paper_robot, control),
                            forward_kinematics(paper_robot, rows[0].angle_rad), node.substeps)
         expected = [twin.step(rows[k if k in received else 2], node.period_s) for k in range(42)]
+        # a state per reference received, none for the ticks bridged
+        assert len(published) == len(received)
         for message, k in zip(published, received):
             np.testing.assert_allclose(message.position, expected[k].angle_rad, atol=1e-12)
             np.testing.assert_allclose(message.effort, expected[k].torque_nm, atol=1e-12)

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO
+from cdpr_bringup.graph import graph_nodes
+from conftest import REPO, settled_parameters
 
 PACKAGES = ['cdpr_msgs_py', 'cdpr_control', 'cdpr_twin', 'cdpr_fdi', 'cdpr_bringup']
 
@@ -56,7 +57,11 @@ def test_package_is_in_the_ament_index(colcon_install, package):
 @pytest.mark.workspace
 @pytest.mark.parametrize('package', PACKAGES)
 def test_every_executable_lands_where_ros2_run_looks(colcon_install, package):
-    for name in console_scripts(package):
+    scripts = console_scripts(package)
+    # among them the package's nodes of the graph, a recorder's too (cdpr_msgs_py has none)
+    assert {spec.executable for spec in graph_nodes(settled_parameters(), 'bag')
+            if spec.package == package} <= set(scripts)
+    for name in scripts:
         executable = colcon_install / package / 'lib' / package / name
         assert executable.is_file() and os.access(executable, os.X_OK), executable
 
