@@ -49,6 +49,10 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+# Every setting is also a ROS parameter (cdpr_control.settings), whose integers have 64 bits.
+INT64_RANGE = (-2 ** 63, 2 ** 63 - 1)
+
+
 def _is_finite(value: int | float) -> bool:
     """Finite as a float: an integer beyond the float range is not (float() would raise)."""
     try:
@@ -124,10 +128,11 @@ class Section:
                        bounds=self.bounds)
 
     def number(self, name: str, default: Any = ..., *, positive: bool = False,
-               non_negative: bool = False, maximum: float | None = None) -> float:
-        if positive or non_negative or maximum is not None:
-            self.bounds[self.key(name)] = Bounds(0.0 if positive or non_negative else None,
-                                                 maximum, low_excluded=positive)
+               non_negative: bool = False, minimum: float | None = None,
+               maximum: float | None = None) -> float:
+        if positive or non_negative or minimum is not None or maximum is not None:
+            low = minimum if minimum is not None else 0.0 if positive or non_negative else None
+            self.bounds[self.key(name)] = Bounds(low, maximum, low_excluded=positive and minimum is None)
         value = self.raw(name, default)
         if not _is_number(value):
             raise self.error(name, f'must be a number, got {value!r}')
@@ -138,6 +143,8 @@ class Section:
             raise self.error(name, f'must be positive, got {value!r}')
         if non_negative and value < 0.0:
             raise self.error(name, f'must not be negative, got {value!r}')
+        if minimum is not None and value < minimum:
+            raise self.error(name, f'must be at least {minimum:g}, got {value!r}')
         if maximum is not None and value > maximum:
             raise self.error(name, f'must be at most {maximum:g}, got {value!r}')
         return value
@@ -149,6 +156,8 @@ class Section:
         value = self.raw(name, default)
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(name, f'must be an integer, got {value!r}')
+        if not INT64_RANGE[0] <= value <= INT64_RANGE[1]:
+            raise self.error(name, f'must fit in 64 bits, as a ROS parameter, got {value!r}')
         if minimum is not None and value < minimum:
             raise self.error(name, f'must be at least {minimum}, got {value!r}')
         if maximum is not None and value > maximum:

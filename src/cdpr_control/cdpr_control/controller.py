@@ -15,6 +15,8 @@ from .robot import Robot
 # that keeps its slowest-decaying mode from ringing for hundreds of periods.
 STABILITY_RADIUS = 0.98
 GAIN_BISECTIONS = 30
+# A control period is of milliseconds; beyond a second the sampled PD means nothing.
+MAX_PERIOD_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -48,7 +50,10 @@ class PdGains:
         not, gives way to that highest stable frequency."""
         frequency = control.number('pd_natural_frequency_hz', positive=True)
         damping = control.number('pd_damping_ratio', positive=True)
-        period = control.number('period_s', positive=True)
+        period = control.number('period_s', positive=True, maximum=MAX_PERIOD_S)
+        if frequency >= 0.5 / period and not control.is_default('pd_natural_frequency_hz'):
+            raise control.error('pd_natural_frequency_hz', f'must be below the Nyquist frequency of '
+                                f'period_s {period:g} s ({0.5 / period:g} Hz), got {frequency!r}')
         tension_damping = control.number('recovery_tension_damping_nm_s_rad', non_negative=True)
         gains = cls.from_bandwidth(robot, frequency, damping, tension_damping)
         if gains.sampled_stable(robot, period):

@@ -162,9 +162,14 @@ def robot_from_section(section: Section) -> Robot:
 
     cables = section.section('cables')
     tension_min = cables.number('tension_min_n', non_negative=True)
-    tension_max = cables.number('tension_max_n', positive=True)
+    # no more than a motor can pull
+    tension_max = cables.number('tension_max_n', positive=True,
+                                maximum=motor.torque_limit_nm / motor.drum_radius_m)
     if tension_max <= tension_min:
         raise cables.error('tension_max_n', f'must exceed tension_min_n ({tension_min} N)')
+    if mass * np.linalg.norm(gravity) > len(exit_points) * tension_max:
+        raise end_effector.error('mass_kg', f'weighs more than its {len(exit_points)} cables can hold '
+                                 f'at tension_max_n ({tension_max:g} N each), got {mass!r}')
 
     return Robot(
         name=section.string('name'),

@@ -139,7 +139,9 @@ def node_settings(node, name: str) -> Settings:
     # as given
     values = {key: node.given_value(key, defaults[key] if key in defaults else given[key])
               for key in list(defaults) + [key for key in given if key not in defaults]}
-    document = unflatten(values)
+    # a section whose every value was left out (an empty list) is still there, so that its
+    # reader names the key it misses
+    document = {name: {} for name in sections if base.has(name)} | unflatten(values)
     if base.has('robot'):
         document['robot'] = base.data['robot']
     settings = Settings(Section(document, source if text or not path else f'{path} (and the {source})',

@@ -50,6 +50,8 @@ class FdiConfig:
         sigma = cusum.raw('sigma_nm')
         sigma = ([cusum.number('sigma_nm', positive=True)] * cable_count
                  if isinstance(sigma, (int, float)) else list(cusum.vector('sigma_nm', cable_count)))
+        if min(sigma) <= 0.0:
+            raise cusum.error('sigma_nm', f'must be positive for every motor, got {sigma!r}')
         return cls(
             detector=fdi.string('detector', choices=DETECTORS),
             epsilon_nm=fdi.number('epsilon_nm', positive=True),
@@ -171,6 +173,12 @@ class RecoveryConfig:
 
     @classmethod
     def from_section(cls, recovery: Section, robot: Robot) -> 'RecoveryConfig':
+        table_height = recovery.number('table_height_m', non_negative=True)
+        # SP is clear of the table, inside the workspace
+        safe_height = recovery.number('safe_height_m', positive=True, maximum=robot.workspace_max_m[2])
+        if safe_height <= table_height:
+            raise recovery.error('safe_height_m', f'must be above table_height_m ({table_height:g} m), '
+                                 f'got {safe_height!r}')
         overrides = recovery.section('safe_points_m', {})
         safe_points = {}
         for cable in overrides.data:
@@ -179,9 +187,14 @@ class RecoveryConfig:
             if not isinstance(number, int) or not 1 <= number <= robot.cable_count:
                 raise overrides.error(str(cable), f'must be a cable number 1..{robot.cable_count}')
             safe_points[number] = overrides.vector(cable, 3)
+            point = safe_points[number]
+            if (np.any(point < robot.workspace_min_m) or np.any(point > robot.workspace_max_m)
+                    or point[2] <= table_height):
+                raise overrides.error(str(cable), f'must lie inside the workspace, above table_height_m '
+                                      f'({table_height:g} m), got {point.tolist()}')
         return cls(
-            safe_height_m=recovery.number('safe_height_m', positive=True),
-            table_height_m=recovery.number('table_height_m', non_negative=True),
+            safe_height_m=safe_height,
+            table_height_m=table_height,
             safe_points_m=safe_points,
             tension_phase_s=recovery.number('tension_phase_s', positive=True),
             taut_fraction=recovery.number('taut_fraction', positive=True),
@@ -192,7 +205,8 @@ class RecoveryConfig:
             minimum_move_s=recovery.number('minimum_move_s', positive=True),
             plan_tension_tolerance_n=recovery.number('plan_tension_tolerance_n', non_negative=True),
             replan_attempts=recovery.integer('replan_attempts', minimum=0),
-            replan_slowdown=recovery.number('replan_slowdown', positive=True),
+            # each re-plan slower than the one before
+            replan_slowdown=recovery.number('replan_slowdown', minimum=1.0),
             reached_tolerance_m=recovery.number('reached_tolerance_m', positive=True),
             hold_after_s=recovery.number('hold_after_s', non_negative=True),
             swing_damping_ratio=recovery.number('swing_damping_ratio', non_negative=True),

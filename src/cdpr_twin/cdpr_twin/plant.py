@@ -95,9 +95,9 @@ class PlantConfig:
         fidelity = fidelity or plant.string('fidelity', choices=FIDELITIES)
         if fidelity not in FIDELITIES:
             raise plant.error('fidelity', f'must be one of {", ".join(FIDELITIES)}, got {fidelity!r}')
-        substeps = (plant.integer('rigid_substeps', minimum=1) if fidelity == 'rigid'
-                    else elastic.integer('substeps', minimum=1))
         # Every value is read whatever the fidelity, so that each is checked and bounded.
+        substeps = {'rigid': plant.integer('rigid_substeps', minimum=1),
+                    'elastic': elastic.integer('substeps', minimum=1)}
         stiffness = {'elastic': elastic.number('cable_axial_stiffness_n', positive=True),
                      'field': field.number('cable_axial_stiffness_n', positive=True)}
         damping = {'elastic': elastic.number('cable_damping_n_s_m', non_negative=True),
@@ -124,7 +124,7 @@ class PlantConfig:
         cables = 'field' if fidelity == 'field' else 'elastic'
         return cls(
             fidelity=fidelity,
-            substeps=substeps,
+            substeps=substeps['rigid' if fidelity == 'rigid' else 'elastic'],
             axial_stiffness_n=stiffness[cables],
             damping_n_s_m=damping[cables],
             coulomb_velocity_rad_s=elastic.number('coulomb_smoothing_rad_s', positive=True),

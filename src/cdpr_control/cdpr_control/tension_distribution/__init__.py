@@ -20,7 +20,7 @@ def make_tension_distribution(name: str, tension_min_n: float, tension_max_n: fl
 def configured_tension_distribution(control, robot) -> TensionDistribution:
     """The method the `control` section names (`tension_distribution`), within the
     robot's tension bounds: what the generator, the scenarios and the supervisor use."""
-    return make_tension_distribution(control.string('tension_distribution'),
+    return make_tension_distribution(control.string('tension_distribution', choices=tuple(METHODS)),
                                      robot.tension_min_n, robot.tension_max_n)
 
 
