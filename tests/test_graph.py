@@ -15,7 +15,7 @@ from cdpr_bringup.bag_io import read_messages, recording_from_bag
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.graph import Graph, graph_nodes, node_environment, run_to_completion
 from cdpr_bringup.metrics import fdi_summary_from_diagnostics
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.scenario_setup import GRAPH_FORMS, ScenarioOptions, build_scenario
 
 from cdpr_msgs_py.dds import PROFILE_VARIABLE
 from cdpr_msgs_py.stamps import stamp_to_ns
@@ -27,11 +27,12 @@ pytestmark = pytest.mark.graph
 QUIET = lambda line: None  # noqa: E731
 
 
-def run(tmp_path, name, clock_mode='lockstep', log=QUIET, **options):
-    """A run of along-2 (or `options`' motion) as cdpr-scenario settles it; its bag."""
+def run(tmp_path, name, clock_mode='lockstep', log=QUIET, form='separate', **options):
+    """A run of along-2 (or `options`' motion) as cdpr-scenario settles it, in graph
+    `form`; its bag."""
     bag = tmp_path / name
     run_to_completion(graph_nodes(settled_parameters(clock_mode, **dict({'motion': 'along-2'}, **options)),
-                                  str(bag)), f'/cdpr_test_{name}', timeout_s=120.0, log=log)
+                                  str(bag), form=form), f'/cdpr_test_{name}', timeout_s=120.0, log=log)
     return bag
 
 
@@ -41,14 +42,16 @@ def failure_scenario():
 
 
 # The second run, for repeatability, goes through the failure (along-2's midpoint, 3.3 s)
-# and its detection into the recovery: the first run covers the rest.
+# and its detection into the recovery: the first run covers the rest. The first has every
+# node in its own process, the second the loop's nodes composed in one.
 REPEATED_S = 4.5
 
 
 @pytest.fixture(scope='module')
 def lockstep_bags(tmp_path_factory):
     folder = tmp_path_factory.mktemp('lockstep')
-    return [run(folder, 'run0', fail_cables=[4]), run(folder, 'run1', fail_cables=[4], duration_s=REPEATED_S)]
+    return [run(folder, 'run0', fail_cables=[4]),
+            run(folder, 'run1', form='composed', fail_cables=[4], duration_s=REPEATED_S)]
 
 
 def test_lockstep_graph_equals_the_inprocess_engine(lockstep_bags):
@@ -66,7 +69,7 @@ def test_lockstep_graph_equals_the_inprocess_engine(lockstep_bags):
     assert engine.fdi['broken_cables'] == [4] and engine.fdi['mode'] == 'SAFE_HOLD'
 
 
-def test_lockstep_runs_are_bit_for_bit_repeatable(lockstep_bags):
+def test_lockstep_runs_are_bit_for_bit_repeatable_and_the_same_in_either_graph_form(lockstep_bags):
     first = recording_from_bag(lockstep_bags[0], '/cdpr_test_run0')
     second = recording_from_bag(lockstep_bags[1], '/cdpr_test_run1')
     ticks = second.time_s.size
@@ -89,11 +92,12 @@ def test_failure_in_the_graph_frees_the_plant_motor_not_the_twin(lockstep_bags):
     assert np.all(healthy.true_tension_n[late, 3] > 1.0)
 
 
-def test_realtime_smoke_run_answers_every_state(tmp_path):
+@pytest.mark.parametrize('form', GRAPH_FORMS)
+def test_realtime_smoke_run_answers_every_state(tmp_path, form):
     log = GraphLog()
-    bag = run(tmp_path, 'realtime', clock_mode='realtime', log=log, duration_s=2.0)
+    bag = run(tmp_path, f'realtime_{form}', clock_mode='realtime', log=log, form=form, duration_s=2.0)
     window = (log.plant_started_s(), time.monotonic())
-    namespace = '/cdpr_test_realtime'
+    namespace = f'/cdpr_test_realtime_{form}'
     topics = read_messages(bag, [f'{namespace}/joint_states', f'{namespace}/effort_command',
                                  f'{namespace}/fdi/broken_cable'])
     states = [stamp_to_ns(message.header.stamp) for _, message in topics[f'{namespace}/joint_states']]

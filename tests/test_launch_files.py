@@ -12,10 +12,13 @@ from importlib.metadata import distribution
 from pathlib import Path
 
 import pytest
+import yaml
 
 from cdpr_bringup.bag_io import read_messages
-from cdpr_bringup.graph import parser, requested_graph
-from cdpr_bringup.launching import command_line, graph_from_launch, launch_arguments
+from cdpr_bringup.composed_loop import COMPOSABLE
+from cdpr_bringup.graph import parser, requested_graph, speaker
+from cdpr_bringup.launching import command_line, graph_from_launch, launch_arguments, launch_parameters
+from cdpr_bringup.scenario_setup import GRAPH_FORMS
 
 from conftest import REPO
 
@@ -39,7 +42,7 @@ def test_every_launch_argument_is_a_cdpr_graph_option_with_its_default():
     assert DEFAULTS['config'] == 'paper_robot.yaml' and DEFAULTS['hardware'] == 'false'
     assert command_line(DEFAULTS) == ['--config', 'paper_robot.yaml', '--motions', 'motions.yaml',
                                       '--motion', 'circle', '--clock', 'lockstep',
-                                      '--namespace', '/cdpr']
+                                      '--graph-form', 'separate', '--namespace', '/cdpr']
 
 
 def test_the_launch_file_starts_the_nodes_cdpr_graph_starts_with_the_same_parameters():
@@ -78,9 +81,10 @@ def test_the_launch_files_are_installed_with_the_package():
                     reason=f'the `{LAUNCH_MISSING}` package is not importable (it is not on PyPI): '
                            'this test runs where ros2/launch and ros2/launch_ros are on PYTHONPATH '
                            '(pip-installed from their sources), see docs/testing.md, "The real-launch test"')
-def test_the_demo_launch_file_runs_the_papers_failure_with_real_launch(tmp_path):
-    """Built with colcon, started as `ros2 launch cdpr_bringup cdpr_demo.launch.py` would:
-    the run completes, names cable 4 and ends at the safe point."""
+@pytest.mark.parametrize('form', GRAPH_FORMS)
+def test_the_demo_launch_file_runs_the_papers_failure_with_real_launch(tmp_path, form):
+    """Built with colcon, started as `ros2 launch cdpr_bringup cdpr_demo.launch.py
+    graph_form:=FORM` would: the run completes, names cable 4 and ends at the safe point."""
     workspace = tmp_path / 'ws'
     shutil.copytree(REPO / 'src', workspace / 'src', ignore=shutil.ignore_patterns('*.egg-info', '__pycache__'))
     built = subprocess.run([str(Path(sys.executable).parent / 'colcon'), '--log-base', 'log', 'build',
@@ -95,7 +99,8 @@ def test_the_demo_launch_file_runs_the_papers_failure_with_real_launch(tmp_path)
     bag = tmp_path / 'bag'
     launch_file = install / 'cdpr_bringup' / 'share' / 'cdpr_bringup' / 'launch' / 'cdpr_demo.launch.py'
     process = subprocess.Popen([sys.executable, str(REPO / 'tests' / 'tools' / 'run_launch_file.py'),
-                                str(launch_file), f'bag:={bag}'], env=environment, text=True,
+                                str(launch_file), f'bag:={bag}', f'graph_form:={form}'],
+                               env=environment, text=True,
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
     try:
         output, _ = process.communicate(timeout=240)
@@ -107,3 +112,40 @@ def test_the_demo_launch_file_runs_the_papers_failure_with_real_launch(tmp_path)
     assert 'SAFE_HOLD from tick' in output and 'process has finished cleanly' in output
     verdicts = read_messages(bag, ['/cdpr/fdi/broken_cable'])['/cdpr/fdi/broken_cable']
     assert [message.data for _, message in verdicts][-1] == 4
+
+
+def test_a_composed_graph_runs_the_loop_in_one_process_each_node_with_its_own_parameters():
+    values = dict(DEFAULTS, clock='realtime', bag='/tmp/b')
+    separate, _, _ = graph_from_launch(dict(values, graph_form='separate'))
+    launched, _, _ = graph_from_launch(dict(values, graph_form='composed'))
+    assert [(s.executable, s.node_names) for s in launched] == \
+           [(s.executable, s.node_names) for s in requested_graph(parser().parse_args(
+               ['--clock', 'realtime', '--bag', '/tmp/b', '--graph-form', 'composed']))]
+    loop = launched[0]
+    assert (loop.package, loop.executable) == ('cdpr_bringup', 'composed_loop')
+    assert loop.node_names == list(COMPOSABLE) == loop.arguments()
+    # the recorder and the markers stay in their own processes, as in the separate form
+    assert [s.name for s in launched[1:]] == [s.name for s in separate if s.name not in COMPOSABLE] \
+        == ['bag_recorder', 'markers']
+    by_name = {spec.name: spec for spec in separate}
+    # SCHED_FIFO is a process's: the loop's process runs at its highest node's priority
+    priority = max(by_name[name].parameters['realtime_priority'] for name in COMPOSABLE)
+    assert priority > min(by_name[name].parameters['realtime_priority'] for name in COMPOSABLE)
+    for member in loop.members:
+        assert member.parameters == dict(by_name[member.name].parameters, realtime_priority=priority)
+    document = yaml.safe_load(Path(launch_parameters(loop)).read_text())
+    assert document == {f'/**/{member.name}': {'ros__parameters': member.parameters}
+                        for member in loop.members}
+    assert launch_parameters(by_name['markers']) == by_name['markers'].parameters
+
+
+def test_a_composed_processs_log_lines_are_told_apart_by_the_node_that_wrote_them():
+    loop = next(spec for spec in graph_from_launch(dict(DEFAULTS, graph_form='composed'))[0]
+                if spec.members)
+    assert speaker('[ERROR] [1764.123] [cdpr_ns.plant_simulator]: the loop does not keep its period',
+                   loop) == 'plant_simulator'
+    assert speaker('[INFO] [1764.1] [a.b.supervisor]: safety function on', loop) == 'supervisor'
+    # what no composed node's logger wrote (a traceback) is the process's
+    assert speaker('Traceback (most recent call last):', loop) == 'composed_loop'
+    markers = next(spec for spec in graph_from_launch(DEFAULTS)[0] if spec.name == 'markers')
+    assert speaker('[INFO] [1764.1] [cdpr.markers]: up', markers) == 'markers'

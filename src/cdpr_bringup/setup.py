@@ -37,6 +37,7 @@ setup(
             'cdpr-report = cdpr_bringup.report:main',
             'cdpr-params = cdpr_bringup.params:main',
             'bag_recorder = cdpr_bringup.bag_recorder_node:main',
+            'composed_loop = cdpr_bringup.composed_loop:main',
         ],
     },
 )

@@ -1,4 +1,5 @@
-"""cdpr-graph: start the node graph, each node its own OS process, as `ros2 run` would.
+"""cdpr-graph: start the node graph, each node its own OS process, as `ros2 run` would,
+or the control loop's nodes composed in one process (`--graph-form composed`).
 
 Waits until every node is up, streams their logs with node prefixes, stops them all
 cleanly on Ctrl-C, and stops the graph with a clear message when a node dies. The
@@ -29,7 +30,7 @@ from cdpr_msgs_py.runtime import READY_MARK, SHUTDOWN_LIMIT_S
 
 from .cli import INTERRUPTED_EXIT_CODE, command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
-from .scenario_setup import ScenarioOptions, add_push_option, build_scenario
+from .scenario_setup import ScenarioOptions, add_graph_form_option, add_push_option, build_scenario
 
 # After SIGINT a node drains, waits for acknowledgements and exits; SIGKILL comes only
 # after that has had its time (a killed node can leave DDS state behind).
@@ -43,15 +44,52 @@ class GraphError(RuntimeError):
     """A node died or did not come up; the message names it."""
 
 
+COMPOSED_EXECUTABLE = 'composed_loop'
+
+
 @dataclass
 class NodeSpec:
+    """One process of the graph: a node's own executable, or (`members`) the nodes
+    composed in one process by composed_loop."""
     package: str
     executable: str
     parameters: dict = field(default_factory=dict)
+    members: tuple['NodeSpec', ...] = ()
 
     @property
     def name(self) -> str:
         return self.executable
+
+    @property
+    def node_names(self) -> list[str]:
+        """The nodes this process runs."""
+        return [member.name for member in self.members] if self.members else [self.name]
+
+    def parameters_document(self) -> dict:
+        """Its parameters file: a node's own for every node it runs."""
+        if not self.members:
+            return {'/**': {'ros__parameters': self.parameters}}
+        return {f'/**/{member.name}': {'ros__parameters': member.parameters} for member in self.members}
+
+    def arguments(self) -> list[str]:
+        """What its executable takes before --ros-args."""
+        return self.node_names if self.members else []
+
+
+def composed(specs: list[NodeSpec]) -> list[NodeSpec]:
+    """`specs` with the control loop's nodes (those composed_loop can run) in one process
+    on one executor; the others (recorder, markers) stay apart. SCHED_FIFO is a process's:
+    the loop's process gets the highest priority any of its nodes asks for."""
+    from .composed_loop import COMPOSABLE
+    loop = [spec for spec in specs if spec.name in COMPOSABLE]
+    if len(loop) < 2:
+        return specs
+    priority = max(spec.parameters.get('realtime_priority', 0) for spec in loop)
+    members = tuple(NodeSpec(spec.package, spec.executable,
+                             dict(spec.parameters, **({'realtime_priority': priority} if priority else {})))
+                    for spec in loop)
+    return ([NodeSpec('cdpr_bringup', COMPOSED_EXECUTABLE, members=members)]
+            + [spec for spec in specs if spec.name not in COMPOSABLE])
 
 
 def executable_command(package: str, executable: str) -> list[str]:
@@ -86,6 +124,17 @@ def node_environment() -> dict:
     return environment
 
 
+def speaker(line: str, spec: NodeSpec) -> str:
+    """Which node of `spec`'s process said `line`: a composed node's log line names it
+    (`[INFO] [stamp] [namespace.node]: …`), so it reads as it would from its own process."""
+    if spec.members:
+        logger = line.split('] [', 2)[-1].split(']', 1)[0] if line.startswith('[') else ''
+        node = logger.rsplit('.', 1)[-1]
+        if node in spec.node_names:
+            return node
+    return spec.name
+
+
 class Graph:
     """A set of node processes in one namespace, started and stopped together.
 
@@ -97,6 +146,7 @@ class Graph:
     def __init__(self, nodes: list[NodeSpec], namespace: str = DEFAULT_NAMESPACE,
                  completion: str | None = None, log=print):
         self.nodes = nodes
+        self.specs = {spec.name: spec for spec in nodes}
         self.namespace = namespace
         self.completion = completion
         self.log = log
@@ -111,33 +161,33 @@ class Graph:
         self.log(f'[cdpr-graph] ROS_DOMAIN_ID={launch_environment()} (set it to listen from another shell)')
         for spec in self.nodes:
             params = self.folder / f'{spec.name}.yaml'
-            params.write_text(yaml.safe_dump({'/**': {'ros__parameters': spec.parameters}}))
-            command = executable_command(spec.package, spec.executable) + [
+            params.write_text(yaml.safe_dump(spec.parameters_document()))
+            command = executable_command(spec.package, spec.executable) + spec.arguments() + [
                 '--ros-args', '-r', f'__ns:={self.namespace}', '--params-file', str(params)]
             process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                        stdin=subprocess.DEVNULL, text=True, start_new_session=True,
                                        env=node_environment())
             self.processes[spec.name] = process
             self.log(f'[cdpr-graph] started {spec.name} (pid {process.pid})')
-            thread = threading.Thread(target=self._stream, args=(spec.name, process), daemon=True)
+            thread = threading.Thread(target=self._stream, args=(spec, process), daemon=True)
             thread.start()
             self.threads.append(thread)
 
-    def _stream(self, name: str, process: subprocess.Popen) -> None:
-        lines = self.last_lines.setdefault(name, [])
+    def _stream(self, spec: NodeSpec, process: subprocess.Popen) -> None:
+        lines = self.last_lines.setdefault(spec.name, [])
         for line in process.stdout:
             line = line.rstrip()
             if line.startswith(READY_MARK):
-                self.ready.add(name)
+                self.ready.add(line[len(READY_MARK):].strip() if spec.members else spec.name)
                 continue
             lines[:] = lines[-(LAST_LINES - 1):] + [line]
-            self.log(f'[{name}] {line}')
+            self.log(f'[{speaker(line, spec)}] {line}')
 
     def wait_until_up(self, timeout_s: float = UP_TIMEOUT_S) -> None:
         """Block until every node has started DDS and built itself (each says so on its
         stdout), then remove the parameter files, which every node has read."""
         deadline = time.monotonic() + timeout_s
-        wanted = {spec.name for spec in self.nodes}
+        wanted = {name for spec in self.nodes for name in spec.node_names}
         while not wanted <= self.ready:
             self.check()
             if time.monotonic() > deadline:
@@ -152,12 +202,12 @@ class Graph:
             code = process.poll()
             if code is None:
                 continue
-            if name == self.completion and code == 0:
+            if self.completion in self.specs[name].node_names and code == 0:
                 return True
             for thread in self.threads:
                 thread.join(timeout=0.2)
             last = self.last_lines.get(name)
-            raise GraphError(f'node {name} died (exit code {code})'
+            raise GraphError(f'node {", ".join(self.specs[name].node_names)} died (exit code {code})'
                              + (f': {last[-1]}' if last else '') + '; stopping the graph')
         return False
 
@@ -224,7 +274,7 @@ def run_until_stopped(nodes: list[NodeSpec], namespace: str, log=print) -> None:
 
 
 def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
-                supervised: bool = True, plant: bool = True) -> list[NodeSpec]:
+                supervised: bool = True, plant: bool = True, form: str = 'separate') -> list[NodeSpec]:
     """The closed loop: generator, controller, twin, supervisor, plant, a recorder and the
     markers, each with its settled parameters (Scenario.node_parameters).
 
@@ -250,10 +300,11 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
                                 simulated=plant)
     # A node with nothing to match gets no `matches`: ROS cannot type an empty array (the
     # node died declaring one), and the node's default is to wait for nothing.
-    return [NodeSpec(package, executable, dict(parameters[executable], **extra,
-                                               **({'matches': handshake[executable]}
-                                                  if handshake[executable] else {})))
-            for package, executable, extra in specs]
+    nodes = [NodeSpec(package, executable, dict(parameters[executable], **extra,
+                                                **({'matches': handshake[executable]}
+                                                   if handshake[executable] else {})))
+             for package, executable, extra in specs]
+    return composed(nodes) if form == 'composed' else nodes
 
 
 def start_handshake(nodes: set[str], lockstep: bool, simulated: bool = True) -> dict[str, list[str]]:
@@ -291,6 +342,7 @@ def parser() -> argparse.ArgumentParser:
                          help="plant model (default: the config's plant.fidelity); the supervisor "
                               "gets the thresholds calibrated for it")
     options.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')
+    add_graph_form_option(options)
     options.add_argument('--detector', choices=['threshold', 'cusum'],
                          help="failure detector (default: the config's fdi.detector)")
     options.add_argument('--calibration', help='detector thresholds (cdpr-calibrate) for the supervisor')
@@ -316,7 +368,7 @@ def requested_graph(args: argparse.Namespace) -> list[NodeSpec]:
         detector=args.detector, calibration=args.calibration, fail_cables=args.fail_cable,
         fail_at_fraction=args.fail_at_fraction, pushes=[tuple(push) for push in args.push]))
     parameters = scenario.node_parameters('realtime' if args.hardware else args.clock)
-    return graph_nodes(parameters, args.bag, plant=not args.hardware)
+    return graph_nodes(parameters, args.bag, plant=not args.hardware, form=args.graph_form)
 
 
 @command('cdpr-graph')

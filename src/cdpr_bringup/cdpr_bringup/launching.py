@@ -7,7 +7,12 @@ plain values into launch actions.
 from __future__ import annotations
 
 import argparse
+import atexit
+import os
+import tempfile
 from dataclasses import dataclass
+
+import yaml
 
 from cdpr_msgs_py.dds import shipped_environment
 
@@ -65,6 +70,19 @@ def graph_from_launch(values: dict[str, str]) -> tuple[list[NodeSpec], str, bool
     whether the plant simulator is among them: the run ends when it does)."""
     args = parser().parse_args(command_line(values))
     return requested_graph(args), args.namespace, not args.hardware
+
+
+def launch_parameters(spec: NodeSpec):
+    """The `parameters` of the launch_ros Node starting `spec`: a node's own as a dict;
+    for a composed process, a parameters file holding each of its nodes' under its name
+    (removed when the launch ends)."""
+    if not spec.members:
+        return spec.parameters
+    descriptor, path = tempfile.mkstemp(prefix='cdpr-launch-', suffix='.yaml')
+    with os.fdopen(descriptor, 'w') as file:
+        yaml.safe_dump(spec.parameters_document(), file)
+    atexit.register(os.remove, path)
+    return path
 
 
 def dds_environment(environment: dict[str, str]) -> dict[str, str]:

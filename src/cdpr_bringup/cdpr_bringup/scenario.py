@@ -30,7 +30,7 @@ from .engine import run_inprocess
 from .metrics import (PAPER_KPI, KnownRun, RunSettings, broken_at_from_diagnostics,
                       fdi_summary_from_diagnostics, metrics_json)
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, SETTLED_RUN
-from .scenario_setup import ScenarioOptions, add_push_option, build_scenario
+from .scenario_setup import ScenarioOptions, add_graph_form_option, add_push_option, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
 # How long the report's drawer may take beyond the bag, per control tick and fixed (s):
@@ -54,6 +54,7 @@ def parse_args(argv=None):
     parser.add_argument('--fidelity', choices=FIDELITIES)
     parser.add_argument('--engine', choices=['graph', 'inprocess'], default='graph')
     parser.add_argument('--clock', choices=['lockstep', 'realtime'], default='lockstep')
+    add_graph_form_option(parser)
     parser.add_argument('--detector', choices=['threshold', 'cusum'],
                         help='failure detector (default: the config file\'s fdi.detector)')
     parser.add_argument('--epsilon', type=float, metavar='NM', help='detection threshold (N·m)')
@@ -83,7 +84,7 @@ def run_graph(args, scenario, out: Path):
     timeout = RUN_TIMEOUT_FACTOR * scenario.cycles * scenario.period_s + 30.0
     interrupted = False
     try:
-        run_to_completion(graph_nodes(scenario.node_parameters(args.clock), str(bag)),
+        run_to_completion(graph_nodes(scenario.node_parameters(args.clock), str(bag), form=args.graph_form),
                           args.namespace, timeout, log)
     except KeyboardInterrupt:
         interrupted = True

@@ -259,6 +259,19 @@ def check_options(options: ScenarioOptions, robot: Robot, motion: Motion) -> Non
                              'DURATION_S (positive) and the force FX FY FZ (N), finite')
 
 
+# How the graph's nodes are spread over processes (README, "Graph forms").
+GRAPH_FORMS = ('separate', 'composed')
+DEFAULT_GRAPH_FORM = 'separate'
+
+
+def add_graph_form_option(options) -> None:
+    """--graph-form, for every command that starts the node graph."""
+    options.add_argument('--graph-form', choices=GRAPH_FORMS, default=DEFAULT_GRAPH_FORM,
+                         help='separate: every node its own process; composed: the control loop '
+                              '(generator, controller, twin, supervisor, plant) in one process on one '
+                              f'executor, the recorder and markers apart (default {DEFAULT_GRAPH_FORM})')
+
+
 def add_push_option(parser) -> None:
     """--push, for every command that runs a scenario."""
     parser.add_argument('--push', type=float, nargs=5, action='append', default=[],

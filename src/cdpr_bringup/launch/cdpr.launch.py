@@ -1,8 +1,9 @@
 """The whole cdpr graph, as `cdpr-graph` starts it: `ros2 launch cdpr_bringup cdpr.launch.py`.
 
 Arguments are cdpr-graph's options (`ros2 launch cdpr_bringup cdpr.launch.py --show-args`):
-config (robot file or set-up), motions, motion, fidelity, clock, detector, calibration,
-fail_cable, fail_at_fraction, namespace, bag, hardware. The run is settled once, as
+config (robot file or set-up), motions, motion, fidelity, clock, graph_form, detector,
+calibration, fail_cable, fail_at_fraction, namespace, bag, hardware. `graph_form:=composed`
+starts the control loop's nodes in one process (composed_loop), each under its own name. The run is settled once, as
 cdpr-graph settles it, and every node gets the same parameters; `hardware:=true` leaves the
 plant simulator out for a bridge to take its place. A simulated run ends with the plant.
 """
@@ -16,20 +17,24 @@ from launch.events import Shutdown
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from cdpr_bringup.launching import dds_environment, graph_from_launch, launch_arguments
+from cdpr_bringup.launching import dds_environment, graph_from_launch, launch_arguments, launch_parameters
 
 
 def graph(context):
     values = {argument.name: LaunchConfiguration(argument.name).perform(context)
               for argument in launch_arguments()}
     specs, namespace, simulated = graph_from_launch(values)
-    nodes = {spec.name: Node(package=spec.package, executable=spec.executable, name=spec.name,
-                             namespace=namespace, parameters=[spec.parameters], output='screen')
+    # a composed process runs several nodes, each named by its own class: no name remap
+    nodes = {spec.name: Node(package=spec.package, executable=spec.executable,
+                             name=None if spec.members else spec.name, namespace=namespace,
+                             arguments=spec.arguments(), parameters=[launch_parameters(spec)],
+                             output='screen')
              for spec in specs}
     actions = list(nodes.values())
     if simulated:
+        plant = next(spec.name for spec in specs if 'plant_simulator' in spec.node_names)
         actions.append(RegisterEventHandler(OnProcessExit(
-            target_action=nodes['plant_simulator'],
+            target_action=nodes[plant],
             on_exit=[EmitEvent(event=Shutdown(reason='the run is complete'))])))
     return actions
 

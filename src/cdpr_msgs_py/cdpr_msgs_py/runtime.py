@@ -9,7 +9,7 @@ import signal
 import threading
 import time
 from collections import Counter
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import fields
 
 import rclpy
@@ -71,6 +71,15 @@ def run(node_class, args=None) -> int:
     """Create `node_class`, spin it until a stop request or until it sets `finished`.
     A node that cannot be built from its parameters logs why in one FATAL line and
     returns SET_UP_EXIT_CODE."""
+    return run_composed([node_class], args)
+
+
+def run_composed(node_classes, args=None) -> int:
+    """Create a node of each of `node_classes` in this process, on one executor (ROS 2
+    composition: a message between them is delivered inside the process), and spin them
+    until a stop request or until one of them sets `finished`; then each drains and
+    closes as it would alone. A node that cannot be built from its parameters logs why
+    in one FATAL line and returns SET_UP_EXIT_CODE."""
     stopping = []
 
     def request_stop(signum, _frame):
@@ -79,41 +88,55 @@ def run(node_class, args=None) -> int:
     signal.signal(signal.SIGINT, request_stop)
     signal.signal(signal.SIGTERM, request_stop)
     follow_launcher(request_stop)
-    with bounded_initialisation(node_class.__name__):
+    nodes = []
+    with bounded_initialisation(', '.join(node_class.__name__ for node_class in node_classes)):
         try:
             # rclpy's own handlers would invalidate the context on SIGINT, before the drain
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         except rclpy_implementation.RCLError as err:
             # the command line (a parameters file that cannot be read, a bad remap)
-            rclpy.logging.get_logger(node_class.__name__).fatal(str(err).splitlines()[0])
+            rclpy.logging.get_logger(node_classes[0].__name__).fatal(str(err).splitlines()[0])
             return SET_UP_EXIT_CODE
-        try:
-            node = node_class()
-        except SET_UP_ERRORS as err:
-            rclpy.logging.get_logger(node_class.__name__).fatal(str(err))
-            rclpy.shutdown()
-            return SET_UP_EXIT_CODE
-    ignored = node.ignored_parameters()
-    if ignored:
-        node.get_logger().warning(f'ignored, not parameters of this node: {", ".join(ignored)}')
-    print(f'{READY_MARK} {node.get_name()}', flush=True)
+        for node_class in node_classes:
+            try:
+                nodes.append(node_class())
+            except SET_UP_ERRORS as err:
+                rclpy.logging.get_logger(node_class.__name__).fatal(str(err))
+                for node in nodes:
+                    node.destroy_node()
+                rclpy.shutdown()
+                return SET_UP_EXIT_CODE
+    for node in nodes:
+        ignored = node.ignored_parameters()
+        if ignored:
+            node.get_logger().warning(f'ignored, not parameters of this node: {", ".join(ignored)}')
+        print(f'{READY_MARK} {node.get_name()}', flush=True)
     executor = make_executor()
-    executor.add_node(node)
+    for node in nodes:
+        executor.add_node(node)
     try:
-        with watching_acknowledgements(node):
-            while rclpy.ok() and not stopping and not node.finished:
+        with ExitStack() as watches:
+            for node in nodes:
+                watches.enter_context(watching_acknowledgements(node))
+            while rclpy.ok() and not stopping and not any(node.finished for node in nodes):
                 executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
-                node.idle()
-            drain(executor, node)
+                for node in nodes:
+                    node.idle()
+            drain(executor, nodes)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception:
-        node.get_logger().fatal('node failed', throttle_duration_sec=0)
+        # the traceback that follows names the callback, and so the node, that raised
+        nodes[0].get_logger().fatal('node failed' if len(nodes) == 1 else
+                                    f'one of the composed nodes {", ".join(node.get_name() for node in nodes)} failed',
+                                    throttle_duration_sec=0)
         raise
     finally:
-        node.close()
+        for node in nodes:
+            node.close()
         executor.shutdown(timeout_sec=EXECUTOR_SHUTDOWN_S)
-        node.destroy_node()
+        for node in nodes:
+            node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
     return 0
@@ -163,15 +186,16 @@ def watching_acknowledgements(node):
             thread.join()
 
 
-def drain(executor, node) -> None:
-    """Spin until nothing has happened for DRAIN_QUIET_S (at most DRAIN_LIMIT_S)."""
+def drain(executor, nodes) -> None:
+    """Spin until none of `nodes` has done anything for DRAIN_QUIET_S (at most DRAIN_LIMIT_S)."""
     deadline = time.monotonic() + DRAIN_LIMIT_S
     quiet_since = time.monotonic()
-    seen = node.diagnostics.activity
+    seen = sum(node.diagnostics.activity for node in nodes)
     while rclpy.ok() and time.monotonic() < deadline:
         executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
-        if node.diagnostics.activity != seen:
-            seen = node.diagnostics.activity
+        activity = sum(node.diagnostics.activity for node in nodes)
+        if activity != seen:
+            seen = activity
             quiet_since = time.monotonic()
         elif time.monotonic() - quiet_since > DRAIN_QUIET_S:
             break
