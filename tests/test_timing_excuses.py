@@ -65,10 +65,22 @@ def test_another_nodes_error_or_a_check_that_holds_is_no_excuse(excused):
     assert excused == []
 
 
+def test_what_the_recorder_was_measured_to_lose_excuses_a_check_of_the_bag(excused):
+    with timing_check(log_of((20.0, 'end')), (0.0, 20.0), 'a status recorded',
+                      recorder_lost='the recorder lost 900 of the 7000 ticks of the run'):
+        assert False, 'no status counts a rejection'
+    assert excused == ['a status recorded: no status counts a rejection -- excused: '
+                       'the recorder lost 900 of the 7000 ticks of the run']
+
+
 def test_strict_realtime_excuses_nothing(excused, monkeypatch):
     monkeypatch.setattr(conftest, 'STRICT_REALTIME', True)
     with pytest.raises(AssertionError):
         with timing_check(log_of((10.0, SLIP), (12.0, OVER)), (9.0, 11.0), 'every tick'):
+            assert False
+    with pytest.raises(AssertionError):
+        with timing_check(log_of((20.0, 'end')), (0.0, 20.0), 'a status recorded',
+                          recorder_lost='the recorder lost 900 of the 7000 ticks of the run'):
             assert False
     assert excused == []
 

@@ -6,16 +6,19 @@
   measures them.
 - in-process: `engine.run_inprocess` on the elastic circle; simulated s per wall s
   (best of a few runs: the machine is shared).
-- realtime: the same graph on the 2 ms wall-clock timer, scheduled as the config's
-  `scheduling` section says (SCHED_FIFO for the control loop); the plant's tick rate, its
-  deadline misses (a tick more than one period late), the latency from its publishing
-  the state of a tick to its receiving the command stamped with it, and the % of
-  commands that came too late to be applied (the supervisor's count). Alternately with
+- realtime: the same graph with the bag recorder, on the 2 ms wall-clock timer,
+  scheduled as the config's `scheduling` section says (SCHED_FIFO for the control
+  loop); the plant's tick rate, its deadline misses (a tick more than one period late),
+  the latency from its publishing the state of a tick to its receiving the command
+  stamped with it, and the % of commands that came too late to be applied (the
+  supervisor's count). Alternately with
   normal scheduling for every node, to show what the scheduling buys; medians of
   REALTIME_REPEATS runs each, since one run depends on what else the machine does. Both
-  graph forms are run scheduled; normal scheduling in the separate form.
+  graph forms are run scheduled; normal scheduling in the separate form. The ticks the
+  plant published and the bag does not hold are counted: the recorder must keep them all.
 - CPU: per node process (and its children), % of one core over the ticking window,
-  from /proc/<pid>/stat; and the share of the machine's cores left idle by all its processes.
+  from /proc/<pid>/stat; and the share of the machine's cores that all its processes
+  left idle.
 
 The plant reports its timing on /diagnostics (cdpr_twin.tick_timing); this bench listens
 there, so no extra subscriber loads the per-cycle topics.
@@ -23,14 +26,17 @@ there, so no extra subscriber loads the per-cycle topics.
 from __future__ import annotations
 
 import os
+import tempfile
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 
 from cdpr_msgs_py import qos
-from cdpr_msgs_py.contract import DIAGNOSTICS
+from cdpr_msgs_py.contract import DIAGNOSTICS, JOINT_STATES
 
+from .bag_io import read_topics
 from .engine import run_inprocess
 from .graph import Graph, GraphError, graph_nodes, launch_environment
 from .scenario_setup import GRAPH_FORMS, ScenarioOptions, build_scenario
@@ -60,6 +66,7 @@ REALTIME_TARGETS = [
     ('state_to_command_p99_ms', 'state -> command p99 ms (realtime)', '< 1', lambda v: v < 1.0),
     ('realtime_late_command_pct', 'late commands % (realtime)', '', None),
     ('realtime_idle_pct', 'machine idle % (realtime)', '>= 33.3', lambda v: v >= 100.0 / 3.0),
+    ('realtime_ticks_lost', 'ticks the recorder lost, all runs (realtime)', '0', lambda v: v == 0),
 ]
 OTHER_FIGURES = [
     ('normal_scheduling_rate_hz', 'tick rate Hz, normal scheduling', '', None),
@@ -161,10 +168,23 @@ def cpu_percent(samples, first_s: float, last_s: float) -> dict[str, float]:
     return cpu
 
 
-def run_graph(parameters: dict, listener: DiagnosticsListener, log, form: str = 'separate') -> tuple[dict, dict]:
-    """Run the graph in `form` to completion; the plant's final timing facts (with the
-    supervisor's late-command %) and CPU % per process and of the machine left idle."""
-    graph = Graph(graph_nodes(parameters, form=form), NAMESPACE, completion='plant_simulator', log=log)
+def run_graph(parameters: dict, listener: DiagnosticsListener, log, form: str = 'separate',
+              recorded: bool = False) -> tuple[dict, dict]:
+    """Run the graph in `form` (with the bag recorder if `recorded`) to completion; the
+    plant's final timing facts (with the supervisor's late-command % and the ticks the bag
+    lacks) and CPU % per process and of the machine left idle."""
+    with tempfile.TemporaryDirectory(prefix='cdpr-bench-') as folder:
+        bag = Path(folder) / 'bag' if recorded else None
+        facts, cpu = timed_run(graph_nodes(parameters, None if bag is None else str(bag), form=form),
+                               listener, log)
+        if bag is not None:
+            states = read_topics(bag, [f'{NAMESPACE}/{JOINT_STATES}'])[f'{NAMESPACE}/{JOINT_STATES}']
+            facts['ticks lost'] = int(facts['ticks timed']) - len(states)
+    return facts, cpu
+
+
+def timed_run(nodes, listener: DiagnosticsListener, log) -> tuple[dict, dict]:
+    graph = Graph(nodes, NAMESPACE, completion='plant_simulator', log=log)
     plant, supervisor = f'{NAMESPACE}/plant_simulator', f'{NAMESPACE}/supervisor'
     listener.latest.pop(plant, None)
     listener.latest.pop(supervisor, None)
@@ -241,7 +261,7 @@ def bench_graph(config: str, log=lambda line: None) -> dict:
         normal_runs = []
         for _ in range(REALTIME_REPEATS):
             for form in GRAPH_FORMS:
-                scheduled_runs[form].append(run_graph(scheduled, listener, log, form))
+                scheduled_runs[form].append(run_graph(scheduled, listener, log, form, recorded=True))
             normal_runs.append(run_graph(normal, listener, log))
     finally:
         listener.close()
@@ -255,6 +275,7 @@ def bench_graph(config: str, log=lambda line: None) -> dict:
             'state_to_command_p99_ms': realtime['state to command p99 ms'],
             'realtime_late_command_pct': round(realtime['late command pct'], 3),
             'realtime_idle_pct': float(np.median([cpu['machine idle'] for _, cpu in scheduled_runs[form]])),
+            'realtime_ticks_lost': sum(facts['ticks lost'] for facts, _ in scheduled_runs[form]),
             'cpu_pct': lockstep[form][1],
             'realtime_cpu_pct': scheduled_runs[form][0][1],
         }.items()})
