@@ -66,7 +66,7 @@ REALTIME_TARGETS = [
     ('state_to_command_p99_ms', 'state -> command p99 ms (realtime)', '< 1', lambda v: v < 1.0),
     ('realtime_late_command_pct', 'late commands % (realtime)', '', None),
     ('realtime_idle_pct', 'machine idle % (realtime)', '>= 33.3', lambda v: v >= 100.0 / 3.0),
-    ('realtime_ticks_lost', 'ticks the recorder lost, all runs (realtime)', '0', lambda v: v == 0),
+    ('realtime_ticks_lost', 'ticks lost by the recorder (realtime)', '0', lambda v: v == 0),
 ]
 OTHER_FIGURES = [
     ('normal_scheduling_rate_hz', 'tick rate Hz, normal scheduling', '', None),
