@@ -23,7 +23,6 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
-from rclpy.task import Future
 
 from . import contract, qos
 from .dds import bounded_initialisation, follow_launcher
@@ -34,10 +33,6 @@ from .sole_writer import Endpoint, SoleWriter, qualified_name
 from .stamps import seconds_to_ns
 
 SPIN_TIMEOUT_S = 0.05
-# How often a running node's periodic work (CdprNode.idle: the start handshake, stale
-# inputs, /diagnostics) is done (s), on a timer of the executor: called after every
-# message instead, it cost a fifth of a round trip between two nodes here.
-IDLE_PERIOD_S = 0.005
 # On a stop request a node keeps handling what is queued until it has been quiet this
 # long (s), at most DRAIN_LIMIT_S, so the last ticks still reach the twin and the bag.
 DRAIN_QUIET_S = 0.3
@@ -119,23 +114,14 @@ def run_composed(node_classes, args=None) -> int:
     executor = make_executor()
     for node in nodes:
         executor.add_node(node)
-    done = Future()
-
-    def housekeeping():
-        for node in nodes:
-            node.idle()
-        if (stopping or any(node.finished for node in nodes)) and not done.done():
-            done.set_result(True)
-
     try:
         with ExitStack() as watches:
             for node in nodes:
                 watches.enter_context(watching_acknowledgements(node))
-            nodes[0].create_timer(IDLE_PERIOD_S, housekeeping)
-            # the executor's own loop, in C++: Python runs only in the callbacks (rclpy's
-            # events executor never returns from an unbounded wait, hence the bound)
-            while not done.done():
-                executor.spin_until_future_complete(done, timeout_sec=SPIN_TIMEOUT_S)
+            while rclpy.ok() and not stopping and not any(node.finished for node in nodes):
+                executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+                for node in nodes:
+                    node.idle()
             drain(executor, nodes)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
