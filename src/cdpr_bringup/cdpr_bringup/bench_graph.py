@@ -184,6 +184,8 @@ def run_graph(parameters: dict, listener: DiagnosticsListener, log, form: str = 
 
 
 def timed_run(nodes, listener: DiagnosticsListener, log) -> tuple[dict, dict]:
+    """Run the graph of `nodes`, sampling the CPU of each process and of the machine; the
+    plant's final timing facts and the CPU figures of its ticking window."""
     graph = Graph(nodes, NAMESPACE, completion='plant_simulator', log=log)
     plant, supervisor = f'{NAMESPACE}/plant_simulator', f'{NAMESPACE}/supervisor'
     listener.latest.pop(plant, None)
@@ -251,12 +253,12 @@ def bench_graph(config: str, log=lambda line: None) -> dict:
     process."""
     launch_environment()
     figures = {'inprocess_realtime_factor': round(inprocess_realtime_factor(config), 1)}
+    stepped = graph_parameters(config, 'lockstep')
     scheduled = graph_parameters(config, 'realtime', REALTIME_DURATION_S)
     normal = graph_parameters(config, 'realtime', REALTIME_DURATION_S, scheduling=False)
     listener = DiagnosticsListener()
     try:
-        lockstep = {form: run_graph(graph_parameters(config, 'lockstep'), listener, log, form)
-                    for form in GRAPH_FORMS}
+        lockstep = {form: run_graph(stepped, listener, log, form) for form in GRAPH_FORMS}
         scheduled_runs = {form: [] for form in GRAPH_FORMS}
         normal_runs = []
         for _ in range(REALTIME_REPEATS):

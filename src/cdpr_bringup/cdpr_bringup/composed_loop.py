@@ -4,7 +4,7 @@ process on one executor, as `cdpr-graph --graph-form composed` starts the contro
     composed_loop NODE [NODE ...] --ros-args -r __ns:=NS --params-file FILE
 
 FILE holds each node's parameters under its own name (`/**/controller:`), as
-graph.parameters_file writes it. Each node is the very class its own executable runs
+graph.NodeSpec.parameters_document lays it out. Each node is the very class its own executable runs
 (`ros2 run cdpr_control controller`); composed, the messages between them stay inside
 this process (ROS 2 composition): a third less CPU per tick than five processes here
 (README, "Graph forms").

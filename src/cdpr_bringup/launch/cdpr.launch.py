@@ -3,9 +3,10 @@
 Arguments are cdpr-graph's options (`ros2 launch cdpr_bringup cdpr.launch.py --show-args`):
 config (robot file or set-up), motions, motion, fidelity, clock, graph_form, detector,
 calibration, fail_cable, fail_at_fraction, namespace, bag, hardware. `graph_form:=composed`
-starts the control loop's nodes in one process (composed_loop), each under its own name. The run is settled once, as
-cdpr-graph settles it, and every node gets the same parameters; `hardware:=true` leaves the
-plant simulator out for a bridge to take its place. A simulated run ends with the plant.
+starts the control loop's nodes in one process (composed_loop), each under its own name.
+The run is settled once, as cdpr-graph settles it, and every node gets the same
+parameters; `hardware:=true` leaves the plant simulator out for a bridge to take its
+place. A simulated run ends with the plant.
 """
 import os
 

@@ -18,6 +18,8 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
+from cdpr_msgs_py.contract import INT64_MAX, INT64_MIN
+
 
 class ConfigError(ValueError):
     """A configuration value is missing or invalid; the message names key and file."""
@@ -47,10 +49,6 @@ def load_yaml(path: str | Path) -> dict:
 def _is_number(value: Any) -> bool:
     """An int or a float as YAML reads them; a bool is not a number here."""
     return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-# Every setting is also a ROS parameter (cdpr_control.settings), whose integers have 64 bits.
-INT64_RANGE = (-2 ** 63, 2 ** 63 - 1)
 
 
 def _is_finite(value: int | float) -> bool:
@@ -156,7 +154,8 @@ class Section:
         value = self.raw(name, default)
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(name, f'must be an integer, got {value!r}')
-        if not INT64_RANGE[0] <= value <= INT64_RANGE[1]:
+        # every setting is also a ROS parameter (cdpr_control.settings)
+        if not INT64_MIN <= value <= INT64_MAX:
             raise self.error(name, f'must fit in 64 bits, as a ROS parameter, got {value!r}')
         if minimum is not None and value < minimum:
             raise self.error(name, f'must be at least {minimum}, got {value!r}')

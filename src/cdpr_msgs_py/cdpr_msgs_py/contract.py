@@ -191,6 +191,11 @@ FAULT = 'FAULT'
 MODES = (NOMINAL, RECOVERY_TENSION, RECOVERY_MOVE, SAFE_HOLD, FAULT)
 
 
+# A ROS integer parameter is an int64: every integer setting must fit, and an integer
+# range unbounded on a side ends there.
+INT64_MIN, INT64_MAX = -2 ** 63, 2 ** 63 - 1
+
+
 def joint_names(cable_count: int) -> list[str]:
     """motor_1 … motor_m, the joint order everywhere."""
     return [f'motor_{i + 1}' for i in range(cable_count)]

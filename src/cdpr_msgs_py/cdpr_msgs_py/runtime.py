@@ -25,6 +25,7 @@ from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 
 from . import contract, qos
+from .contract import INT64_MAX, INT64_MIN
 from .dds import bounded_initialisation, follow_launcher
 from .conversions import InvalidMessage, joints_from_message
 from .health import ERROR, OK, WARN, AcknowledgementWatch, Health, HealthLimits
@@ -50,8 +51,6 @@ EXECUTOR_SHUTDOWN_S = 0.5
 SHUTDOWN_LIMIT_S = DRAIN_LIMIT_S + ACKNOWLEDGEMENT_WAIT_S + ACKNOWLEDGE_LIMIT_S + EXECUTOR_SHUTDOWN_S
 # Printed on stdout once the node is constructed: launchers wait for it.
 READY_MARK = 'cdpr-node-ready'
-# A ROS integer parameter is an int64: an integer range unbounded on a side ends there.
-INT64_MIN, INT64_MAX = -2 ** 63, 2 ** 63 - 1
 LEVELS = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR}
 
 
