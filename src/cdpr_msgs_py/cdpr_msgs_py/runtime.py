@@ -186,7 +186,14 @@ def watching_acknowledgements(node):
 
 
 def drain(executor, nodes) -> None:
-    """Spin until none of `nodes` has done anything for DRAIN_QUIET_S (at most DRAIN_LIMIT_S)."""
+    """Spin until none of `nodes` has done anything for DRAIN_QUIET_S (at most DRAIN_LIMIT_S).
+
+    Their timers first stop: what is queued is handled, nothing new is started (a timer
+    that kept firing, the markers' frames, kept the node and the recorder busy for the
+    whole DRAIN_LIMIT_S)."""
+    for node in nodes:
+        for timer in node.timers:
+            timer.cancel()
     deadline = time.monotonic() + DRAIN_LIMIT_S
     quiet_since = time.monotonic()
     seen = sum(node.diagnostics.activity for node in nodes)
