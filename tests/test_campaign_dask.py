@@ -15,6 +15,7 @@ import pytest
 from distributed import Client
 
 from cdpr_bringup.campaign import main
+from cdpr_bringup import dask_cluster
 from cdpr_bringup.dask_cluster import local_dask_cluster
 
 from conftest import CONFIG_DIR, MOTIONS
@@ -94,7 +95,9 @@ def free_port() -> int:
         return probe.getsockname()[1]
 
 
-def test_a_scheduler_that_is_not_there_is_one_line(tmp_path, capsys):
+def test_a_scheduler_that_is_not_there_is_one_line(tmp_path, capsys, monkeypatch):
+    # Dask's client retries a refused connection until its timeout: 10 s shipped
+    monkeypatch.setattr(dask_cluster, 'SCHEDULER_CONNECT_TIMEOUT_S', 1.0)
     address = f'tcp://127.0.0.1:{free_port()}'
     assert main([*TINY, '--scheduler', address, '--out', str(tmp_path)]) == 1
     said = capsys.readouterr().err.strip().splitlines()

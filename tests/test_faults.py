@@ -24,7 +24,7 @@ from cdpr_bringup.graph import Graph, GraphError, graph_nodes
 from conftest import GraphLog, settled_parameters, timing_check, wait_until_the_plant_runs
 
 pytestmark = pytest.mark.graph
-RUN_BEFORE_KILL_S = 3.0
+RUN_BEFORE_KILL_S = 2.0
 # From every node up to the plant's first tick: the start handshake (DDS matching).
 START_TIMEOUT_S = 30.0
 NODES = ['controller', 'supervisor', 'bag_recorder']
