@@ -60,6 +60,12 @@ class BagRecorderNode(CdprNode):
             raise ValueError(f'parameter topics: cannot record {unknown}; known: {list(RECORDED)}')
         self.writer = BagWriter(path, storage)
         self.writer.open()
+        # A message's log time is this node's clock at its receipt: the system clock
+        # unless use_sim_time is on, read directly then (rclpy's Clock.now() was a third
+        # of a message's writing, ~2.5 % of a core in realtime)
+        clock = self.get_clock()
+        self.receipt_ns = (time.time_ns if not clock.ros_time_is_active
+                           else lambda: clock.now().nanoseconds)
         self.recorded = 0
         subscriptions = []
         for topic in topics:
@@ -89,7 +95,7 @@ class BagRecorderNode(CdprNode):
 
     def writer_for(self, connection):
         def write(data: bytes) -> None:
-            self.writer.write(connection, self.get_clock().now().nanoseconds, data)
+            self.writer.write(connection, self.receipt_ns(), data)
             self.recorded += 1
             self.diagnostics.count('messages')
         return write
