@@ -323,6 +323,7 @@ def start_handshake(nodes: set[str], lockstep: bool, simulated: bool = True) -> 
             continue
         readers = [reader for reader in topic.readers if reader.node in nodes
                    and (not reader.pacing or (lockstep and topic.writer in nodes))
+                   and (not reader.lockstep or lockstep)
                    and (simulated or not reader.simulated)]
         if readers:
             publishers[topic.writer].append(f'publisher:{topic.name}={len(readers)}')

@@ -81,6 +81,9 @@ class Reader:
     lockstep and only when told the writer is there (the controller's
     `wait_for_supervisor`); in realtime the wait would cost a third of the loop.
     `simulated`: read by the plant simulator only, not by a hardware bridge in its place.
+    `lockstep`: read in lockstep only (the plant learns from the residual which tick a
+    mode applies to, for a run that ends at the engine's tick; in realtime it takes its
+    own tick, and the delivery would cost ~5 % of a core).
     `display`: read to draw it (the markers node): the reader subscribes at once, and no
     writer waits for it (the start handshake leaves it out), so that it never holds up
     the loop.
@@ -90,6 +93,7 @@ class Reader:
     pacing: bool = False
     simulated: bool = False
     display: bool = False
+    lockstep: bool = False
 
 
 @dataclass(frozen=True)
@@ -144,7 +148,8 @@ TOPICS = {topic.name: topic for topic in (
     Topic(TWIN_POSE, 'geometry_msgs/msg/PointStamped', _STREAM, DIGITAL_TWIN,
           (_RECORDER, _MARKERS), every_tick=True),
     Topic(FDI_RESIDUAL, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
-          (Reader(CONTROLLER, pacing=True), Reader(PLANT_SIMULATOR, simulated=True), _RECORDER),
+          (Reader(CONTROLLER, pacing=True), Reader(PLANT_SIMULATOR, simulated=True, lockstep=True),
+           _RECORDER),
           every_tick=True),
     Topic(FDI_BROKEN_CABLE, 'std_msgs/msg/Int32', _LATCHED, SUPERVISOR,
           (Reader(CONTROLLER), _RECORDER, _MARKERS)),

@@ -67,11 +67,13 @@ class PlantSimulatorNode(CdprNode):
         self.truth_tensions = self.create_stream_publisher(JointState, contract.GROUND_TRUTH_TENSIONS)
         self.clock = self.create_stream_publisher(Clock, contract.CLOCK)
         # A mode carries no stamp, and may come before or after the command of the tick it
-        # judged: the supervisor's residual of that tick, which follows the mode, says
-        # which tick it was (so that a run ends at the same tick as in the engine).
+        # judged: in lockstep the supervisor's residual of that tick, which follows the
+        # mode, says which tick it was (so that a run ends at the same tick as in the
+        # engine); in realtime the mode applies from the plant's next tick.
         self.learnt_mode: str | None = None
         self.create_subscription(String, contract.MODE, self.on_mode, qos.LATCHED)
-        self.create_subscription(JointState, contract.FDI_RESIDUAL, self.on_residual, qos.STREAM)
+        if self.clock_mode == 'lockstep':
+            self.create_subscription(JointState, contract.FDI_RESIDUAL, self.on_residual, qos.STREAM)
         self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.on_command,
                                              qos.STREAM, self.parameter(
                                                  'command_writer', 'controller',
@@ -189,7 +191,10 @@ class PlantSimulatorNode(CdprNode):
             self.publish_state()
 
     def on_mode(self, message: String) -> None:
-        self.learnt_mode = message.data
+        if self.clock_mode == 'lockstep':
+            self.learnt_mode = message.data
+        else:
+            self.run_length.mode(message.data, self.tick + 1)
 
     def on_residual(self, message: JointState) -> None:
         if self.learnt_mode is None:
