@@ -83,6 +83,15 @@ def in_private_shm(command: list[str], stale: tuple[str, ...] = STALE) -> list[s
     return ['unshare', '-m', 'sh', '-c', script, 'sh', *command]
 
 
+def keep_running(graph, since_s: float, seconds: float, what: str) -> None:
+    """Until `seconds` after `since_s` (monotonic s) the started graph runs on: its run has
+    not ended and no node died (Graph.check raises GraphError naming it); `what` names
+    what the run goes on through, for the failure."""
+    while time.monotonic() - since_s < seconds:
+        assert not graph.check(), f'the run ended {time.monotonic() - since_s:.1f} s after {what}'
+        time.sleep(0.05)
+
+
 def wait_until_the_plant_runs(lines, timeout_s: float) -> None:
     """Until a started graph's plant logs that it starts its run (the launcher's log
     lines gathered in `lines`, a list or a GraphLog): the start handshake is over, the
