@@ -237,6 +237,32 @@ def test_every_cable_4_failure_along_it_is_named(along_runs):
     assert all(run['identified_cables'] == [4] for run in along_runs)
 
 
+# Breaks of cable 4 at random instants (cdpr-campaign --random-instants, seeds 0-2) that
+# named cable 2 or 3, or nothing, when the supervisor judged each period's tension
+# estimate and residual alone, or weighed the end-effector with the stiffer line's 5 N:
+# (motion, reverse, failure instant s, seed, detector).
+SCRAMBLED_BREAKS = [('along-1', False, 3.2093918881801704, 0, 'threshold'),
+                    ('along-2', False, 3.810394557891776, 1, 'threshold'),
+                    ('along-3', False, 3.896318899874333, 2, 'cusum'),
+                    ('along-4', False, 4.871050637747751, 0, 'cusum'),
+                    ('along-1', True, 2.721952733371368, 2, 'threshold')]
+
+
+@pytest.mark.parametrize('motion, reverse, failure_s, seed, detector', SCRAMBLED_BREAKS)
+def test_a_freed_motor_swinging_under_a_lagging_drive_is_named_and_recovered(
+        motion, reverse, failure_s, seed, detector):
+    """The freed motor's one-period tension estimate swings by ±10 N and its residual
+    changes sign while the diagonal cable 2 unloads: judged on the alarm's periods
+    averaged (the field calibration's fdi.identification_window_cycles), cable 4 and no
+    other is named before cable 2 goes slack, and the end-effector reaches its safe point."""
+    scenario = build_scenario(ScenarioOptions(
+        motion=motion, reverse=reverse, fail_cables=[4], fail_at_s=failure_s,
+        fidelity='field', seed=seed, detector=detector))
+    run = metrics_of(scenario, run_inprocess(scenario), 0.0)
+    assert run['identified_cables'] == [4]
+    assert run['mode'] == 'SAFE_HOLD' and run['recovery']['reached_safe_point']
+
+
 def test_the_circle_failure_after_135_degrees_is_detected_soon_after_the_parting_and_named(
         circle_with_failure):
     assert_detected_soon_after_parting_and_named([circle_with_failure], 1)

@@ -36,6 +36,7 @@ class FdiConfig:
     late_command_burst: int
     late_command_window_cycles: int
     identification_confirm_cycles: int
+    identification_window_cycles: int
     disturbance_force_n: float
     disturbance_window_cycles: int
     disturbance_hold_cycles: int
@@ -69,6 +70,7 @@ class FdiConfig:
             late_command_burst=fdi.integer('late_command_burst', minimum=1),
             late_command_window_cycles=fdi.integer('late_command_window_cycles', minimum=1),
             identification_confirm_cycles=fdi.integer('identification_confirm_cycles', minimum=1),
+            identification_window_cycles=fdi.integer('identification_window_cycles', minimum=1),
             disturbance_force_n=fdi.number('disturbance_force_n', positive=True),
             disturbance_window_cycles=fdi.integer('disturbance_window_cycles', minimum=1),
             disturbance_hold_cycles=fdi.integer('disturbance_hold_cycles', minimum=1),

@@ -27,6 +27,45 @@ from .residual import sensorless_tension_bounds
 from .wrench_balance import POSITION_CABLES, WrenchBalance, overstretch_m
 
 
+class AlarmEvidence:
+    """The sensorless tension bounds (N) and residuals (N·m) of an alarm's ticks so far,
+    the last `window` of them, averaged.
+
+    A motor is judged free on the average: the mean of per-tick τ̂ takes its acceleration
+    from the speed change over the ticks averaged, so what a drive's delay and speed
+    filter shift from one period to the next cancels (on the field plant a freed motor,
+    swinging under its controller, reads ±10 N and a residual of either sign from one
+    period to the next, ~0 N and a positive residual over four). The average starts at
+    the alarm, which comes after the break: no tick of the intact cable enters it, and
+    the alarm's first tick is judged on its own, as the paper does.
+    """
+
+    def __init__(self, window: int):
+        self.lows: deque[np.ndarray] = deque(maxlen=window)
+        self.highs: deque[np.ndarray] = deque(maxlen=window)
+        self.residuals: deque[np.ndarray] = deque(maxlen=window)
+
+    @property
+    def ticks(self) -> int:
+        return len(self.residuals)
+
+    def add(self, low_n: np.ndarray, high_n: np.ndarray, residual_nm: np.ndarray) -> None:
+        self.lows.append(low_n)
+        self.highs.append(high_n)
+        self.residuals.append(residual_nm)
+
+    def clear(self) -> None:
+        self.lows.clear()
+        self.highs.clear()
+        self.residuals.clear()
+
+    def tension_bounds_n(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.mean(self.lows, axis=0), np.mean(self.highs, axis=0)
+
+    def residual_nm(self) -> np.ndarray:
+        return np.mean(self.residuals, axis=0)
+
+
 @dataclass
 class Verdict:
     """The supervisor's output of one tick; cables 1-based, setpoints for the next tick."""
@@ -61,6 +100,7 @@ class Supervisor:
         self.previous_speed: np.ndarray | None = None
         self.previous_reference: JointReference | None = None
         self.tension_bounds_n = (np.zeros(robot.cable_count), np.zeros(robot.cable_count))
+        self.evidence = AlarmEvidence(fdi.identification_window_cycles)
         self.candidates: list[int] = []
         self.candidates_since = 0
         self.previous_command: np.ndarray | None = None
@@ -107,13 +147,16 @@ class Supervisor:
                 self.untrusted_until = tick + self.fdi.late_command_guard_cycles
         if not self.broken and tick <= self.untrusted_until:
             self.candidates = []
+            self.evidence.clear()
             self.unjudged_ticks += 1
         elif not self.broken:
             alarm = self.detector.update(residual, np.asarray(twin_angular_velocity_rad_s, float))
             if alarm and self.alarm_tick is None:
                 self.alarm_tick = tick
             if alarm and self.previous_speed is not None:
-                found = identify_broken_cables(*self.tension_bounds_n, residual,
+                self.evidence.add(*self.tension_bounds_n, residual)
+                found = identify_broken_cables(*self.evidence.tension_bounds_n(),
+                                               self.evidence.residual_nm(),
                                                self.robot.motor.drum_radius_m, self.fdi.delta_nm)
                 if self.disturbed(tick, found, events) or self.settling(tick):
                     found = self.overstretched(tick, found, angle_rad)
@@ -121,6 +164,7 @@ class Supervisor:
                 if confirmed:
                     events += self.on_identified(tick, confirmed, angle_rad, command_nm, reference)
             elif not alarm:
+                self.evidence.clear()
                 self.disturbed_since = None
                 self.free_since = {}
             if not alarm and self.alarm_tick is not None:
@@ -162,7 +206,9 @@ class Supervisor:
         end-effector while a push is on or the end-effector swings from one (a push
         slackening two cables of four). Reported once an episode, when it has lasted the
         balance's window; within it, a failure's jolt can look alike, and nothing is named."""
-        self.free_since = {cable: self.free_since.get(cable, tick) for cable in found}
+        # a motor free on average over the evidence's ticks pulled nothing over them
+        since = tick - self.evidence.ticks + 1
+        self.free_since = {cable: self.free_since.get(cable, since) for cable in found}
         weighable = self.placed_by(self.robot.cable_mask(found))
         if weighable:
             self.unplaced_since = None
