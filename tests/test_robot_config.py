@@ -231,9 +231,10 @@ def test_a_set_up_takes_its_robot_from_the_robot_file_and_its_options_from_itsel
     setup = load_config(CONFIG_DIR / 'tall_frame_robot.yaml')
     robot = load_config(CONFIG_DIR / 'robots' / 'tall_frame_robot.yaml')
     assert setup.data['robot'] == robot.data['robot']
-    assert setup.section('control').string('tension_distribution') == 'bounded_minimum_norm'
-    assert robot.section('control').string('tension_distribution') == 'pseudo_inverse'
     assert not setup.section('fdi').is_default('identification_delta_n')
+    assert robot.section('fdi').is_default('identification_delta_n')
+    assert (setup.section('fdi').number('identification_delta_n')
+            != robot.section('fdi').number('identification_delta_n'))
     assert setup.section('fdi').is_default('epsilon_nm')
 
 

@@ -254,3 +254,41 @@ def test_bounded_solves_feasible_wrench_near_the_border(eight_cable_robot, posit
     assert margin.status == 0 and -margin.fun > 0.1
     tensions = make_tension_distribution('bounded_minimum_norm', low, high).distribute(s, w)
     np.testing.assert_allclose(tensions, _qp_reference(s, w, low, high, np.zeros(n)), atol=1e-5)
+
+
+def test_bounded_rows_are_the_pseudo_inverse_to_the_bit_where_that_is_within_bounds(paper_robot, rng):
+    """The default distribution keeps every figure of the paper's robot: on a stack of poses
+    it returns S⁺ w itself wherever that is within the bounds, and elsewhere the feasible
+    tensions a row alone gets."""
+    low, high = paper_robot.tension_min_n, paper_robot.tension_max_n
+    cases = list(_cases(paper_robot, rng, 200, 2.0))
+    structures = np.array([s for _, s, _ in cases])
+    wrenches = np.array([w for _, _, w in cases])
+    closed_form = minimum_norm(structures, wrenches)
+    inside = (closed_form.min(axis=1) >= low) & (closed_form.max(axis=1) <= high)
+    assert 10 < inside.sum() < len(cases)
+    bounded = make_tension_distribution('bounded_minimum_norm', low, high)
+    feasible = [i for i in np.flatnonzero(~inside) if _lp_feasible(structures[i], wrenches[i], low, high)]
+    rows = feasible + list(np.flatnonzero(inside))
+    tensions = bounded.distribute_rows(structures[rows], wrenches[rows])
+    np.testing.assert_array_equal(tensions[len(feasible):], closed_form[inside])
+    for tension, row in zip(tensions[:len(feasible)], feasible):
+        np.testing.assert_allclose(tension, bounded.distribute(structures[row], wrenches[row]), atol=1e-12)
+        assert low - 1e-9 <= tension.min() and tension.max() <= high + 1e-9
+
+
+def test_an_infeasible_row_is_named_and_its_error_crosses_processes_whole(paper_robot):
+    """A worker's error reaches the parent with its message said once (pickled by parts)."""
+    import pickle
+    structure, _ = structure_matrix(paper_robot, paper_robot.home_position_m)
+    upward = np.array([0.0, 0.0, 1e4])   # cables cannot push
+    bounded = make_tension_distribution('bounded_minimum_norm', paper_robot.tension_min_n,
+                                        paper_robot.tension_max_n)
+    with pytest.raises(InfeasibleTensionError) as error:
+        bounded.distribute_rows(np.array([structure, structure]),
+                                np.array([-paper_robot.mass_kg * paper_robot.gravity_m_s2, upward]))
+    assert error.value.row == 1
+    named = error.value.at(paper_robot.home_position_m)
+    again = pickle.loads(pickle.dumps(named))
+    assert str(again) == str(named) and str(again).count('no feasible cable tensions') == 1
+    np.testing.assert_array_equal(again.position_m, named.position_m)

@@ -51,3 +51,41 @@ def test_a_missing_or_bad_config_is_one_line(main, name, tmp_path, capsys):
         assert main(['--config', config] + extra) == 2
         err = capsys.readouterr().err
         assert err.startswith(f'{name}: {named}') and err.count('\n') == 1, err
+
+
+def test_a_motion_without_tensions_within_the_bounds_is_one_line_naming_what_to_change(tmp_path, capsys):
+    """On the pseudo-inverse, a pose where S⁺ w leaves the bounds names the motion, the pose
+    and the distribution that has tensions there; on the default distribution the same
+    motion runs."""
+    setup = tmp_path / 'setup.yaml'
+    setup.write_text(f'robot_file: {PAPER_ROBOT}\ncontrol: {{tension_distribution: pseudo_inverse}}\n')
+    motions = tmp_path / 'motions.yaml'
+    # to a low corner of the frame, where S⁺ w slackens a cable and bounded tensions exist
+    motions.write_text('motion_defaults: {peak_speed_m_s: 0.5, rest_before_s: 0.2, rest_after_s: 0.2}\n'
+                       'motions:\n  corner: {type: line, start: [0.844, 0.965, 1.25], '
+                       'goal: [0.25, 0.25, 0.3]}\n')
+    run = ['--motions', str(motions), '--motion', 'corner', '--engine', 'inprocess',
+           '--fidelity', 'rigid', '--no-plots']
+    assert scenario.main(['--config', str(setup)] + run + ['--out', str(tmp_path / 'a')]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('cdpr-scenario: --motion corner: no feasible cable tensions at p = (')
+    assert 'bounded_minimum_norm' in err and err.count('\n') == 1, err
+    assert scenario.main(['--config', str(PAPER_ROBOT)] + run + ['--out', str(tmp_path / 'b')]) == 0
+
+
+def test_a_campaign_whose_runs_are_refused_says_why_once_in_one_line(tmp_path, capsys):
+    """A robot without a calibration for the elastic plant: every run is refused in its
+    worker; the campaign says it once, naming options cdpr-campaign has, and exits 2."""
+    from cdpr_bringup import campaign
+    robot = tmp_path / 'unseen.yaml'
+    robot.write_text(PAPER_ROBOT.read_text().replace('mass_kg: 2.941', 'mass_kg: 3.2'))
+    code = campaign.main(['--config', str(robot), '--motions', str(MOTIONS), '--motion-set',
+                          'along-1,along-2', '--fidelities', 'elastic', '--detectors', 'threshold',
+                          '--directions', 'forward', '--no-failure-free', '--jobs', '1',
+                          '--out', str(tmp_path / 'campaign')])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    said = [line for line in lines if line.startswith('cdpr-campaign:')]
+    assert len(said) == 1 and 'no shipped calibration was made on this robot' in said[0], lines
+    assert 'pass --calibration FILE' in said[0]
+    assert campaign.parse_args(['--out', 'x', '--calibration', 'mine.yaml']).calibration == 'mine.yaml'

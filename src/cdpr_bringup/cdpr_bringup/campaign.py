@@ -45,7 +45,7 @@ from cdpr_control.robot import load_robot
 from cdpr_msgs_py.contract import FAULT
 from cdpr_twin.plant import FIDELITIES
 
-from .cli import INTERRUPTED_EXIT_CODE, command
+from .cli import INTERRUPTED_EXIT_CODE, USAGE_EXIT_CODE, command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
 
 # Tables 4 and 6 define their motions with respect to exit point A4: "along" and
@@ -116,6 +116,7 @@ class Run:
     motions_file: str = DEFAULT_MOTIONS
     engine: str = 'inprocess'
     epsilon_nm: float | None = None
+    calibration: str | None = None
 
     @property
     def id(self) -> str:
@@ -133,6 +134,8 @@ class Run:
             argv += ['--fail-cable', str(self.cable), '--fail-at-fraction', str(self.fail_at_fraction)]
         if self.epsilon_nm is not None:
             argv += ['--epsilon', str(self.epsilon_nm)]
+        if self.calibration is not None:
+            argv += ['--calibration', self.calibration]
         if self.engine == 'graph':
             # Graph runs in parallel share the DDS domain: each gets its own namespace.
             argv += ['--namespace', '/cdpr_' + re.sub(r'\W', '_', self.id)]
@@ -171,7 +174,8 @@ def build_matrix(motions: list[str], cables: list[int], directions=DIRECTIONS,
                  random_instants: bool = False, **settings) -> list[Run]:
     """Every failure run, then (if `failure_free`) every failure-free run.
 
-    `settings` (config, motions_file, engine, epsilon_nm) are the same for every run.
+    `settings` (config, motions_file, engine, epsilon_nm, calibration) are the same for
+    every run.
     """
     runs = []
     for cable in list(cables) + ([None] if failure_free else []):
@@ -220,6 +224,16 @@ def run_scenario(run: Run, run_dir: Path, worker: str | None = None) -> dict:
         said = (run_dir / 'scenario.log').read_text().strip().splitlines()
         error += f': {said[-1]}' if said else ''
     return {'error': error, 'wall_time_s': time.monotonic() - start}
+
+
+# How run_scenario reports a run that cdpr-scenario refused as a user's mistake.
+USER_ERROR = f'cdpr-scenario exited with {USAGE_EXIT_CODE}: cdpr-scenario: '
+
+
+def user_errors(rows: list[dict]) -> list[str]:
+    """The distinct one-line mistakes the runs were refused for, in the order first met."""
+    return list(dict.fromkeys(row['error'][len(USER_ERROR):] for row in rows
+                              if row['error'] and row['error'].startswith(USER_ERROR)))
 
 
 class SchedulerUnreachable(Exception):
@@ -631,6 +645,9 @@ def parse_args(argv=None):
                         help='also run every motion without failure, for false alarms (default on)')
     parser.add_argument('--engine', choices=['inprocess', 'graph'], default='inprocess')
     parser.add_argument('--epsilon', type=float, metavar='NM', help='detection threshold (N·m)')
+    parser.add_argument('--calibration', metavar='YAML',
+                        help='detector thresholds (cdpr-calibrate) for every run; default: the '
+                             "set-up's, else the shipped calibration made on this robot")
     parser.add_argument('--jobs', type=int, default=os.cpu_count(),
                         help='parallel runs on this machine (default: all cores)')
     parser.add_argument('--scheduler', metavar='ADDRESS',
@@ -661,7 +678,8 @@ def main(argv=None):
     runs = build_matrix(motions, args.cables, args.directions, args.fidelities, args.detectors,
                         args.seeds, args.fail_at_fraction, args.failure_free,
                         args.random_instants, config=args.config,
-                        motions_file=args.motions, engine=args.engine, epsilon_nm=args.epsilon)
+                        motions_file=args.motions, engine=args.engine, epsilon_nm=args.epsilon,
+                        calibration=args.calibration)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     try:
@@ -676,6 +694,12 @@ def main(argv=None):
         return INTERRUPTED_EXIT_CODE
     write_summary_csv(rows, out / 'summary.csv')
     (out / 'summary.md').write_text(summary_markdown(rows))
+    mistakes = user_errors(rows)
+    if mistakes:
+        # the same mistake in every run it reaches: said once, as this command's own
+        for mistake in mistakes:
+            print(f'cdpr-campaign: {mistake}', file=sys.stderr)
+        return USAGE_EXIT_CODE
     failed = sum(row['error'] is not None for row in rows)
     print(f'{len(rows)} runs, {failed} did not complete; summary: {out / "summary.md"}, '
           f'{out / "summary.csv"}')

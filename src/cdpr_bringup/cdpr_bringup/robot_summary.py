@@ -11,6 +11,7 @@ from cdpr_control.controller import PdGains
 from cdpr_control.dynamics import inverse_dynamics
 from cdpr_control.motions import load_motion, motion_names
 from cdpr_control.robot import load_robot
+from cdpr_control.statics import closed_form_coverage
 from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
 from cdpr_control.workspace import safe_point
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
@@ -51,6 +52,7 @@ def print_settings(config, robot):
     period = setting(control, 'period_s', f"{control.number('period_s') * 1e3:g} ms")
     damping = setting(control, 'pd_damping_ratio', f"{control.number('pd_damping_ratio'):g}")
     distribution = setting(control, 'tension_distribution', control.string('tension_distribution'))
+    closed_form, held = closed_form_coverage(robot)
     detector = setting(fdi_section, 'detector', fdi.detector)
     epsilon = setting(fdi_section, 'epsilon_nm', f'{fdi.epsilon_nm:g} N·m')
     heights = [setting(recovery_section, name, f'{value:g} m') for name, value in
@@ -58,7 +60,12 @@ def print_settings(config, robot):
     move = setting(recovery_section, 'move_peak_speed_m_s', f'{recovery.move_peak_speed_m_s:g} m/s')
     print("settings (the set-up's, else the paper's defaults):")
     print(f'  control period {period}, PD {pd}, damping ratio {damping}, '
-          f'tension distribution {distribution}')
+          f'tension distribution {distribution}: the paper\'s S+ w, within '
+          f'[{robot.tension_min_n:g}, {robot.tension_max_n:g}] N on {closed_form} of the {held} '
+          'workspace grid points where the cables can hold the end-effector at rest'
+          + ('' if closed_form == held else ', the nearest tensions within the bounds on the others'
+             if control.string('tension_distribution') == 'bounded_minimum_norm'
+             else ', none on the others: bounded_minimum_norm has tensions there'))
     delta_n = fdi_section.number('identification_delta_n')
     delta = setting(fdi_section, 'identification_delta_n', f'{delta_n:g} N ({fdi.delta_nm:.3g} N·m)')
     print(f'  FDI {detector}, rigid plant ε {epsilon}, identification δ {delta}; '

@@ -16,8 +16,8 @@ from cdpr_control.motions import Motion, motion_from_settled, settled_motion
 from cdpr_control.reference import ReferenceTable, tabulate_reference
 from cdpr_control.robot import Robot, robot_from_section
 from cdpr_control.settings import ROBOT_DESCRIPTION, flatten, robot_description
-from cdpr_control.tension_distribution import configured_tension_distribution
-from cdpr_control.tension_distribution import TensionDistribution
+from cdpr_control.tension_distribution import (InfeasibleTensionError, PseudoInverse,
+                                               TensionDistribution, configured_tension_distribution)
 from cdpr_fdi.config import FdiConfig, RecoveryConfig, calibrated_fdi, settled_fdi
 from cdpr_fdi.markers import Frame, MarkerStyle
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
@@ -207,7 +207,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         gains=PdGains.from_section(robot, control),
         twin_substeps=settings.section('twin').integer('substeps', minimum=1),
         motion=motion,
-        reference=tabulate_reference(robot, distribution, motion.trajectory, period),
+        reference=motion_reference(robot, distribution, motion, period),
         plant=PlantConfig.from_section(settings.section('plant')),
         failures=failures,
         pushes=settled_pushes(run),
@@ -221,6 +221,21 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
     if options.duration_s is None:
         settings.data['run']['hold_after_ticks'] = scenario.hold_after_cycles
     return scenario
+
+
+def motion_reference(robot: Robot, distribution: TensionDistribution, motion: Motion,
+                     period_s: float) -> ReferenceTable:
+    """The motion's reference; UsageError, naming the motion, the pose and what to change,
+    where no tensions within the bounds hold the end-effector on it."""
+    try:
+        return tabulate_reference(robot, distribution, motion.trajectory, period_s)
+    except InfeasibleTensionError as err:
+        remedy = ('set control.tension_distribution: bounded_minimum_norm (the nearest tensions '
+                  'within the bounds), or move the motion' if isinstance(distribution, PseudoInverse)
+                  else 'move the motion')
+        raise UsageError(f'--motion {motion.name}: {err}; {remedy} inside the robot\'s '
+                         'wrench-feasible workspace (cdpr-robot shows the tensions along each '
+                         'motion)') from None
 
 
 def realtime_scheduling(section: Section) -> dict[str, dict]:
@@ -300,6 +315,6 @@ def calibration_for(config_path: Path, fdi: Section, robot: Robot, fidelity: str
             f'is missing, and no shipped calibration was made on this robot ({robot.name}, '
             f'{robot.fingerprint()}) for the {fidelity} plant: it needs thresholds measured on '
             f'it; make them with cdpr-calibrate --config {config_path} --fidelity {fidelity} '
-            '--motions MOTIONS.yaml --out FILE and name FILE here, or pass --calibration FILE '
-            '(or run --fidelity rigid, on the noise-free defaults)'))
+            '--motions MOTIONS.yaml --out FILE and name FILE here, or pass --calibration FILE, '
+            'or run on the rigid plant (the noise-free defaults)'))
     return shipped

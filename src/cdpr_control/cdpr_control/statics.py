@@ -7,7 +7,7 @@ import numpy as np
 
 from .kinematics import cable_vectors
 from .robot import Robot
-from .tension_distribution import minimum_norm
+from .tension_distribution import BoundedMinimumNorm, InfeasibleTensionError, minimum_norm
 
 SINGULAR_TOLERANCE = 1e-12
 
@@ -59,3 +59,28 @@ def _in_planar_cone(u: np.ndarray, load: np.ndarray, tolerance: float) -> bool:
                     and np.linalg.norm(basis @ coefficients - load) <= tolerance * np.linalg.norm(load)):
                 return True
     return False
+
+
+def closed_form_coverage(robot: Robot, points_per_axis: int = 9) -> tuple[int, int]:
+    """On a grid of `points_per_axis`³ points over the workspace box, with the end-effector at
+    rest: (points where S⁺ w is within [tension_min_n, tension_max_n], points where any
+    tensions within those bounds hold it). Where the two differ, the paper's pseudo-inverse
+    has no answer and the bounded minimum-norm distribution has one."""
+    axes = [np.linspace(low, high, points_per_axis)
+            for low, high in zip(robot.workspace_min_m, robot.workspace_max_m)]
+    grid = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 3)
+    bounded = BoundedMinimumNorm(robot.tension_min_n, robot.tension_max_n)
+    closed_form = held = 0
+    for position in grid:
+        u, _ = cable_vectors(robot.exit_points_m, position)
+        tensions = minimum_norm(u.T, -robot.weight_wrench_n)
+        if robot.tension_min_n <= tensions.min() and tensions.max() <= robot.tension_max_n:
+            closed_form += 1
+            held += 1
+            continue
+        try:
+            bounded.distribute(u.T, -robot.weight_wrench_n)
+            held += 1
+        except InfeasibleTensionError:
+            pass
+    return closed_form, held

@@ -18,6 +18,11 @@ class InfeasibleTensionError(ValueError):
         where = '' if position_m is None else ' at p = ({:.4f}, {:.4f}, {:.4f}) m'.format(*position_m)
         super().__init__(f'no feasible cable tensions{where}: {reason}')
 
+    def __reduce__(self):
+        # rebuilt from its parts, not its message, when it crosses to another process (a
+        # campaign's or a calibration's worker): the message is not prefixed twice
+        return type(self), (self.reason, self.position_m, self.row)
+
     def at(self, position_m) -> 'InfeasibleTensionError':
         """The same error, naming the end-effector position."""
         return InfeasibleTensionError(self.reason, position_m)

@@ -35,6 +35,25 @@ class BoundedMinimumNorm(TensionDistribution):
             return tensions
         return self._projection(structure, wrench_n, reference)
 
+    def distribute_rows(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+        """`distribute` of every row, the closed form for the whole stack at once: only the
+        rows it leaves outside the bounds are projected, one by one."""
+        reference = np.full(structures.shape[:-2] + structures.shape[-1:], self.reference_tension_n)
+        try:
+            tensions = reference + minimum_norm(
+                structures, wrenches_n - np.einsum('...ij,...j->...i', structures, reference))
+        except InfeasibleTensionError:
+            # row by row, to name the first row that has no tensions
+            return super().distribute_rows(structures, wrenches_n)
+        outside = ((tensions.min(axis=-1) < self.tension_min_n - BOUND_TOLERANCE_N)
+                   | (tensions.max(axis=-1) > self.tension_max_n + BOUND_TOLERANCE_N))
+        for row in np.flatnonzero(outside):
+            try:
+                tensions[row] = self._projection(structures[row], wrenches_n[row], reference[row])
+            except InfeasibleTensionError as err:
+                raise err.in_row(int(row)) from None
+        return tensions
+
     def _projection(self, structure, wrench_n, reference):
         count = structure.shape[1]
         particular = minimum_norm(structure, wrench_n)
