@@ -273,3 +273,27 @@ def test_the_circle_failure_after_135_degrees_is_detected_soon_after_the_parting
     "after ~50 ms and it is detected soon after: the paper's 190 ms is not reproduced"))
 def test_the_circle_failure_after_135_degrees_is_detected_as_late_as_the_papers(circle_with_failure):
     assert within(circle_with_failure['detection_delay_from_signal_ms'], PAPER_CIRCLE_MS)
+
+
+def test_the_papers_rig_runs_by_name_on_its_own_calibration():
+    """`--config paper_rig`: the field plant with the rig's pulleys and the 4 Hz PD, on the
+    calibration made on that set-up; the paper robot's own field runs keep theirs."""
+    rig = build_scenario(ScenarioOptions(config='paper_rig', motion='along-2', fail_cables=[4]))
+    assert rig.plant.fidelity == 'field' and rig.plant.drive.pulley_radius_m == 0.005
+    assert rig.settings.section('control').number('pd_natural_frequency_hz') == 4.0
+    assert rig.calibration_path.name == 'paper_rig_calibration_field.yaml'
+    paper = build_scenario(ScenarioOptions(motion='along-2', fidelity='field'))
+    assert paper.calibration_path.name == 'fdi_calibration_field.yaml'
+    assert rig.fdi.epsilon_nm != paper.fdi.epsilon_nm
+    run = metrics_of(rig, run_inprocess(rig), 0.0)
+    assert run['identified_cables'] == [4] and run['mode'] == 'SAFE_HOLD'
+    assert run['recovery']['reached_safe_point']
+
+
+def test_a_robot_without_a_field_calibration_is_told_the_key_that_names_one(tmp_path):
+    unseen = tmp_path / 'unseen.yaml'
+    unseen.write_text(config_file(DEFAULT_ROBOT).read_text().replace('mass_kg: 2.941', 'mass_kg: 3.2'))
+    with pytest.raises(ConfigError) as error:
+        build_scenario(ScenarioOptions(config=str(unseen), motion='along-2', fidelity='field'))
+    assert error.value.key == 'fdi.field_calibration_file'
+    assert 'for the field plant' in str(error.value) and '--calibration FILE' in str(error.value)

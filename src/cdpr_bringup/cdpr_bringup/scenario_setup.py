@@ -163,7 +163,8 @@ def settle(options: ScenarioOptions) -> tuple[Section, Path | None]:
     calibration = calibration_for(config_path, settings.section('fdi'), robot, fidelity,
                                   options.calibration)
     fdi = dict(calibrated_fdi(settings.section('fdi'), robot, calibration).data)
-    fdi.pop('elastic_calibration_file', None)
+    for plant in FIDELITIES:
+        fdi.pop(calibration_file_key(plant), None)
     friction = fdi.pop('coulomb_friction_nm', robot.motor.static_friction_nm)
     # The rigid plant is the twin's model, without Coulomb friction: the stack must know.
     document['control']['coulomb_friction_nm'] = 0.0 if fidelity == 'rigid' else friction
@@ -296,10 +297,15 @@ def add_push_option(parser) -> None:
                              'not a failure: no cable is to be named for it')
 
 
+def calibration_file_key(fidelity: str) -> str:
+    """The set-up's fdi key naming its calibration for the plant `fidelity`."""
+    return f'{fidelity}_calibration_file'
+
+
 def calibration_for(config_path: Path, fdi: Section, robot: Robot, fidelity: str,
                     calibration: str | None) -> Path | None:
-    """The given calibration file; else, on the elastic plant, the set-up's
-    `fdi.elastic_calibration_file`; else, on the elastic or field plant, the shipped
+    """The given calibration file; else, on the elastic or field plant, the one the set-up
+    names (`fdi.elastic_calibration_file`, `fdi.field_calibration_file`), else the shipped
     calibration made on this robot for that plant; the rigid plant keeps the paper's
     noise-free values. NO_CALIBRATION: the set-up's own thresholds (a run without a
     supervisor)."""
@@ -307,11 +313,12 @@ def calibration_for(config_path: Path, fdi: Section, robot: Robot, fidelity: str
         return None
     if calibration:
         return config_file(calibration)
-    if fidelity == 'elastic' and fdi.has('elastic_calibration_file'):
-        return config_file(fdi.string('elastic_calibration_file'))
+    key = calibration_file_key(fidelity)
+    if fdi.has(key):
+        return config_file(fdi.string(key))
     shipped = shipped_calibration(robot.fingerprint(), fidelity)
     if shipped is None:
-        raise fdi.error('elastic_calibration_file', (
+        raise fdi.error(key, (
             f'is missing, and no shipped calibration was made on this robot ({robot.name}, '
             f'{robot.fingerprint()}) for the {fidelity} plant: it needs thresholds measured on '
             f'it; make them with cdpr-calibrate --config {config_path} --fidelity {fidelity} '

@@ -285,11 +285,14 @@ def load_section(path: str | Path, name: str) -> Section:
 
 def resolve_config(name_or_path: str | Path, folders: list[Path]) -> Path:
     """An existing path as given, else that path (or, failing that, its file name) in the
-    first of `folders` (the caller's shipped configs) that holds it."""
+    first of `folders` (the caller's shipped configs) that holds it; a name without a
+    suffix is also looked for as NAME.yaml (`--config paper_rig`)."""
     path = Path(name_or_path)
     if path.exists():
         return path
-    for candidate in [folder / path for folder in folders] + [folder / path.name for folder in folders]:
+    names = [path] + ([path.with_name(path.name + '.yaml')] if not path.suffix else [])
+    for candidate in ([folder / name for name in names for folder in folders]
+                      + [folder / name.name for name in names for folder in folders]):
         if candidate.is_file():
             return candidate
     raise FileNotFoundError(f'no config {name_or_path!s} (looked in {", ".join(map(str, folders)) or "no folder"})')
