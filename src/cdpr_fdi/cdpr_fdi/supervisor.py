@@ -28,8 +28,8 @@ from .wrench_balance import POSITION_CABLES, WrenchBalance, overstretch_m
 
 
 class AlarmEvidence:
-    """The sensorless tension bounds (N) and residuals (N·m) of an alarm's ticks so far,
-    the last `window` of them, averaged.
+    """The sensorless tension bounds (N) and residuals (N·m) of an alarm's ticks, the last
+    `window` of them, averaged.
 
     A motor is judged free on the average: the mean of per-tick τ̂ takes its acceleration
     from the speed change over the ticks averaged, so what a drive's delay and speed
@@ -37,19 +37,29 @@ class AlarmEvidence:
     swinging under its controller, reads ±10 N and a residual of either sign from one
     period to the next, ~0 N and a positive residual over four). The average starts at
     the alarm, which comes after the break: no tick of the intact cable enters it, and
-    the alarm's first tick is judged on its own, as the paper does.
+    the alarm's first tick is judged on its own, as the paper does. It goes on through
+    ticks without an alarm, and ends after `window` of them in a row: the freed motor's
+    swinging command takes the residual back under the threshold for a tick or two.
     """
 
     def __init__(self, window: int):
+        self.window = window
         self.lows: deque[np.ndarray] = deque(maxlen=window)
         self.highs: deque[np.ndarray] = deque(maxlen=window)
         self.residuals: deque[np.ndarray] = deque(maxlen=window)
+        self.quiet_ticks = 0
 
     @property
     def ticks(self) -> int:
         return len(self.residuals)
 
-    def add(self, low_n: np.ndarray, high_n: np.ndarray, residual_nm: np.ndarray) -> None:
+    def add(self, low_n: np.ndarray, high_n: np.ndarray, residual_nm: np.ndarray,
+            alarm: bool) -> None:
+        """A tick's bounds and residual: from an alarm on, until `window` quiet ticks."""
+        self.quiet_ticks = 0 if alarm else self.quiet_ticks + 1
+        if not alarm and (not self.ticks or self.quiet_ticks >= self.window):
+            self.clear()
+            return
         self.lows.append(low_n)
         self.highs.append(high_n)
         self.residuals.append(residual_nm)
@@ -58,6 +68,7 @@ class AlarmEvidence:
         self.lows.clear()
         self.highs.clear()
         self.residuals.clear()
+        self.quiet_ticks = 0
 
     def tension_bounds_n(self) -> tuple[np.ndarray, np.ndarray]:
         return np.mean(self.lows, axis=0), np.mean(self.highs, axis=0)
@@ -153,8 +164,9 @@ class Supervisor:
             alarm = self.detector.update(residual, np.asarray(twin_angular_velocity_rad_s, float))
             if alarm and self.alarm_tick is None:
                 self.alarm_tick = tick
+            if self.previous_speed is not None:
+                self.evidence.add(*self.tension_bounds_n, residual, alarm)
             if alarm and self.previous_speed is not None:
-                self.evidence.add(*self.tension_bounds_n, residual)
                 found = identify_broken_cables(*self.evidence.tension_bounds_n(),
                                                self.evidence.residual_nm(),
                                                self.robot.motor.drum_radius_m, self.fdi.delta_nm)
@@ -164,7 +176,6 @@ class Supervisor:
                 if confirmed:
                     events += self.on_identified(tick, confirmed, angle_rad, command_nm, reference)
             elif not alarm:
-                self.evidence.clear()
                 self.disturbed_since = None
                 self.free_since = {}
             if not alarm and self.alarm_tick is not None:
