@@ -257,6 +257,23 @@ def test_a_robot_without_a_calibration_is_told_how_to_make_one(robot_only_file, 
     assert f'cdpr-calibrate --config {other}' in err
 
 
+def test_a_light_robot_from_its_robot_file_alone_names_a_break_its_residual_sees_late(tmp_path):
+    """The 1.5 kg tall frame, robot file alone: δ is derived from its weight (1.42 N, not
+    the paper's 2.78 N, which its diagonal cable falls under as it unloads). Cable 1 parts
+    at 3 N on the circle, too little for ε; 23 periods later cable 3 unloads and the alarm
+    comes: cable 1 alone is named and the end-effector recovered (with 2.78 N both were
+    named: FAULT)."""
+    scenario = build_scenario(ScenarioOptions(
+        config=str(CONFIG_DIR / 'robots' / 'tall_frame_robot.yaml'),
+        motions=str(CONFIG_DIR / 'tall_frame_motions.yaml'), motion='circle', fail_cables=[1],
+        fail_at_s=6.997166915801529, fidelity='elastic', seed=1, detector='threshold'))
+    metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
+    assert scenario.fdi.delta_nm / scenario.robot.motor.drum_radius_m == pytest.approx(
+        0.3855 * scenario.robot.mass_kg * 9.81 / 4)
+    assert metrics['identified_cables'] == [1] and not metrics['false_alarm']
+    assert_recovered(scenario, metrics)
+
+
 def test_cdpr_robot_warns_where_a_loaded_cable_carries_less_than_the_identification_delta(capsys):
     """The paper's δ (2.78 N) is above along-4's least pseudo-inverse tension (2.44 N)."""
     robot_summary.main(['--config', str(PAPER_ROBOT), '--motions', str(MOTIONS)])

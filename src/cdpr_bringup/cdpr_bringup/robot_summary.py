@@ -66,8 +66,12 @@ def print_settings(config, robot):
           + ('' if closed_form == held else ', the nearest tensions within the bounds on the others'
              if control.string('tension_distribution') == 'bounded_minimum_norm'
              else ', none on the others: bounded_minimum_norm has tensions there'))
-    delta_n = fdi_section.number('identification_delta_n')
-    delta = setting(fdi_section, 'identification_delta_n', f'{delta_n:g} N ({fdi.delta_nm:.3g} N·m)')
+    asked_delta_n = fdi_section.number('identification_delta_n')
+    delta_n = fdi.delta_nm / robot.motor.drum_radius_m
+    delta = (f'{delta_n:.3g} N ({fdi.delta_nm:.3g} N·m; derived: at most '
+             f"{fdi_section.number('identification_delta_weight_share'):g} of each cable's equal "
+             "share of the weight)" if delta_n < asked_delta_n - 1e-9 else
+             setting(fdi_section, 'identification_delta_n', f'{delta_n:g} N ({fdi.delta_nm:.3g} N·m)'))
     print(f'  FDI {detector}, rigid plant ε {epsilon}, identification δ {delta}; '
           f'elastic plant calibration {elastic_text}')
     print(f'  recovery SP height {heights[0]}, table {heights[1]}, move {move}')

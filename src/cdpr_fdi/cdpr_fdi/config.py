@@ -57,7 +57,7 @@ class FdiConfig:
             detector=fdi.string('detector', choices=DETECTORS),
             epsilon_nm=fdi.number('epsilon_nm', positive=True),
             # a tolerance on the cable's tension, felt at the motor through its drum
-            delta_nm=robot.motor.drum_radius_m * fdi.number('identification_delta_n', positive=True),
+            delta_nm=robot.motor.drum_radius_m * identification_delta_n(fdi, robot),
             friction=(FrictionModel(fdi.number('coulomb_friction_nm', non_negative=True),
                                     friction.smoothing_rad_s)
                       if fdi.has('coulomb_friction_nm') else friction),
@@ -94,6 +94,14 @@ class FdiConfig:
         if coulomb_friction_nm is not None:
             changes['friction'] = dataclasses.replace(self.friction, coulomb_nm=float(coulomb_friction_nm))
         return dataclasses.replace(self, **changes)
+
+
+def identification_delta_n(fdi: Section, robot: Robot) -> float:
+    """δ (N): `identification_delta_n`, at most `identification_delta_weight_share` of an
+    equal share of the end-effector's weight per cable."""
+    share = np.linalg.norm(robot.weight_wrench_n) / robot.cable_count
+    return min(fdi.number('identification_delta_n', positive=True),
+               fdi.number('identification_delta_weight_share', positive=True) * share)
 
 
 def calibrated_fdi(fdi: Section, robot: Robot, calibration_path: str | Path | None) -> Section:
