@@ -152,7 +152,7 @@ class RecoveryConfig:
     move_peak_speed_m_s: float
     brake_deceleration_m_s2: float
     minimum_move_s: float
-    plan_tension_tolerance_n: float
+    plan_tension_margin_n: float
     replan_attempts: int
     replan_slowdown: float
     reached_tolerance_m: float
@@ -213,7 +213,7 @@ class RecoveryConfig:
             move_peak_speed_m_s=recovery.number('move_peak_speed_m_s', positive=True),
             brake_deceleration_m_s2=recovery.number('brake_deceleration_m_s2', positive=True),
             minimum_move_s=recovery.number('minimum_move_s', positive=True),
-            plan_tension_tolerance_n=recovery.number('plan_tension_tolerance_n', non_negative=True),
+            plan_tension_margin_n=recovery.number('plan_tension_margin_n', non_negative=True),
             replan_attempts=recovery.integer('replan_attempts', minimum=0),
             # each re-plan slower than the one before
             replan_slowdown=recovery.number('replan_slowdown', minimum=1.0),

@@ -18,8 +18,8 @@ residual SEW. Phase 2 (RECOVERY_MOVE) starts once the tension quintic has ended 
 end-effector — by the forward kinematics of the remaining cables — is held taut and
 slower than `settle_speed_m_s`, or `settle_timeout_s` later.
 
-A move whose tensions would fall more than `plan_tension_tolerance_n` below
-tension_min_n (still taut) is planned again, braking sooner and moving slower; when no
+A move whose tensions would come within `plan_tension_margin_n` of tension_min_n
+(what the drives' tracking takes off a planned tension) is planned again, braking sooner and moving slower; when no
 plan fits, phase 1 holds the end-effector where it is until it can, and after the
 timeout the recovery is given up (FAULT). Then SAFE_HOLD at SP.
 """
@@ -153,9 +153,9 @@ class Recovery:
         check_recoverable(robot, attached)
         self.robot = robot
         self.config = config
-        # Phase 2 plans with the configured method, its floor lowered by the tolerance.
+        # Phase 2 plans with the configured method, its floor raised by the margin.
         self.distribution = make_tension_distribution(
-            distribution.name, max(distribution.tension_min_n - config.plan_tension_tolerance_n, 0.0),
+            distribution.name, distribution.tension_min_n + config.plan_tension_margin_n,
             distribution.tension_max_n)
         self.period_s = period_s
         self.attached = attached.copy()
