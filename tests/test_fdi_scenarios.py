@@ -16,6 +16,7 @@ from cdpr_bringup import robot_summary
 from cdpr_bringup import scenario as scenario_cli
 from cdpr_bringup.engine import run_inprocess
 from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_control.config import Section
 from cdpr_control.controller import PdGains
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.motions import motion_names
@@ -228,6 +229,19 @@ def test_a_robot_file_with_only_its_robot_runs_on_the_papers_settings(robot_only
     assert scenario.period_s == 0.002 and scenario.recovery.safe_height_m == 1.2
     assert metrics['identified_cables'] == [2] and not metrics['false_alarm']
     assert_recovered(scenario, metrics)
+
+
+def test_a_robot_only_file_hands_the_nodes_the_frequency_settled_for_it(robot_only_file):
+    """The graph's nodes read every setting as given (none is a default to them): the run
+    hands them the stable frequency the paper's 12 Hz gave way to, which they accept."""
+    scenario = build_scenario(ScenarioOptions(config=str(robot_only_file),
+                                              motions=str(CONFIG_DIR / 'six_cable_motions.yaml'),
+                                              motion='lift', fidelity='rigid'))
+    as_given = Section(scenario.settings.data, robot_only_file).section('control')
+    assert not as_given.is_default('pd_natural_frequency_hz')
+    handed = PdGains.from_section(scenario.robot, as_given)
+    assert as_given.number('pd_natural_frequency_hz') < 12.0
+    np.testing.assert_allclose(handed.stiffness_nm_rad, scenario.gains.stiffness_nm_rad, rtol=1e-12)
 
 
 def test_a_robot_only_file_says_what_it_resolves_to_and_finds_its_calibration(robot_only_file, capsys):
