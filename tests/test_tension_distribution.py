@@ -292,3 +292,19 @@ def test_an_infeasible_row_is_named_and_its_error_crosses_processes_whole(paper_
     again = pickle.loads(pickle.dumps(named))
     assert str(again) == str(named) and str(again).count('no feasible cable tensions') == 1
     np.testing.assert_array_equal(again.position_m, named.position_m)
+
+
+def test_cdpr_robots_coverage_of_the_pseudo_inverse_is_counted_right(paper_robot):
+    """closed_form_coverage against numpy's pseudo-inverse and an LP, point by point."""
+    from cdpr_control.statics import closed_form_coverage
+    low, high = paper_robot.tension_min_n, paper_robot.tension_max_n
+    axes = [np.linspace(a, b, 5) for a, b in zip(paper_robot.workspace_min_m, paper_robot.workspace_max_m)]
+    closed_form = held = 0
+    for position in np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 3):
+        s, _ = structure_matrix(paper_robot, position)
+        w = -paper_robot.weight_wrench_n
+        tensions = np.linalg.pinv(s) @ w
+        closed_form += bool(tensions.min() >= low and tensions.max() <= high)
+        held += _lp_feasible(s, w, low, high)
+    assert 0 < closed_form < held
+    assert closed_form_coverage(paper_robot, points_per_axis=5) == (closed_form, held)

@@ -7,7 +7,8 @@ import numpy as np
 
 from .kinematics import cable_vectors
 from .robot import Robot
-from .tension_distribution import BoundedMinimumNorm, InfeasibleTensionError, minimum_norm
+from .tension_distribution import (BoundedMinimumNorm, InfeasibleTensionError, PseudoInverse,
+                                   minimum_norm)
 
 SINGULAR_TOLERANCE = 1e-12
 
@@ -69,18 +70,16 @@ def closed_form_coverage(robot: Robot, points_per_axis: int = 9) -> tuple[int, i
     axes = [np.linspace(low, high, points_per_axis)
             for low, high in zip(robot.workspace_min_m, robot.workspace_max_m)]
     grid = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 3)
-    bounded = BoundedMinimumNorm(robot.tension_min_n, robot.tension_max_n)
-    closed_form = held = 0
-    for position in grid:
-        u, _ = cable_vectors(robot.exit_points_m, position)
-        tensions = minimum_norm(u.T, -robot.weight_wrench_n)
-        if robot.tension_min_n <= tensions.min() and tensions.max() <= robot.tension_max_n:
-            closed_form += 1
-            held += 1
-            continue
-        try:
-            bounded.distribute(u.T, -robot.weight_wrench_n)
-            held += 1
-        except InfeasibleTensionError:
-            pass
-    return closed_form, held
+    counts = []
+    for method in (PseudoInverse, BoundedMinimumNorm):
+        distribution = method(robot.tension_min_n, robot.tension_max_n)
+        held = 0
+        for position in grid:
+            u, _ = cable_vectors(robot.exit_points_m, position)
+            try:
+                distribution.distribute(u.T, -robot.weight_wrench_n)
+                held += 1
+            except InfeasibleTensionError:
+                pass
+        counts.append(held)
+    return counts[0], counts[1]
