@@ -44,14 +44,13 @@ class AlarmEvidence:
 
     def __init__(self, window: int):
         self.window = window
-        self.lows: deque[np.ndarray] = deque(maxlen=window)
-        self.highs: deque[np.ndarray] = deque(maxlen=window)
-        self.residuals: deque[np.ndarray] = deque(maxlen=window)
+        # per tick: τ̂'s lower and upper bounds (N), the residual (N·m)
+        self.recent: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=window)
         self.quiet_ticks = 0
 
     @property
     def ticks(self) -> int:
-        return len(self.residuals)
+        return len(self.recent)
 
     def add(self, low_n: np.ndarray, high_n: np.ndarray, residual_nm: np.ndarray,
             alarm: bool) -> None:
@@ -60,21 +59,18 @@ class AlarmEvidence:
         if not alarm and (not self.ticks or self.quiet_ticks >= self.window):
             self.clear()
             return
-        self.lows.append(low_n)
-        self.highs.append(high_n)
-        self.residuals.append(residual_nm)
+        self.recent.append((low_n, high_n, residual_nm))
 
     def clear(self) -> None:
-        self.lows.clear()
-        self.highs.clear()
-        self.residuals.clear()
+        self.recent.clear()
         self.quiet_ticks = 0
 
     def tension_bounds_n(self) -> tuple[np.ndarray, np.ndarray]:
-        return np.mean(self.lows, axis=0), np.mean(self.highs, axis=0)
+        lows, highs, _ = zip(*self.recent)
+        return np.mean(lows, axis=0), np.mean(highs, axis=0)
 
     def residual_nm(self) -> np.ndarray:
-        return np.mean(self.residuals, axis=0)
+        return np.mean([residual for _, _, residual in self.recent], axis=0)
 
 
 @dataclass
