@@ -20,6 +20,7 @@ from cdpr_fdi.recovery import (Recovery, RecoveryInfeasible, entry_point, initia
                                least_static_tension_n, safe_point_for, taut_tension_n)
 from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
 from cdpr_fdi.supervisor import Supervisor
+from cdpr_fdi.tension_collapse import TensionCollapse
 from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
 from cdpr_twin.rigid_model import RigidCableRobot
 
@@ -67,6 +68,25 @@ def test_identification_names_free_motors_with_positive_residual():
     assert identify_broken_cables(low, high, residual, 0.036, 0.05) == [1, 2]
     assert identify_broken_cables(low, high, residual * [1, -1, 1, 1], 0.036, 0.05) == [2]
     assert identify_broken_cables(low, high, residual, 0.036, 0.005) == [1]
+
+
+def test_a_tension_collapse_is_a_motor_feeling_nothing_while_the_reference_asks_for_more():
+    """Averaged over the window: τ̂ within the band of zero, the reference at least its floor."""
+    collapse = TensionCollapse(window=4, band_n=0.5, reference_min_n=1.5)
+    reference = np.array([1.6, 1.6, 1.4, 3.0])
+    # cable 1 free, cable 2 at the band's edge, cable 3 asked too little, cable 4 taut
+    low, high = np.array([-0.3, 0.5, 0.0, 2.9]), np.array([0.2, 0.6, 0.1, 3.1])
+    assert [collapse.update(low, high, reference) for _ in range(3)] == [[], [], []], \
+        'not before the window is full'
+    assert collapse.update(low, high, reference) == [0]
+    # a swinging free motor reads far from zero period by period, about zero on average
+    swinging = TensionCollapse(window=4, band_n=0.5, reference_min_n=1.5)
+    readings = [-6.0, 8.0, -9.0, 7.2]
+    found = [swinging.update(np.array([r - 0.1]), np.array([r + 0.1]), np.array([3.0]))
+             for r in readings]
+    assert found == [[], [], [], [0]]
+    # the oldest period leaves the average: a cable loaded again is no longer collapsed
+    assert swinging.update(np.array([6.0]), np.array([6.2]), np.array([3.0])) == []
 
 
 def test_threshold_detector_is_the_papers_condition():

@@ -271,12 +271,12 @@ def test_a_robot_without_a_calibration_is_told_how_to_make_one(robot_only_file, 
     assert f'cdpr-calibrate --config {other}' in err
 
 
-def test_a_light_robot_from_its_robot_file_alone_names_a_break_its_residual_sees_late(tmp_path):
+def test_a_light_robot_from_its_robot_file_alone_names_a_break_before_a_second_cable_slackens(tmp_path):
     """The 1.5 kg tall frame, robot file alone: δ is derived from its weight (1.42 N, not
     the paper's 2.78 N, which its diagonal cable falls under as it unloads). Cable 1 parts
-    at 3 N on the circle, too little for ε; 23 periods later cable 3 unloads and the alarm
-    comes: cable 1 alone is named and the end-effector recovered (with 2.78 N both were
-    named: FAULT)."""
+    at 3 N on the circle, too little for ε; 23 periods later cable 3 unloads, and with
+    2.78 N both were named (FAULT). Its motor's tension collapse names cable 1 alone
+    before that, and the end-effector is recovered."""
     scenario = build_scenario(ScenarioOptions(
         config=str(CONFIG_DIR / 'robots' / 'tall_frame_robot.yaml'),
         motions=str(CONFIG_DIR / 'tall_frame_motions.yaml'), motion='circle', fail_cables=[1],
@@ -285,6 +285,23 @@ def test_a_light_robot_from_its_robot_file_alone_names_a_break_its_residual_sees
     assert scenario.fdi.delta_nm / scenario.robot.motor.drum_radius_m == pytest.approx(
         0.3855 * scenario.robot.mass_kg * 9.81 / 4)
     assert metrics['identified_cables'] == [1] and not metrics['false_alarm']
+    assert metrics['detection_delay_ms'] < 23 * scenario.period_s * 1000.0
+    assert_recovered(scenario, metrics)
+
+
+def test_a_break_the_residual_never_sees_is_found_by_the_tension_collapse():
+    """The tall frame, robot file alone: cable 4 parts carrying 1.5 N (a residual of
+    0.05 N·m against ε = 0.125 N·m) late on the circle and no other cable slackens: the
+    robot would go on on three cables. Its motor feels nothing while the reference asks
+    1.5 N: named within the collapse's window of the parting, and recovered."""
+    scenario = build_scenario(ScenarioOptions(
+        config=str(CONFIG_DIR / 'robots' / 'tall_frame_robot.yaml'),
+        motions=str(CONFIG_DIR / 'tall_frame_motions.yaml'), motion='circle', fail_cables=[4],
+        fail_at_s=7.525300261572056, fidelity='elastic', seed=2, detector='threshold'))
+    metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
+    assert metrics['identified_cables'] == [4] and not metrics['false_alarm']
+    window_ms = scenario.fdi.collapse_window_cycles * scenario.period_s * 1000.0
+    assert metrics['detection_delay_ms'] <= window_ms
     assert_recovered(scenario, metrics)
 
 

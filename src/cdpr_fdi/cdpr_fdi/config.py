@@ -37,6 +37,9 @@ class FdiConfig:
     late_command_window_cycles: int
     identification_confirm_cycles: int
     identification_window_cycles: int
+    collapse_window_cycles: int
+    collapse_band_n: float
+    collapse_reference_n: float
     disturbance_force_n: float
     disturbance_window_cycles: int
     disturbance_hold_cycles: int
@@ -71,6 +74,11 @@ class FdiConfig:
             late_command_window_cycles=fdi.integer('late_command_window_cycles', minimum=1),
             identification_confirm_cycles=fdi.integer('identification_confirm_cycles', minimum=1),
             identification_window_cycles=fdi.integer('identification_window_cycles', minimum=1),
+            collapse_window_cycles=fdi.integer('collapse_window_cycles', minimum=1),
+            # both in proportion to the least tension the robot keeps its cables at
+            collapse_band_n=fdi.number('collapse_band_share', non_negative=True) * robot.tension_min_n,
+            collapse_reference_n=fdi.number('collapse_reference_share', positive=True)
+            * robot.tension_min_n,
             disturbance_force_n=fdi.number('disturbance_force_n', positive=True),
             disturbance_window_cycles=fdi.integer('disturbance_window_cycles', minimum=1),
             disturbance_hold_cycles=fdi.integer('disturbance_hold_cycles', minimum=1),

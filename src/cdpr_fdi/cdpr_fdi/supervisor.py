@@ -24,6 +24,7 @@ from .identification import identify_broken_cables
 from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point,
                        initial_tensions, taut_tension_n)
 from .residual import sensorless_tension_bounds
+from .tension_collapse import TensionCollapse
 from .wrench_balance import POSITION_CABLES, WrenchBalance, overstretch_m
 
 
@@ -108,6 +109,8 @@ class Supervisor:
         self.previous_reference: JointReference | None = None
         self.tension_bounds_n = (np.zeros(robot.cable_count), np.zeros(robot.cable_count))
         self.evidence = AlarmEvidence(fdi.identification_window_cycles)
+        self.collapse = TensionCollapse(fdi.collapse_window_cycles, fdi.collapse_band_n,
+                                        fdi.collapse_reference_n)
         self.candidates: list[int] = []
         self.candidates_since = 0
         self.previous_command: np.ndarray | None = None
@@ -134,12 +137,14 @@ class Supervisor:
                reference: JointReference) -> Verdict:
         residual = np.asarray(command_nm, float) - np.asarray(twin_torque_nm, float)
         applied = np.asarray(applied_torque_nm, float)
+        collapsed: list[int] = []
         if self.previous_speed is not None:
             self.tension_bounds_n = sensorless_tension_bounds(
                 self.robot.motor, self.fdi.friction, self.felt_torque_nm(applied),
                 self.previous_speed, np.asarray(angular_velocity_rad_s, float), self.period_s)
             low, high = self.tension_bounds_n
             self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
+            collapsed = self.collapse.update(low, high, self.reference_tensions(reference))
         events: list[str] = []
         alarm = False
         if self.previous_command is not None and not (applied == self.previous_command).all():
@@ -157,7 +162,9 @@ class Supervisor:
             self.evidence.clear()
             self.unjudged_ticks += 1
         elif not self.broken:
-            alarm = self.detector.update(residual, np.asarray(twin_angular_velocity_rad_s, float))
+            residual_alarm = self.detector.update(residual,
+                                                  np.asarray(twin_angular_velocity_rad_s, float))
+            alarm = residual_alarm or bool(collapsed)
             if alarm and self.alarm_tick is None:
                 self.alarm_tick = tick
             if self.previous_speed is not None:
@@ -166,6 +173,8 @@ class Supervisor:
                 found = identify_broken_cables(*self.evidence.tension_bounds_n(),
                                                self.evidence.residual_nm(),
                                                self.robot.motor.drum_radius_m, self.fdi.delta_nm)
+                # a collapsed cable is free whatever the sign of a residual too small to judge
+                found += [cable for cable in collapsed if cable not in found]
                 if self.disturbed(tick, found, events) or self.settling(tick):
                     found = self.overstretched(tick, found, angle_rad)
                 confirmed = self.confirm(tick, found)
