@@ -61,13 +61,21 @@ def test_tension_bounds_widen_when_the_speed_crosses_zero(paper_robot):
 
 
 def test_identification_names_free_motors_with_positive_residual():
-    low = np.array([8.0, -0.5, 0.2, -3.0])
-    high = np.array([9.0, 0.4, 0.3, -2.9])
+    low = np.array([8.0, -0.5, 0.2, 2.9])
     residual = np.array([0.5, 0.4, 0.6, 0.2])
-    # motor 2's interval contains 0, motor 3 is 0.2 N away, motor 4 is 2.9 N away
-    assert identify_broken_cables(low, high, residual, 0.036, 0.05) == [1, 2]
-    assert identify_broken_cables(low, high, residual * [1, -1, 1, 1], 0.036, 0.05) == [2]
-    assert identify_broken_cables(low, high, residual, 0.036, 0.005) == [1]
+    # motor 2's estimate reaches 0, motor 3 is 0.2 N away, motor 4 is 2.9 N away
+    assert identify_broken_cables(low, residual, 0.036, 0.05) == [1, 2]
+    assert identify_broken_cables(low, residual * [1, -1, 1, 1], 0.036, 0.05) == [2]
+    assert identify_broken_cables(low, residual, 0.036, 0.005) == [1]
+
+
+def test_a_motor_reading_a_push_is_free_as_a_cable_cannot_push():
+    """A freed motor under a lagging drive reads tens of newtons of either sign; an
+    estimate wholly below zero (−40 N) is no cable holding the motor."""
+    low = np.array([18.5, -40.7, 19.2, 20.9])
+    residual = np.array([-0.03, 3.2, -0.4, 0.3])
+    assert identify_broken_cables(low, residual, 0.036, 0.1) == [1]
+    assert identify_broken_cables(low, -residual, 0.036, 0.1) == [], 'and its residual positive'
 
 
 def test_a_tension_collapse_is_a_motor_feeling_nothing_while_the_reference_asks_for_more():

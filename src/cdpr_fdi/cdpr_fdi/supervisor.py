@@ -29,8 +29,8 @@ from .wrench_balance import POSITION_CABLES, WrenchBalance, overstretch_m
 
 
 class AlarmEvidence:
-    """The sensorless tension bounds (N) and residuals (N·m) of an alarm's ticks, the last
-    `window` of them, averaged.
+    """The sensorless tensions' lower bounds (N) and residuals (N·m) of an alarm's ticks,
+    the last `window` of them, averaged.
 
     A motor is judged free on the average: the mean of per-tick τ̂ takes its acceleration
     from the speed change over the ticks averaged, so what a drive's delay and speed
@@ -45,33 +45,32 @@ class AlarmEvidence:
 
     def __init__(self, window: int):
         self.window = window
-        # per tick: τ̂'s lower and upper bounds (N), the residual (N·m)
-        self.recent: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=window)
+        # per tick: τ̂'s lower bound (N), the residual (N·m)
+        self.recent: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=window)
         self.quiet_ticks = 0
 
     @property
     def ticks(self) -> int:
         return len(self.recent)
 
-    def add(self, low_n: np.ndarray, high_n: np.ndarray, residual_nm: np.ndarray,
-            alarm: bool) -> None:
-        """A tick's bounds and residual: from an alarm on, until `window` quiet ticks."""
+    def add(self, low_n: np.ndarray, residual_nm: np.ndarray, alarm: bool) -> None:
+        """A tick's τ̂ lower bound and residual: from an alarm on, until `window` quiet
+        ticks."""
         self.quiet_ticks = 0 if alarm else self.quiet_ticks + 1
         if not alarm and (not self.ticks or self.quiet_ticks >= self.window):
             self.clear()
             return
-        self.recent.append((low_n, high_n, residual_nm))
+        self.recent.append((low_n, residual_nm))
 
     def clear(self) -> None:
         self.recent.clear()
         self.quiet_ticks = 0
 
-    def tension_bounds_n(self) -> tuple[np.ndarray, np.ndarray]:
-        lows, highs, _ = zip(*self.recent)
-        return np.mean(lows, axis=0), np.mean(highs, axis=0)
+    def tension_low_n(self) -> np.ndarray:
+        return np.mean([low for low, _ in self.recent], axis=0)
 
     def residual_nm(self) -> np.ndarray:
-        return np.mean([residual for _, _, residual in self.recent], axis=0)
+        return np.mean([residual for _, residual in self.recent], axis=0)
 
 
 @dataclass
@@ -168,9 +167,9 @@ class Supervisor:
             if alarm and self.alarm_tick is None:
                 self.alarm_tick = tick
             if self.previous_speed is not None:
-                self.evidence.add(*self.tension_bounds_n, residual, alarm)
+                self.evidence.add(self.tension_bounds_n[0], residual, alarm)
             if alarm and self.previous_speed is not None:
-                found = identify_broken_cables(*self.evidence.tension_bounds_n(),
+                found = identify_broken_cables(self.evidence.tension_low_n(),
                                                self.evidence.residual_nm(),
                                                self.robot.motor.drum_radius_m, self.fdi.delta_nm)
                 # a collapsed cable is free whatever the sign of a residual too small to judge
