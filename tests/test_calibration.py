@@ -48,6 +48,16 @@ def test_cusum_trace_accumulates_only_above_the_drift():
     np.testing.assert_allclose(cusum_trace(z, drift=3.0), [0.0, 2.0, 4.0, 1.0, 0.0])
 
 
+def test_a_calibration_that_never_sees_the_sum_grow_still_gives_the_sum_a_level(rng):
+    """Quiet runs (|z| never above ν): no sum to fit, but h must be positive, and at least
+    what one sample the limit lets pass adds to the sum."""
+    runs = [FailureFreeRun(rng.normal(0.0, 0.01, (2000, 3)), rng.uniform(-2.0, 2.0, (2000, 3)))
+            for _ in range(20)]
+    result = calibrate(runs, PERIOD_S, 0.1, cusum_drift=5.0, false_alarms_per_hour=0.1)
+    assert result.largest_cusum == 0.0
+    assert result.cusum_threshold >= result.cusum_limit - result.cusum_drift > 0.0
+
+
 def test_calibration_of_white_noise_gives_thresholds_above_every_failure_free_run(rng):
     runs = synthetic_runs(rng)
     result = calibrate(runs, PERIOD_S, 0.1, cusum_drift=5.0, false_alarms_per_hour=0.1)

@@ -169,15 +169,17 @@ def test_two_broken_cables_are_named_and_reported_as_fault():
 
 
 # Robots unlike the paper's: a tall narrow 4-cable frame (1.5 kg on near-vertical
-# cables, where the paper's phase 1 lifted the load out of the frame) and a 6-cable
-# robot at two heights (8 kg). Every cable, on the circle, from its midpoint; the run
-# ends when the recovery does, within the derived budget.
+# cables, where the paper's phase 1 lifted the load out of the frame), a 6-cable robot at
+# two heights (8 kg) and an 8-cable one at eight (5 kg, from its robot file alone: every
+# other setting the paper's or derived). Every cable, on the circle, from its midpoint;
+# the run ends when the recovery does, within the derived budget.
 OTHER_ROBOTS = [('tall_frame_robot', 'tall_frame_motions', cable) for cable in range(1, 5)] + \
-               [('six_cable_robot', 'six_cable_motions', cable) for cable in range(1, 7)]
+               [('six_cable_robot', 'six_cable_motions', cable) for cable in range(1, 7)] + \
+               [('robots/eight_cable_robot', 'eight_cable_motions', cable) for cable in range(1, 9)]
 
 
 @pytest.mark.parametrize('robot, motions, cable', OTHER_ROBOTS,
-                         ids=[f'{robot}-cable{cable}' for robot, _, cable in OTHER_ROBOTS])
+                         ids=[f'{robot.split("/")[-1]}-cable{cable}' for robot, _, cable in OTHER_ROBOTS])
 def test_other_robots_detect_name_and_recover_every_cable(robot, motions, cable):
     scenario, _, metrics = run('circle', [cable], config=CONFIG_DIR / f'{robot}.yaml',
                                motions=CONFIG_DIR / f'{motions}.yaml')
@@ -302,6 +304,28 @@ def test_a_break_the_residual_never_sees_is_found_by_the_tension_collapse():
     assert metrics['identified_cables'] == [4] and not metrics['false_alarm']
     window_ms = scenario.fdi.collapse_window_cycles * scenario.period_s * 1000.0
     assert metrics['detection_delay_ms'] <= window_ms
+    assert_recovered(scenario, metrics)
+
+
+# Breaks inside the residual workspace, where position control takes over at once (elastic
+# plant): the move started from no acceleration, a step from the tensions the remaining
+# cables had to the plan's, and the cable diagonal to the broken one went slack (0.00 N)
+# or fell to 0.5 N for a period. (motion, cable, s, seed, detector)
+TAKEN_OVER_MOVING = [('orthogonal-4', 3, 2.500674789862831, 2, 'cusum'),
+                     ('circle', 2, 4.130512839502515, 0, 'threshold')]
+
+
+@pytest.mark.parametrize('motion, cable, failure_s, seed, detector', TAKEN_OVER_MOVING)
+def test_position_control_takes_over_with_the_force_the_cables_apply(motion, cable, failure_s,
+                                                                     seed, detector):
+    scenario = build_scenario(ScenarioOptions(
+        motion=motion, fail_cables=[cable], fail_at_s=failure_s, fidelity='elastic', seed=seed,
+        detector=detector))
+    metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
+    assert metrics['identified_cables'] == [cable]
+    assert metrics['recovery']['phase_times_s']['RECOVERY_MOVE'] == pytest.approx(
+        metrics['recovery']['phase_times_s']['RECOVERY_TENSION']), 'taken over at once'
+    assert metrics['recovery']['min_tension_n'] >= scenario.robot.tension_min_n
     assert_recovered(scenario, metrics)
 
 

@@ -15,7 +15,12 @@ LINE = StraightLine([0.4, 0.5, 1.0], [1.3, 1.5, 1.8], 2.5)
 CIRCLE = Circle([0.844, 0.965, 1.25], 0.4, np.radians(30.0), np.radians(-250.0), 4.0)
 SEQUENCE = Sequence([Hold(LINE.start, 0.7), LINE, Hold(LINE.end, 0.4),
                      StraightLine(LINE.end, [0.9, 0.4, 1.3], 1.5), Hold([0.9, 0.4, 1.3], 0.3)])
+# a brake taking over a swinging end-effector: with its velocity and acceleration
+BRAKE = HermiteQuintic([0.5, 0.6, 1.1], [0.2, -0.1, 0.05], [0.6, 0.55, 1.12], [0.0, 0.0, 0.0], 0.8,
+                       [-1.5, 0.4, 2.0], [0.3, 0.0, -0.2])
 TRAJECTORIES = {'line': LINE, 'circle': CIRCLE, 'sequence': SEQUENCE}
+# ... and those that may start or end moving
+SEGMENTS = {**TRAJECTORIES, 'brake': BRAKE}
 
 
 def _speeds(trajectory, dt=1e-3):
@@ -23,9 +28,9 @@ def _speeds(trajectory, dt=1e-3):
     return times, np.array([np.linalg.norm(trajectory.sample(t)[1]) for t in times])
 
 
-@pytest.mark.parametrize('name', list(TRAJECTORIES))
+@pytest.mark.parametrize('name', list(SEGMENTS))
 def test_derivatives_match_central_differences(name):
-    trajectory = TRAJECTORIES[name]
+    trajectory = SEGMENTS[name]
     h = 1e-5
     times = np.linspace(0.0, trajectory.duration_s, 37)[1:-1] + 0.0137
     for t in times:
@@ -87,9 +92,9 @@ def test_circle_peak_speed(speed):
     assert np.trapezoid(speeds, dx=circle.duration_s / 2000) == pytest.approx(2 * np.pi * 0.4, rel=1e-6)
 
 
-@pytest.mark.parametrize('name', list(TRAJECTORIES))
+@pytest.mark.parametrize('name', list(SEGMENTS))
 def test_reversed_swaps_the_ends(name):
-    trajectory = TRAJECTORIES[name]
+    trajectory = SEGMENTS[name]
     backward = trajectory.reversed()
     assert backward.duration_s == pytest.approx(trajectory.duration_s)
     np.testing.assert_allclose(backward.start, trajectory.end, atol=1e-12)
@@ -101,6 +106,14 @@ def test_reversed_swaps_the_ends(name):
         np.testing.assert_allclose(p_r, p, atol=1e-9)
         np.testing.assert_allclose(v_r, -v, atol=1e-9)
         np.testing.assert_allclose(a_r, a, atol=1e-9)
+
+
+def test_a_hermite_quintic_meets_its_ends_in_position_velocity_and_acceleration():
+    for t, position, velocity, acceleration in (
+            (0.0, BRAKE.start_m, BRAKE.start_velocity_m_s, BRAKE.start_acceleration_m_s2),
+            (BRAKE.duration_s, BRAKE.goal_m, BRAKE.goal_velocity_m_s, BRAKE.goal_acceleration_m_s2)):
+        for figure, expected in zip(BRAKE.sample(t), (position, velocity, acceleration)):
+            np.testing.assert_allclose(figure, expected, atol=1e-12)
 
 
 def test_sequence_must_be_continuous():
@@ -117,9 +130,9 @@ def test_sequence_segments_follow_each_other():
 
 
 @pytest.mark.parametrize('trajectory', [
-    *TRAJECTORIES.values(), Hold(LINE.end, 0.5),
+    *SEGMENTS.values(), Hold(LINE.end, 0.5),
     HermiteQuintic([0.5, 0.6, 1.1], [0.2, -0.1, 0.05], [1.0, 1.1, 1.3], [0.0, 0.1, 0.0], 1.5)],
-    ids=[*TRAJECTORIES, 'hold', 'hermite'])
+    ids=[*SEGMENTS, 'hold', 'hermite'])
 def test_an_array_of_times_samples_each_time_as_alone(trajectory):
     """A reference is tabulated by sampling all its times at once: each row must be the
     sample of its time, at the ends, before and after the motion and on the seams of a

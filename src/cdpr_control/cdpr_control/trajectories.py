@@ -142,14 +142,18 @@ class Circle(Trajectory):
 
 
 class HermiteQuintic(Trajectory):
-    """A quintic from p_0 with velocity v_0 to p_1 with velocity v_1, no acceleration at
-    either end: p = p_0 + (p_1 − p_0) s(τ) + T (v_0 w(τ) − v_1 w(1 − τ)),
-    w(τ) = τ − 6τ³ + 8τ⁴ − 3τ⁵ (w, w'' vanish at both ends, w'(0) = 1, w'(1) = 0).
+    """A quintic from p_0 with velocity v_0 and acceleration a_0 to p_1 with velocity v_1
+    and acceleration a_1 (both accelerations zero unless given):
+    p = p_0 + (p_1 − p_0) s(τ) + T (v_0 w(τ) − v_1 w(1 − τ)) + T² (a_0 z(τ) + a_1 z(1 − τ)),
+    w(τ) = τ − 6τ³ + 8τ⁴ − 3τ⁵ (w, w'' vanish at both ends, w'(0) = 1, w'(1) = 0),
+    z(τ) = τ² (1 − τ)³ / 2 (z, z' vanish at both ends, z''(0) = 1, z''(1) = 0).
 
-    It takes over a motion already under way without a jump in velocity.
+    It takes over a motion already under way without a jump in velocity, or — given the
+    acceleration the end-effector has — in the force its cables must apply.
     """
 
-    def __init__(self, start_m, start_velocity_m_s, goal_m, goal_velocity_m_s, duration_s: float):
+    def __init__(self, start_m, start_velocity_m_s, goal_m, goal_velocity_m_s, duration_s: float,
+                 start_acceleration_m_s2=(0.0, 0.0, 0.0), goal_acceleration_m_s2=(0.0, 0.0, 0.0)):
         if duration_s <= 0.0:
             raise ValueError(f'duration must be positive, got {duration_s}')
         self.start_m = np.array(start_m, dtype=float)
@@ -157,6 +161,8 @@ class HermiteQuintic(Trajectory):
         self.goal_m = np.array(goal_m, dtype=float)
         self.goal_velocity_m_s = np.array(goal_velocity_m_s, dtype=float)
         self.duration_s = float(duration_s)
+        self.start_acceleration_m_s2 = np.array(start_acceleration_m_s2, dtype=float)
+        self.goal_acceleration_m_s2 = np.array(goal_acceleration_m_s2, dtype=float)
 
     @staticmethod
     def _velocity_blend(tau: float):
@@ -166,22 +172,35 @@ class HermiteQuintic(Trajectory):
                 1.0 - 18.0 * tau2 + 32.0 * tau2 * tau - 15.0 * tau2 * tau2,
                 -36.0 * tau + 96.0 * tau2 - 60.0 * tau2 * tau)
 
+    @staticmethod
+    def _acceleration_blend(tau):
+        """z, dz/dτ, d²z/dτ² at τ."""
+        rest = 1.0 - tau
+        return (0.5 * tau * tau * rest ** 3,
+                tau * rest ** 3 - 1.5 * tau * tau * rest * rest,
+                rest ** 3 - 6.0 * tau * rest * rest + 3.0 * tau * tau * rest)
+
     def sample(self, t):
         duration = self.duration_s
         tau = _fraction(t, duration)
         s, s_dot, s_ddot = (_column(value) for value in quintic_profile(t, duration))
         w, w_d, w_dd = (_column(value) for value in self._velocity_blend(tau))
         v, v_d, v_dd = (_column(value) for value in self._velocity_blend(1.0 - tau))
+        z, z_d, z_dd = (_column(value) for value in self._acceleration_blend(tau))
+        y, y_d, y_dd = (_column(value) for value in self._acceleration_blend(1.0 - tau))
         delta = self.goal_m - self.start_m
         v0, v1 = self.start_velocity_m_s, self.goal_velocity_m_s
-        position = self.start_m + s * delta + duration * (v0 * w - v1 * v)
-        velocity = s_dot * delta + v0 * w_d + v1 * v_d
-        acceleration = s_ddot * delta + (v0 * w_dd - v1 * v_dd) / duration
+        a0, a1 = self.start_acceleration_m_s2, self.goal_acceleration_m_s2
+        position = (self.start_m + s * delta + duration * (v0 * w - v1 * v)
+                    + duration * duration * (a0 * z + a1 * y))
+        velocity = s_dot * delta + v0 * w_d + v1 * v_d + duration * (a0 * z_d - a1 * y_d)
+        acceleration = s_ddot * delta + (v0 * w_dd - v1 * v_dd) / duration + a0 * z_dd + a1 * y_dd
         return position, velocity, acceleration
 
     def reversed(self) -> 'HermiteQuintic':
         return HermiteQuintic(self.goal_m, -self.goal_velocity_m_s, self.start_m,
-                              -self.start_velocity_m_s, self.duration_s)
+                              -self.start_velocity_m_s, self.duration_s,
+                              self.goal_acceleration_m_s2, self.start_acceleration_m_s2)
 
 
 class Hold(Trajectory):

@@ -79,7 +79,9 @@ def calibrate(runs: list[FailureFreeRun], period_s: float, smoothing_rad_s: floa
 
     CUSUM: σ_i is the spread of the friction-compensated residual; with the drift ν
     given, its three tests (the sum's level h, the limit on z, ε on |r|) each get a third
-    of the budget.
+    of the budget. The sum never alarms on a single sample the limit lets pass: h is at
+    least limit − ν (a smooth robot's calibration may never see z above ν, and give no
+    sum to fit).
     """
     coulomb = fit_coulomb_friction(runs, smoothing_rad_s)
     friction = FrictionModel(coulomb, smoothing_rad_s)
@@ -91,13 +93,14 @@ def calibrate(runs: list[FailureFreeRun], period_s: float, smoothing_rad_s: floa
     normalised = [np.abs(e) / sigma for e in compensated]
     cusum_maxima = np.array([np.max(cusum_trace(z, cusum_drift)) for z in normalised])
     third = false_alarms_per_hour / 3.0
+    limit = gumbel_threshold(np.array([np.max(z) for z in normalised]), block_s, third)
     return Calibration(
         coulomb_friction_nm=coulomb,
         epsilon_nm=gumbel_threshold(raw_maxima, block_s, false_alarms_per_hour),
         cusum_sigma_nm=[float(s) for s in sigma],
         cusum_drift=cusum_drift,
-        cusum_threshold=gumbel_threshold(cusum_maxima, block_s, third),
-        cusum_limit=gumbel_threshold(np.array([np.max(z) for z in normalised]), block_s, third),
+        cusum_threshold=max(gumbel_threshold(cusum_maxima, block_s, third), limit - cusum_drift),
+        cusum_limit=limit,
         cusum_epsilon_nm=gumbel_threshold(raw_maxima, block_s, third),
         hours=ticks * period_s / 3600.0,
         runs=len(runs),

@@ -4,8 +4,9 @@
 a fraction of an equal share of the weight.
 
 Where the remaining cables hold the end-effector taut at detection, position control
-takes over at once (RECOVERY_MOVE): a quintic that starts with its velocity brings it to
-rest, then a straight quintic takes it to SP, under PD + feed-forward with S_R.
+takes over at once (RECOVERY_MOVE): a quintic that starts with its velocity, and with the
+acceleration t_R gives it, brings it to rest, then a straight quintic takes it to SP,
+under PD + feed-forward with S_R.
 
 Elsewhere, phase 1 (RECOVERY_TENSION) first: a quintic in tension space from t_R, the
 tensions that keep the force the robot applied at detection (eq. 23–25, no cable below
@@ -234,45 +235,57 @@ class Recovery:
         return (least_static_tension_n(self.robot, self.attached, position_m) >= self.taut_n
                 and float(np.linalg.norm(velocity_m_s)) < self.config.settle_speed_m_s)
 
-    def plan_move(self, tick: int, start_m: np.ndarray, velocity_m_s: np.ndarray) -> bool:
-        """From the end-effector's position and velocity to SP at rest, tabulated per tick;
-        False when no plan keeps the tensions within the bounds.
+    def plan_move(self, tick: int, start_m: np.ndarray, velocity_m_s: np.ndarray,
+                  acceleration_m_s2: np.ndarray) -> bool:
+        """From the end-effector's position, velocity and acceleration to SP at rest,
+        tabulated per tick; False when no plan keeps the tensions within the bounds.
 
         A moving end-effector is first brought to rest on its way (a quintic that starts
-        with its velocity, so position control takes over without a jolt that could
-        slacken a cable), then moved to SP in a straight line. Where the tensions of a
-        plan would leave the bounds, it is planned again, braking `replan_slowdown` times
-        sooner (nearer where it is) and moving that much slower, at most
-        `replan_attempts` times.
+        with its velocity and acceleration, so position control takes over without a
+        step in the cables' tensions that could slacken one), then moved to SP in a
+        straight line. Where the tensions of a plan would leave the bounds, it is planned
+        again, braking `replan_slowdown` times sooner (nearer where it is) and moving that
+        much slower, at most `replan_attempts` times; then as often from no acceleration
+        (the tensions stepping to the plan's).
         """
         brake_s = self.config.brake_s(float(np.linalg.norm(velocity_m_s)))
-        for attempt in range(self.config.replan_attempts + 1):
-            slowdown = self.config.replan_slowdown ** attempt
-            try:
-                table = tabulate_reference(
-                    self.robot, self.distribution, self.move_to_safe_point(
-                        start_m, velocity_m_s, brake_s / slowdown, slowdown),
-                    self.period_s, attached=self.attached)
-            except InfeasibleTensionError as err:
-                self.last_plan_error = err
-                continue
-            self.move = (tick, table)
-            self.mode = RECOVERY_MOVE
-            self.phase_ticks[RECOVERY_MOVE] = tick
-            return True
+        for acceleration in (acceleration_m_s2, np.zeros(3)):
+            for attempt in range(self.config.replan_attempts + 1):
+                slowdown = self.config.replan_slowdown ** attempt
+                try:
+                    table = tabulate_reference(
+                        self.robot, self.distribution, self.move_to_safe_point(
+                            start_m, velocity_m_s, acceleration, brake_s / slowdown, slowdown),
+                        self.period_s, attached=self.attached)
+                except InfeasibleTensionError as err:
+                    self.last_plan_error = err
+                    continue
+                self.move = (tick, table)
+                self.mode = RECOVERY_MOVE
+                self.phase_ticks[RECOVERY_MOVE] = tick
+                return True
         return False
 
-    def move_to_safe_point(self, start_m, velocity_m_s, brake_s: float, slowdown: float) -> Sequence:
+    def acceleration_m_s2(self, position_m: np.ndarray, tensions_n: np.ndarray) -> np.ndarray:
+        """p̈ = (S_R t_R + m g) / m: what the remaining cables' tensions (N) do to the
+        end-effector at `position_m`."""
+        directions, _ = cable_vectors(self.robot.exit_points_m[self.attached], position_m)
+        return tensions_n[self.attached] @ directions / self.robot.mass_kg + self.robot.gravity_m_s2
+
+    def move_to_safe_point(self, start_m, velocity_m_s, acceleration_m_s2, brake_s: float,
+                           slowdown: float) -> Sequence:
         """Brake over `brake_s` (to where the end-effector then is, half its speed times
         that time ahead), then a straight quintic to SP at the peak speed / `slowdown`."""
         rest = start_m + 0.5 * brake_s * np.asarray(velocity_m_s)
-        segments = [HermiteQuintic(start_m, velocity_m_s, rest, np.zeros(3), brake_s)]
+        segments = [HermiteQuintic(start_m, velocity_m_s, rest, np.zeros(3), brake_s,
+                                   acceleration_m_s2)]
         distance = float(np.linalg.norm(self.safe_point_m - rest))
         if distance > self.config.reached_tolerance_m:
             duration = self.config.move_s(distance) * slowdown
             segments.append(HermiteQuintic(rest, np.zeros(3), self.safe_point_m, np.zeros(3), duration))
         else:
-            segments[0] = HermiteQuintic(start_m, velocity_m_s, self.safe_point_m, np.zeros(3), brake_s)
+            segments[0] = HermiteQuintic(start_m, velocity_m_s, self.safe_point_m, np.zeros(3), brake_s,
+                                         acceleration_m_s2)
         return Sequence(segments + [Hold(self.safe_point_m, self.period_s)])
 
     def setpoint(self, tick: int, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray):
@@ -281,10 +294,17 @@ class Recovery:
         if self.mode == RECOVERY_TENSION and self.planning_due(tick):
             state = position, velocity = self.end_effector_state(angle_rad, angular_velocity_rad_s)
             if self.tension_phase_s == 0.0:
-                # no plan from where it is: hold it there by tension until it settles
-                if not self.plan_move(tick, position, velocity):
+                # with the acceleration t_R gives it: the cables' tensions go on
+                if not self.plan_move(tick, position, velocity,
+                                      self.acceleration_m_s2(position, self.start_tensions_n)):
+                    # no plan from where it is: hold it there by tension until it settles
                     self.tension_phase_s = self.config.tension_phase_s
-            elif self.settled(tick, position, velocity) and not self.plan_move(tick, position, velocity):
+            # After phase 1, from no acceleration: its last tensions hold some cable at the
+            # taut floor as the end-effector swings about the entry point, the static ones
+            # of where it is are further from it (going on from phase 1's left a cable
+            # under τ_min for a period at the switch in 13 of 192 runs of the tall frame).
+            elif (self.settled(tick, position, velocity)
+                  and not self.plan_move(tick, position, velocity, np.zeros(3))):
                 if self.timed_out:
                     raise self.last_plan_error
         if self.mode == RECOVERY_TENSION:
