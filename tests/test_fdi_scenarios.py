@@ -252,6 +252,8 @@ def test_a_robot_only_file_says_what_it_resolves_to_and_finds_its_calibration(ro
     said = capsys.readouterr().out
     assert 'control period 2 ms (default)' in said
     assert 'Hz (derived: the default 12 Hz is not stable on these motors)' in said
+    # in proportion to its 2 N tension_min_n
+    assert 'tension collapse τ̂ within 1 N of zero while the reference asks at least 3 N' in said
     # made on this very robot: found by its fingerprint, wherever the robot file is
     assert 'elastic plant calibration six_cable_calibration_elastic.yaml: ε =' in said
 

@@ -72,8 +72,10 @@ def print_settings(config, robot):
              f"{fdi_section.number('identification_delta_weight_share'):g} of each cable's equal "
              "share of the weight)" if delta_n < asked_delta_n - 1e-9 else
              setting(fdi_section, 'identification_delta_n', f'{delta_n:g} N ({fdi.delta_nm:.3g} N·m)'))
-    print(f'  FDI {detector}, rigid plant ε {epsilon}, identification δ {delta}; '
-          f'elastic plant calibration {elastic_text}')
+    collapse = (f'τ̂ within {fdi.collapse_band_n:g} N of zero while the reference asks at least '
+                f'{fdi.collapse_reference_n:g} N, over {fdi.collapse_window_cycles} periods')
+    print(f'  FDI {detector}, rigid plant ε {epsilon}, identification δ {delta}, tension collapse '
+          f'{collapse}; elastic plant calibration {elastic_text}')
     print(f'  recovery SP height {heights[0]}, table {heights[1]}, move {move}')
     return recovery, delta_n
 
