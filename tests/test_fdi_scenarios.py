@@ -171,11 +171,12 @@ def test_two_broken_cables_are_named_and_reported_as_fault():
 # Robots unlike the paper's: a tall narrow 4-cable frame (1.5 kg on near-vertical
 # cables, where the paper's phase 1 lifted the load out of the frame), a 6-cable robot at
 # two heights (8 kg) and an 8-cable one at eight (5 kg, from its robot file alone: every
-# other setting the paper's or derived). Every cable, on the circle, from its midpoint;
-# the run ends when the recovery does, within the derived budget.
+# other setting the paper's or derived). Every cable of the first two, two opposite ones
+# of the third (every cable of it: the campaign of docs/robots.md), on the circle, from
+# its midpoint; the run ends when the recovery does, within the derived budget.
 OTHER_ROBOTS = [('tall_frame_robot', 'tall_frame_motions', cable) for cable in range(1, 5)] + \
                [('six_cable_robot', 'six_cable_motions', cable) for cable in range(1, 7)] + \
-               [('robots/eight_cable_robot', 'eight_cable_motions', cable) for cable in range(1, 9)]
+               [('robots/eight_cable_robot', 'eight_cable_motions', cable) for cable in (1, 5)]
 
 
 @pytest.mark.parametrize('robot, motions, cable', OTHER_ROBOTS,
