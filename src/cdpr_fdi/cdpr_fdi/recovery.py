@@ -249,7 +249,9 @@ class Recovery:
         (the tensions stepping to the plan's).
         """
         brake_s = self.config.brake_s(float(np.linalg.norm(velocity_m_s)))
-        for acceleration in (acceleration_m_s2, np.zeros(3)):
+        # from rest in acceleration once: a plan that asks none is not tried twice
+        for acceleration in ((acceleration_m_s2, np.zeros(3)) if np.any(acceleration_m_s2)
+                             else (acceleration_m_s2,)):
             for attempt in range(self.config.replan_attempts + 1):
                 slowdown = self.config.replan_slowdown ** attempt
                 try:

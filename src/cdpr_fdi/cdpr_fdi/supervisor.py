@@ -143,7 +143,8 @@ class Supervisor:
                 self.previous_speed, np.asarray(angular_velocity_rad_s, float), self.period_s)
             low, high = self.tension_bounds_n
             self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
-            collapsed = self.collapse.update(low, high, self.reference_tensions(reference))
+            if not self.broken:   # once a cable is named, nothing more is looked for
+                collapsed = self.collapse.update(low, high, self.reference_tensions(reference))
         events: list[str] = []
         alarm = False
         if self.previous_command is not None and not (applied == self.previous_command).all():

@@ -29,18 +29,26 @@ class TensionCollapse:
     the reference asked for at least `reference_min_n` (N)."""
 
     def __init__(self, window: int, band_n: float, reference_min_n: float):
+        self.window = window
         self.band_n = band_n
         self.reference_min_n = reference_min_n
-        # per period: τ̂'s lower and upper bounds (N), the reference tension (N)
-        self.recent: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=window)
+        # per period, a row each: τ̂'s lower and upper bounds (N), the reference tension (N)
+        self.recent: deque[np.ndarray] = deque()
+        # their sum over `recent`: kept as periods come and go, as the supervisor asks every
+        # period (averaging the window afresh each time cost half of a tick)
+        self.total: np.ndarray | None = None
 
     def update(self, tension_low_n: np.ndarray, tension_high_n: np.ndarray,
                reference_tension_n: np.ndarray) -> list[int]:
         """A period's τ̂ bounds and reference tension in; the collapsed cables (0-based) out."""
-        self.recent.append((tension_low_n, tension_high_n, reference_tension_n))
-        if len(self.recent) < self.recent.maxlen:
+        period = np.array((tension_low_n, tension_high_n, reference_tension_n), dtype=float)
+        self.recent.append(period)
+        self.total = period.copy() if self.total is None else self.total + period
+        if len(self.recent) > self.window:
+            self.total -= self.recent.popleft()
+        if len(self.recent) < self.window:
             return []
-        low, high, reference = (np.mean(values, axis=0) for values in zip(*self.recent))
+        low, high, reference = self.total / self.window
         distance_n = np.maximum(np.maximum(low, -high), 0.0)
         return [int(cable) for cable in
                 np.flatnonzero((distance_n < self.band_n) & (reference >= self.reference_min_n))]
