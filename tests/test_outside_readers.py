@@ -109,7 +109,8 @@ def run_with_a_stopped_reader(tmp_path, clock_mode: str):
         if reader is not None:
             end(reader)
         codes = graph.stop()
-    assert set(codes.values()) == {0}, f'exit codes after the stop: {codes}'
+    assert set(codes.values()) == {0}, (f'exit codes after the stop: {codes}; the log\'s end:\n'
+                                        + '\n'.join(list(log)[-80:]))
     return namespace, bag, stopped_ns, stalled_s, log
 
 

@@ -26,7 +26,7 @@ from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 from cdpr_twin.plant import FIDELITIES
 from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, shipped_environment,
                               use_shipped_setup)
-from cdpr_msgs_py.runtime import READY_MARK, SHUTDOWN_LIMIT_S
+from cdpr_msgs_py.runtime import READY_MARK, SHUTDOWN_LIMIT_S, STACK_DUMP_SIGNAL
 
 from .cli import INTERRUPTED_EXIT_CODE, command
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
@@ -35,6 +35,8 @@ from .scenario_setup import ScenarioOptions, add_graph_form_option, add_push_opt
 # After SIGINT a node drains, waits for acknowledgements and exits; SIGKILL comes only
 # after that has had its time (a killed node can leave DDS state behind).
 STOP_GRACE_S = SHUTDOWN_LIMIT_S + 2.0
+# How long a node that outlived its grace has to write its stacks before SIGKILL (s).
+STACK_DUMP_S = 0.5
 # Longer than a node's own bound on its DDS start, so that its one-line reason arrives first.
 UP_TIMEOUT_S = INITIALISATION_LIMIT_S + 10.0
 TEMP_PREFIX = 'cdpr-graph-'
@@ -230,7 +232,10 @@ class Graph:
             try:
                 process.wait(timeout=max(deadline - time.monotonic(), 0.1))
             except subprocess.TimeoutExpired:
-                self.log(f'[cdpr-graph] {name} still running {STOP_GRACE_S:.1f} s after SIGINT; killing it')
+                self.log(f'[cdpr-graph] {name} still running {STOP_GRACE_S:.1f} s after SIGINT; '
+                         f'killing it (its threads\' stacks follow)')
+                os.kill(process.pid, STACK_DUMP_SIGNAL)
+                time.sleep(STACK_DUMP_S)
                 os.killpg(process.pid, signal.SIGKILL)
                 process.wait(timeout=STOP_GRACE_S)
         for thread in self.threads:

@@ -3,6 +3,7 @@ subscriptions that obey one writer."""
 from __future__ import annotations
 
 import ctypes
+import faulthandler
 import inspect
 import math
 import signal
@@ -51,6 +52,9 @@ EXECUTOR_SHUTDOWN_S = 0.5
 SHUTDOWN_LIMIT_S = DRAIN_LIMIT_S + ACKNOWLEDGEMENT_WAIT_S + ACKNOWLEDGE_LIMIT_S + EXECUTOR_SHUTDOWN_S
 # Printed on stdout once the node is constructed: launchers wait for it.
 READY_MARK = 'cdpr-node-ready'
+# A launcher sends it to a node that has not exited within its grace, before SIGKILL:
+# the node writes every thread's Python stack to stderr, so the log says where it hung.
+STACK_DUMP_SIGNAL = signal.SIGUSR1
 LEVELS = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR}
 
 
@@ -86,6 +90,7 @@ def run_composed(node_classes, args=None) -> int:
 
     signal.signal(signal.SIGINT, request_stop)
     signal.signal(signal.SIGTERM, request_stop)
+    faulthandler.register(STACK_DUMP_SIGNAL, all_threads=True)
     follow_launcher(request_stop)
     nodes = []
     with bounded_initialisation(', '.join(node_class.__name__ for node_class in node_classes)):
