@@ -17,7 +17,10 @@ import yaml
 from cdpr_bringup.bag_io import read_messages
 from cdpr_bringup.composed_loop import COMPOSABLE
 from cdpr_bringup.graph import parser, requested_graph, speaker
-from cdpr_bringup.launching import command_line, graph_from_launch, launch_arguments, launch_parameters
+from cdpr_bringup.graph import STOP_GRACE_S
+from cdpr_bringup.launching import (SIGTERM_TIMEOUT_S, command_line, graph_from_launch, launch_arguments,
+                                    launch_parameters)
+from cdpr_msgs_py.runtime import SHUTDOWN_LIMIT_S
 from cdpr_bringup.scenario_setup import GRAPH_FORMS
 
 from conftest import REPO
@@ -55,6 +58,21 @@ def test_the_launch_file_starts_the_nodes_cdpr_graph_starts_with_the_same_parame
                [(s.package, s.executable, s.parameters) for s in started]
         assert namespace == '/cdpr' and simulated == ('hardware' not in values)
     assert 'plant_simulator' not in {spec.name for spec in graph_from_launch(dict(DEFAULTS, hardware='true'))[0]}
+
+
+def test_launch_gives_every_node_the_time_its_shutdown_takes_before_sigterm():
+    """ros2 launch sends SIGTERM `sigterm_timeout` after SIGINT (5 s by default); a node
+    drains, waits for acknowledgements and tears DDS down in up to SHUTDOWN_LIMIT_S (6 s):
+    with the default, Ctrl-C killed nodes mid-shutdown. The nodes' Node actions get
+    cdpr-graph's grace, which the graph tests stop every graph with."""
+    assert SIGTERM_TIMEOUT_S == STOP_GRACE_S > SHUTDOWN_LIMIT_S
+    tree = ast.parse((LAUNCH_FOLDER / 'cdpr.launch.py').read_text())
+    calls = [node for node in ast.walk(tree) if isinstance(node, ast.Call)
+             and getattr(node.func, 'id', None) == 'Node']
+    assert calls
+    for call in calls:
+        timeout = next((keyword.value for keyword in call.keywords if keyword.arg == 'sigterm_timeout'), None)
+        assert timeout is not None and 'SIGTERM_TIMEOUT_S' in ast.unparse(timeout), ast.unparse(call)
 
 
 def test_every_package_and_executable_the_launch_files_start_exists():
@@ -110,6 +128,7 @@ def test_the_demo_launch_file_runs_the_papers_failure_with_real_launch(tmp_path,
             process.wait(timeout=10)
     assert process.returncode == 0, output[-3000:]
     assert 'SAFE_HOLD from tick' in output and 'process has finished cleanly' in output
+    assert 'escalating to SIGTERM' not in output, output[-3000:]
     verdicts = read_messages(bag, ['/cdpr/fdi/broken_cable'])['/cdpr/fdi/broken_cable']
     assert [message.data for _, message in verdicts][-1] == 4
 

@@ -16,9 +16,13 @@ import yaml
 
 from cdpr_msgs_py.dds import shipped_environment
 
-from .graph import NodeSpec, parser, requested_graph
+from .graph import STOP_GRACE_S, NodeSpec, parser, requested_graph
 
 TRUE = ('true', '1', 'yes')
+# How long launch waits after SIGINT before SIGTERM (its own default, 5 s, is shorter than
+# a node's shutdown, runtime.SHUTDOWN_LIMIT_S): cdpr-graph's grace, so that both stop
+# the graph by the same signal sequence.
+SIGTERM_TIMEOUT_S = STOP_GRACE_S
 
 
 @dataclass(frozen=True)

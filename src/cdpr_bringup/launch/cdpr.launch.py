@@ -6,7 +6,8 @@ calibration, fail_cable, fail_at_fraction, namespace, bag, hardware. `graph_form
 starts the control loop's nodes in one process (composed_loop), each under its own name.
 The run is settled once, as cdpr-graph settles it, and every node gets the same
 parameters; `hardware:=true` leaves the plant simulator out for a bridge to take its
-place. A simulated run ends with the plant.
+place. A simulated run ends with the plant. On Ctrl-C a node gets cdpr-graph's grace
+(drain, acknowledgements, DDS teardown) before launch escalates to SIGTERM.
 """
 import os
 
@@ -18,7 +19,8 @@ from launch.events import Shutdown
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from cdpr_bringup.launching import dds_environment, graph_from_launch, launch_arguments, launch_parameters
+from cdpr_bringup.launching import (SIGTERM_TIMEOUT_S, dds_environment, graph_from_launch, launch_arguments,
+                                    launch_parameters)
 
 
 def graph(context):
@@ -29,7 +31,7 @@ def graph(context):
     nodes = {spec.name: Node(package=spec.package, executable=spec.executable,
                              name=None if spec.members else spec.name, namespace=namespace,
                              arguments=spec.arguments(), parameters=[launch_parameters(spec)],
-                             output='screen')
+                             output='screen', sigterm_timeout=str(SIGTERM_TIMEOUT_S))
              for spec in specs}
     actions = list(nodes.values())
     if simulated:

@@ -221,7 +221,9 @@ class RecoveryConfig:
             move_peak_speed_m_s=recovery.number('move_peak_speed_m_s', positive=True),
             brake_deceleration_m_s2=recovery.number('brake_deceleration_m_s2', positive=True),
             minimum_move_s=recovery.number('minimum_move_s', positive=True),
-            plan_tension_margin_n=recovery.number('plan_tension_margin_n', non_negative=True),
+            # in proportion to the least tension the robot keeps its cables at
+            plan_tension_margin_n=recovery.number('plan_tension_margin_share', non_negative=True)
+            * robot.tension_min_n,
             replan_attempts=recovery.integer('replan_attempts', minimum=0),
             # each re-plan slower than the one before
             replan_slowdown=recovery.number('replan_slowdown', minimum=1.0),

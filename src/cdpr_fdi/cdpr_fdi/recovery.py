@@ -20,7 +20,8 @@ end-effector — by the forward kinematics of the remaining cables — is held t
 slower than `settle_speed_m_s`, or `settle_timeout_s` later.
 
 A move whose tensions would come within `plan_tension_margin_n` of tension_min_n (what
-the drives' tracking takes off a planned tension) is planned again, braking sooner and
+the drives' tracking, and on a redundant robot the joints' position control, takes off a
+planned tension) is planned again, braking sooner and
 moving slower; when no plan fits, phase 1 holds the end-effector where it is until it
 can, and after the timeout the recovery is given up (FAULT). Then SAFE_HOLD at SP.
 """
