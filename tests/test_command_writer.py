@@ -4,7 +4,8 @@ effort commands of the graph's controller only.
 The rule (cdpr_msgs_py.sole_writer.SoleWriter) is tested directly; then in this process,
 through both executors, on the GIDs the middleware reports; then on a graph (lockstep and
 realtime) that another process writes zero torques to — as an extra node and as a second
-node named controller — whose commands must be rejected, counted, named and never applied.
+node named controller — whose commands must be rejected, counted, named and never applied;
+the extra node also asks for a cable to break, which the plant refuses.
 """
 from __future__ import annotations
 
@@ -303,6 +304,16 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
         writers = last[f'rejected {contract.EFFORT_COMMAND} from']
         assert f'node {namespace}/outside_writer (GID ' in writers
         assert f'another node named {namespace}/controller (GID ' in writers
+    # the outside node's injections: refused by a plant started as a run starts it, no
+    # cable broken, each counted
+    plant = [{value.key: value.value for value in status.values} for _, message in found['/diagnostics']
+             for status in message.status if status.name == f'{namespace}/plant_simulator']
+    with timing_check(log, writes_s, f'{clock_mode}: the outside writer asked for a failure'):
+        assert sent[OUTSIDE_WRITERS[0]]['injections'] > 0, sent
+    assert plant and json.loads(plant[-1][contract.BROKEN_AT_KEY]) == {}, 'an outside node broke a cable'
+    with timing_check(log, run_s, f'{clock_mode}: the plant\'s status counting a refused injection recorded',
+                      recorder_lost):
+        assert int(plant[-1].get(f'rejected {contract.INJECT_FAILURE}', 0)) > 0, plant[-1]
     # one controller publisher obeyed by both, all run long
     assert len(pins) <= 1, pins
     with timing_check(log, run_s, f'{clock_mode}: the pinned writer recorded', recorder_lost):

@@ -436,6 +436,7 @@ class CdprNode(Node):
         # joins the graph's topics, and `-r __ns:=…` (what launchers pass) overrides this
         super().__init__(name, namespace=contract.DEFAULT_NAMESPACE)
         self.sole_writers: list[SoleWriterSubscription] = []
+        self.required_writers: list[SoleWriterSubscription] = []
         self.clock_mode = self.parameter('clock_mode', 'lockstep',
                                          'lockstep: each tick waits for its command, repeatable; '
                                          'realtime: on the wall clock, as hardware')
@@ -529,12 +530,14 @@ class CdprNode(Node):
                 for key, value in subscription.facts().items()}
 
     def create_sole_writer_subscription(self, msg_type, topic: str, handler, qos_profile,
-                                        writer: str) -> SoleWriterSubscription:
+                                        writer: str, required: bool = True) -> SoleWriterSubscription:
         """Subscribe `handler` to the messages of node `writer`'s publisher only (a name
-        relative to this node's namespace, or fully qualified); the node starts (see
-        `matched`) only once it knows that publisher."""
+        relative to this node's namespace, or fully qualified); if `required`, the node
+        starts (see `matched`) only once it knows that publisher."""
         subscription = SoleWriterSubscription(self, msg_type, topic, handler, qos_profile, writer)
         self.sole_writers.append(subscription)
+        if required:
+            self.required_writers.append(subscription)
         return subscription
 
     def parameter(self, name: str, default, description: str, read_only: bool = True,
@@ -622,7 +625,7 @@ class CdprNode(Node):
             matched = endpoints.get((kind, self.resolve_topic_name(topic)))
             if matched is None or matched() < count:
                 return False
-        return all(subscription.known() for subscription in self.sole_writers)
+        return all(subscription.known() for subscription in self.required_writers)
 
     def idle(self) -> None:
         """Called after every spin: periodic work that needs no timer."""

@@ -7,7 +7,10 @@ code 0 after the settled run's `run.last_tick` (the run is complete; sooner, as
 cdpr_twin.run_length says, once a recovery is over). The run's start, failures and
 length are values the launcher settled (cdpr_control.settings): the plant knows no motion.
 Obeys the commands of the graph's controller only (parameter `command_writer`), as a
-hardware bridge must.
+hardware bridge must. A cable breaks on `inject_failure` only where the plant was
+started with `failure_injection` on, and only from the node `injection_writer` names:
+otherwise any terminal on the network could break a running robot's cable. A run's own
+failures are settled values (`run.failure_times_s`), which need no topic.
 """
 from __future__ import annotations
 
@@ -78,7 +81,14 @@ class PlantSimulatorNode(CdprNode):
                                              qos.STREAM, self.parameter(
                                                  'command_writer', 'controller',
                                                  'the only node whose effort_command the motors obey'))
-        self.create_subscription(Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM)
+        if self.parameter('failure_injection', False,
+                          'obey inject_failure (cable k breaks now); off, every message on it is rejected'):
+            self.create_sole_writer_subscription(
+                Int32, contract.INJECT_FAILURE, self.on_inject, qos.STREAM,
+                self.parameter('injection_writer', 'failure_injector',
+                               'the only node whose inject_failure is obeyed'), required=False)
+        else:
+            self.create_subscription(Int32, contract.INJECT_FAILURE, self.refuse_injection, qos.STREAM)
         self.timer = None
         self.watchdog = CommandWatchdog(plant_section.integer('command_timeout_cycles', minimum=1))
         settings.declare(self)
@@ -204,6 +214,10 @@ class PlantSimulatorNode(CdprNode):
             # the verdict on tick k steers the loop from tick k + 1
             self.run_length.mode(self.learnt_mode, joints.stamp_ns // self.period_ns + 1)
             self.learnt_mode = None
+
+    def refuse_injection(self, message: Int32) -> None:
+        self.diagnostics.reject(contract.INJECT_FAILURE, f'cable {message.data}: failure injection is off '
+                                f'(parameter failure_injection)')
 
     def on_inject(self, message: Int32) -> None:
         if not 1 <= message.data <= self.robot.cable_count:
