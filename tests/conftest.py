@@ -5,15 +5,18 @@ import contextlib
 import faulthandler
 import functools
 import os
+import re
 import subprocess
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from cdpr_msgs_py.dds import use_shipped_setup
+from cdpr_msgs_py.runtime import LOG_THROTTLE_S
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPO / 'src' / 'cdpr_bringup' / 'config'
@@ -128,6 +131,18 @@ class GraphLog:
         """When the plant logged that it starts its run (the first tick)."""
         return next(at for at, line in self.entries
                     if line.startswith('[plant_simulator]') and 'starting' in line)
+
+    def repeated_lines(self) -> dict[str, int]:
+        """The node log lines that came more often than once a LOG_THROTTLE_S over the
+        log's length (a line's shape: its node, level and text with numbers and stamps
+        taken out): shape → count. A repeated condition is throttled (issue 26 item 5)."""
+        if not self.entries:
+            return {}
+        length_s = self.entries[-1][0] - self.entries[0][0]
+        shapes = Counter(re.sub(r'[0-9.]+', '#', line) for _, line in self.entries
+                         if not line.startswith('[cdpr-graph]'))
+        bound = 1 + length_s / LOG_THROTTLE_S
+        return {shape: count for shape, count in shapes.items() if count > bound}
 
     def loop_slips(self, start_s: float, end_s: float) -> list[tuple[float, float, str]]:
         """The episodes in which the plant's loop did not keep its period that overlap

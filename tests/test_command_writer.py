@@ -249,6 +249,7 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
     finally:
         exit_codes = graph.stop()
     assert set(exit_codes.values()) == {0}, f'exit codes after the stop: {exit_codes}'
+    assert not log.repeated_lines(), log.repeated_lines()
     # A lockstep run has no period to slip: nothing of it is ever excused.
     run_s, writes_s = (log.plant_started_s(), time.monotonic()), (writing_s, written_s)
     # commands from each, half of them stamped as a state. The writers answer best-effort

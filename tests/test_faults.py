@@ -70,6 +70,7 @@ def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_pa
     finally:
         exit_codes = graph.stop()
     started_s = log.plant_started_s()
+    assert not log.repeated_lines(), log.repeated_lines()
     topics = [f'{namespace}/fdi/broken_cable', f'{namespace}/ground_truth/pose', '/diagnostics']
     found = read_messages(bag, topics)   # a killed recorder leaves a readable prefix
     verdicts = found[topics[0]]

@@ -110,8 +110,9 @@ class ControllerNode(CdprNode):
         return self.verdict_ns is not None and self.verdict_ns >= stamp_ns - self.period_ns
 
     def report_safe_hold(self) -> None:
+        """At once, as ERROR, on /diagnostics and (once: Diagnostics logs an episode's
+        start) on the console."""
         self.diagnostics.error = f'SAFE_HOLD: {self.setpoints.safe_hold_reason}'
-        self.get_logger().warning(self.diagnostics.error)
         self.diagnostics.publish()
 
     def idle(self) -> None:

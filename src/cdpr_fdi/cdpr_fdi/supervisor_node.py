@@ -23,7 +23,7 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.contract import NOMINAL
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.health import unjudged_problem, verdict_problems
-from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.runtime import LOG_THROTTLE_S, CdprNode, run
 
 from .config import settled_fdi
 from .supervisor import Supervisor
@@ -157,8 +157,9 @@ class SupervisorNode(CdprNode):
             self.get_logger().warning(event)
         if self.supervisor.unidentified_alarms > self.unidentified_alarms:
             self.unidentified_alarms = self.supervisor.unidentified_alarms
-            self.diagnostics.warn('unidentified alarm', f'an alarm ended without a free motor '
-                                                        f'({self.unidentified_alarms} in all)')
+            text = f'an alarm ended without a free motor ({self.unidentified_alarms} in all)'
+            self.diagnostics.warn('unidentified alarm', text)
+            self.get_logger().warning(text, throttle_duration_sec=LOG_THROTTLE_S)
         if self.supervisor.disturbances > self.disturbances:
             self.disturbances = self.supervisor.disturbances
             self.diagnostics.warn('disturbance', f'a push or contact on the end-effector, not a '

@@ -35,6 +35,9 @@ from .sole_writer import Endpoint, SoleWriter, qualified_name
 from .stamps import seconds_to_ns
 
 SPIN_TIMEOUT_S = 0.05
+# A condition that repeats (rejected messages, failed publishes, alarms that name no
+# cable) is logged at most once per this long (s); /diagnostics counts every one.
+LOG_THROTTLE_S = 1.0
 # On a stop request a node keeps handling what is queued until it has been quiet this
 # long (s), at most DRAIN_LIMIT_S, so the last ticks still reach the twin and the bag.
 DRAIN_QUIET_S = 0.3
@@ -249,7 +252,7 @@ class Diagnostics:
         self.activity += 1
         self.warn(f'rejected {topic}', f'rejected messages on {topic}')
         self.node.get_logger().warning(f'rejected a message on {topic}: {reason}',
-                                       throttle_duration_sec=1.0)
+                                       throttle_duration_sec=LOG_THROTTLE_S)
 
     def publish_failed(self, topic: str, error: Exception) -> None:
         """A publish raised: the sample is lost (lockstep sends its state again), the node
@@ -257,7 +260,7 @@ class Diagnostics:
         self.publish_failures[topic] += 1
         self.warn(f'publish failed {topic}', f'publishing on {topic} failed')
         self.node.get_logger().warning(f'publishing on {topic} failed: {error}',
-                                       throttle_duration_sec=1.0)
+                                       throttle_duration_sec=LOG_THROTTLE_S)
 
     def maybe_publish(self) -> None:
         now = time.monotonic()
