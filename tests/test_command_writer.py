@@ -23,15 +23,18 @@ from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import JointState
 
 from cdpr_bringup.bag_io import read_messages
+from cdpr_bringup.bag_recorder_node import OTHER_WRITERS
 from cdpr_bringup.graph import Graph, graph_nodes, node_environment
+from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime import CdprNode, make_executor, message_info_callback
 from cdpr_msgs_py.sole_writer import Endpoint, SoleWriter
 from cdpr_msgs_py.stamps import stamp_to_ns
 
-from conftest import (GraphLog, keep_running, settled_parameters, timing_check,
+from conftest import (MOTIONS, PAPER_ROBOT, GraphLog, keep_running, timing_check,
                       wait_until_the_plant_runs)
 from test_faults import START_TIMEOUT_S
+from test_graph import offline_verdict
 
 CONTROLLER = '/cdpr/controller'
 REAL, OTHER, SPOOF = b'\x01' * 16, b'\x02' * 16, b'\x03' * 16
@@ -234,7 +237,9 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
     namespace = f'/cdpr_second_writer_{clock_mode}'
     bag = tmp_path / 'bag'
     log = GraphLog()
-    parameters = settled_parameters(clock_mode, motion='circle', duration_s=RUN_LIMIT_S)
+    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+                                              motion='circle', duration_s=RUN_LIMIT_S))
+    parameters = scenario.node_parameters(clock_mode)
     graph = Graph(graph_nodes(parameters, str(bag)), namespace, completion='plant_simulator',
                   log=log)
     try:
@@ -277,6 +282,17 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
     if clock_mode == 'lockstep':
         verdicts = found[topics[0]]
         assert verdicts and all(message.data == 0 for _, message in verdicts), 'a false failure alarm'
+        # the bag keeps the outside commands apart, every one of them, and FDI on the bag
+        # judges the controller's alone: no alarm either
+        commands = read_messages(bag, [f'{namespace}/{contract.EFFORT_COMMAND}',
+                                       f'{namespace}/{contract.EFFORT_COMMAND}/{OTHER_WRITERS}'])
+        own, others = commands.values()
+        assert own and not any(np.allclose(message.effort, 0.0) for _, message in own), \
+            "an outside writer's zero torques among the controller's commands in the bag"
+        # (not all: the tool sends before every reader has matched it, and exits at once)
+        assert 0 < len(others) <= sum(counts['commands'] for counts in sent.values())
+        verdict = offline_verdict(bag, namespace, tmp_path, scenario)
+        assert verdict['alarm_time_s'] is None and verdict['ticks_replayed'] >= 0.9 * ticks, verdict
     pins = set()
     for node in ('plant_simulator', 'supervisor'):
         # a node's second-writer warning on its console, whatever the recorder kept

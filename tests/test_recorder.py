@@ -38,6 +38,8 @@ RATE_HZ = 500.0
 PUBLISH_S = 2.0
 WAIT_S = 20.0
 NAMES = contract.joint_names(4)
+# The test's publisher: the recorder records its effort_command as the controller's.
+PUBLISHER = 'recorder_test_publisher'
 # The per-cycle topics a test publishes at RATE_HZ, with a message for tick k.
 STREAMS = {
     contract.JOINT_STATES: lambda k: joint_state(NAMES, k, [k, 1, 2, 3], [0.5] * 4, [-0.3] * 4),
@@ -186,7 +188,7 @@ class Publisher:
         self.namespace = namespace
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
-        self.node = rclpy.create_node('recorder_test_publisher', namespace=namespace,
+        self.node = rclpy.create_node(PUBLISHER, namespace=namespace,
                                       context=self.context)
         # what the graph's writers offer: keep-last, the config's streams.history_s deep
         writer = qos.stream_writer(load_section(PAPER_ROBOT, 'streams'), 1.0 / RATE_HZ)
@@ -230,7 +232,7 @@ class Publisher:
 def start_recorder(bag: Path, namespace: str, storage: str = 'mcap') -> subprocess.Popen:
     command = executable_command('cdpr_bringup', 'bag_recorder') + [
         '--ros-args', '-r', f'__ns:={namespace}', '-p', f'bag_path:={bag}',
-        '-p', f'storage:={storage}']
+        '-p', f'storage:={storage}', '-p', f'command_writer:={PUBLISHER}']
     return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             stdin=subprocess.DEVNULL, text=True, start_new_session=True,
                             env=node_environment())

@@ -5,7 +5,9 @@ Parameters: `bag_path` (folder to create), `storage` (`mcap`, the default, or `s
 contract plus /clock and /diagnostics), `flush_period_s` (0.5).
 
 Messages are taken serialized (no decode/encode on the way) and stamped with their
-receive time. Per-cycle topics are subscribed reliable + keep-all, so none is lost.
+receive time. `effort_command` holds the commands of the graph's controller only
+(parameter `command_writer`, as the plant obeys): those of any other writer go to
+`effort_command/other_writers`, so that offline FDI and reports see what the motors obeyed. Per-cycle topics are subscribed reliable + keep-all, so none is lost.
 On SIGINT/SIGTERM the node drains its queue and closes the bag; if it is killed, the
 bag keeps every chunk flushed so far (at most `flush_period_s` old, see bag_io).
 """
@@ -28,6 +30,8 @@ from .bag_io import BagWriter
 RECORDED = {topic.name: contract.message_class(topic.type)
             for topic in contract.topics_read_by(contract.BAG_RECORDER)}
 FLUSH_PERIOD_S = 0.5
+# The bag topic, beside effort_command, of the commands of writers other than the controller.
+OTHER_WRITERS = 'other_writers'
 
 
 def bag_qos(profile) -> Qos:
@@ -67,11 +71,22 @@ class BagRecorderNode(CdprNode):
         self.receipt_ns = (time.time_ns if not clock.ros_time_is_active
                            else lambda: clock.now().nanoseconds)
         self.recorded = 0
+        command_writer = self.parameter('command_writer', 'controller',
+                                        'the node whose effort_command is recorded as such; any '
+                                        f'other writer\'s goes to effort_command/{OTHER_WRITERS}')
         subscriptions = []
         for topic in topics:
             name = topic if topic.startswith('/') else f'{namespace}/{topic}'
             profile = qos.of_readers(topic)
-            connection = self.writer.add_topic(name, contract.TOPICS[topic].type, [bag_qos(profile)])
+            kind = contract.TOPICS[topic].type
+            connection = self.writer.add_topic(name, kind, [bag_qos(profile)])
+            if topic == contract.EFFORT_COMMAND:
+                others = self.writer.add_topic(f'{name}/{OTHER_WRITERS}', kind, [bag_qos(profile)])
+                subscriptions.append((topic, lambda t=topic, c=connection, o=others, p=profile:
+                                      self.create_sole_writer_subscription(
+                                          RECORDED[t], t, self.writer_for(c), p, command_writer,
+                                          other=self.writer_for(o), raw=True)))
+                continue
             subscriptions.append((topic, lambda t=topic, n=name, c=connection, p=profile:
                                   self.create_subscription(RECORDED[t], n, self.writer_for(c), p,
                                                            raw=True)))

@@ -328,17 +328,22 @@ def message_info_callback(handler):
 class SoleWriterSubscription:
     """A subscription whose handler gets only the messages of one node's publisher
     (the SoleWriter rule); any other is rejected, counted as `rejected <topic>` in
-    /diagnostics, and its writer named there and in the log (WARN)."""
+    /diagnostics, and its writer named there and in the log (WARN). With `other`, a
+    message of any other writer goes there instead, counted as `<topic> from other
+    writers` (a recorder keeps it apart)."""
 
-    def __init__(self, node: CdprNode, msg_type, topic: str, handler, qos_profile, writer: str):
+    def __init__(self, node: CdprNode, msg_type, topic: str, handler, qos_profile, writer: str,
+                 other=None, raw: bool = False):
         self.node = node
         self.topic = topic
         self.handler = handler
+        self.other = other
         self.resolved_topic = node.resolve_topic_name(topic)
         self.core = SoleWriter(writer if writer.startswith('/')
                                else qualified_name(node.get_namespace(), writer))
         self.problem = ''
-        node.create_subscription(msg_type, topic, message_info_callback(self.on_message), qos_profile)
+        node.create_subscription(msg_type, topic, message_info_callback(self.on_message), qos_profile,
+                                 raw=raw)
 
     def on_message(self, message, info) -> None:
         gid = info['publisher_gid']['data']
@@ -348,6 +353,14 @@ class SoleWriterSubscription:
             self.handler(message)
             return
         who, news = self.core.reject(gid)
+        if self.other is not None:
+            if news:
+                self.node.get_logger().warning(
+                    f'a second writer on {self.resolved_topic}: {who}; its messages are kept apart '
+                    f'from those of {self.core.writer}')
+            self.node.diagnostics.count(f'{self.topic} from other writers')
+            self.other(message)
+            return
         if news:
             self.node.get_logger().warning(
                 f'a second writer on {self.resolved_topic}: {who}; only {self.core.writer} is '
@@ -533,11 +546,14 @@ class CdprNode(Node):
                 for key, value in subscription.facts().items()}
 
     def create_sole_writer_subscription(self, msg_type, topic: str, handler, qos_profile,
-                                        writer: str, required: bool = True) -> SoleWriterSubscription:
+                                        writer: str, required: bool = True, other=None,
+                                        raw: bool = False) -> SoleWriterSubscription:
         """Subscribe `handler` to the messages of node `writer`'s publisher only (a name
         relative to this node's namespace, or fully qualified); if `required`, the node
-        starts (see `matched`) only once it knows that publisher."""
-        subscription = SoleWriterSubscription(self, msg_type, topic, handler, qos_profile, writer)
+        starts (see `matched`) only once it knows that publisher. `other`, `raw`: see
+        SoleWriterSubscription, rclpy's create_subscription."""
+        subscription = SoleWriterSubscription(self, msg_type, topic, handler, qos_profile, writer,
+                                              other, raw)
         self.sole_writers.append(subscription)
         if required:
             self.required_writers.append(subscription)
