@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from cdpr_bringup.bag_io import read_messages
+from cdpr_bringup.bag_io import missing_ticks, read_messages
 from cdpr_bringup.graph import Graph, graph_nodes, node_environment
 from cdpr_msgs_py.conversions import stamp_to_ns
 from cdpr_msgs_py.health import WARN
@@ -128,9 +128,13 @@ def check_graph_unharmed_and_reader_reported(namespace: str, bag, log: GraphLog,
     assert stamps, 'no joint state in the bag'
     assert all(later > earlier for earlier, later in zip(stamps, stamps[1:])), \
         'the recorder (a reader of the graph) got the ticks in order'
+    # what the bag lacks, the recorder said: in the bag's metadata and its last line
+    lacking = (stamps[-1] - stamps[0]) // PERIOD_NS + 1 - len(stamps)
+    assert missing_ticks(bag)['joint_states'] == lacking
+    said = [line for line in log if line.startswith('[bag_recorder]') and 'bag closed' in line]
+    assert said and ('HOLES' in said[-1]) == (lacking > 0), said
     if every_tick:
-        assert stamps == [stamps[0] + k * PERIOD_NS for k in range(len(stamps))], \
-            'the recorder got every tick'
+        assert lacking == 0, f'the recorder lost {lacking} ticks'
     statuses = [status for _, message in found['/diagnostics'] for status in message.status]
     assert statuses, 'no /diagnostics in the bag'
     assert not [value.key for status in statuses for value in status.values

@@ -25,16 +25,20 @@ from rosbags.rosbag2 import Reader
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Int32, String
 
-from cdpr_bringup.bag_io import BagWriter, is_complete, read_messages
+from cdpr_bringup.bag_io import BagWriter, is_complete, missing_ticks, read_messages
+from cdpr_bringup.tick_gaps import TickGaps, cdr_stamp_ns
 from cdpr_bringup.bag_recorder_node import RECORDED
 from cdpr_bringup.graph import executable_command, node_environment
 from cdpr_control.config import load_section
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp
+from cdpr_msgs_py.stamps import NANOSECONDS
 
 from conftest import PAPER_ROBOT
 
 RATE_HZ = 500.0
+# The stamp of tick k is k periods: the recorder counts ticks on the robot's period.
+PERIOD_NS = round(1e9 / RATE_HZ)
 PUBLISH_S = 2.0
 WAIT_S = 20.0
 NAMES = contract.joint_names(4)
@@ -198,6 +202,8 @@ class Publisher:
                         for topic, kind in ((contract.FDI_BROKEN_CABLE, Int32), (contract.MODE, String))}
         self.published = {full_name(namespace, topic): 0 for topic in [*STREAMS, *self.latched]}
         self.elapsed_s = 0.0
+        # ticks whose joint state is not published: holes the recorder must count
+        self.skipped: frozenset[int] = frozenset()
 
     def wait_for_recorder(self, recorder: subprocess.Popen) -> None:
         deadline = time.monotonic() + WAIT_S
@@ -220,7 +226,9 @@ class Publisher:
             if delay > 0:
                 time.sleep(delay)
             for topic, make in STREAMS.items():
-                self.streams[topic].publish(make(k))
+                if topic == contract.JOINT_STATES and k in self.skipped:
+                    continue
+                self.streams[topic].publish(make(k * PERIOD_NS))
                 self.published[full_name(self.namespace, topic)] += 1
         self.elapsed_s = time.monotonic() - start
 
@@ -238,12 +246,15 @@ def start_recorder(bag: Path, namespace: str, storage: str = 'mcap') -> subproce
                             env=node_environment())
 
 
-def record(tmp_path: Path, name: str, stop_signal: int, storage: str = 'mcap'):
-    """Start a recorder, publish PUBLISH_S at RATE_HZ, stop it with `stop_signal`;
-    (bag, published counts per topic, exit code, recorder output)."""
+def record(tmp_path: Path, name: str, stop_signal: int, storage: str = 'mcap',
+           skipped: frozenset[int] = frozenset()):
+    """Start a recorder, publish PUBLISH_S at RATE_HZ (but the joint states of the
+    `skipped` ticks), stop it with `stop_signal`; (bag, published counts per topic, exit
+    code, recorder output)."""
     bag, namespace = tmp_path / name, f'/cdpr_rec_{name}'
     recorder = start_recorder(bag, namespace, storage)
     publisher = Publisher(namespace)
+    publisher.skipped = skipped
     try:
         publisher.wait_for_recorder(recorder)
         publisher.publish(PUBLISH_S)
@@ -270,7 +281,9 @@ def test_recorder_keeps_every_message_at_500_hz_and_closes_the_bag_on_sigint(tmp
     for topic in STREAMS:
         name = full_name(f'/cdpr_rec_sigint_{storage}', topic)
         stamps = [stamp_of(m) for _, m in recorded[name]]
-        assert stamps == list(range(len(stamps))), f'{name}: every tick once, in order'
+        assert stamps == [k * PERIOD_NS for k in range(len(stamps))], f'{name}: every tick once, in order'
+    assert missing_ticks(bag) == {topic: 0 for topic in STREAMS}, output
+    assert 'no tick missing' in output and 'HOLES' not in output, output
     if storage == 'mcap':
         decoded = decoded_by_mcap(bag)
         assert {t: len(m) for t, m in decoded.items() if t in published} == published
@@ -293,9 +306,45 @@ def test_killed_recorder_leaves_a_readable_prefix(tmp_path):
     floor = ticks - int(0.5 * RATE_HZ) - 1
     for topic in streams:
         stamps = [stamp_of(m) for _, m in recorded[topic]]
-        assert stamps == list(range(len(stamps))), f'{topic}: a prefix without gaps'
+        assert stamps == [k * PERIOD_NS for k in range(len(stamps))], f'{topic}: a prefix without gaps'
         assert len(stamps) >= floor, f'{topic}: only {len(stamps)} of {ticks} ticks readable'
     size = mcap_file(bag).stat().st_size
     kept = sum(len(recorded[t]) for t in streams)
     print(f'SIGKILL after {ticks} ticks: {kept} of {ticks * len(streams)} stream messages '
           f'readable ({size} bytes)')
+
+
+@pytest.mark.graph
+def test_the_recorder_counts_and_says_the_ticks_a_topic_lacks(tmp_path):
+    """Joint states of three ticks never sent, one of them the tick before the last: the
+    bag's metadata and the recorder's last line say so, the other topics lack nothing."""
+    ticks = int(PUBLISH_S * RATE_HZ)
+    skipped = frozenset({100, 101, ticks - 2})
+    bag, _, code, output = record(tmp_path, 'holes', signal.SIGINT, skipped=skipped)
+    assert code == 0, output
+    assert missing_ticks(bag) == {topic: len(skipped) if topic == contract.JOINT_STATES else 0
+                                  for topic in STREAMS}
+    assert f'HOLES: ticks missing on {contract.JOINT_STATES} {len(skipped)} of {ticks}' in output, output
+
+
+
+def test_a_serialized_messages_stamp_is_read_without_decoding_it():
+    """Each per-tick type starts with its stamp, as rclpy serializes it."""
+    stamp = 1_234 * NANOSECONDS + 567_000
+    for message in (joint_state(NAMES, stamp, [1.0] * 4, [0.0] * 4, [0.0] * 4), point(stamp),
+                    Clock(clock=ns_to_stamp(stamp))):
+        assert cdr_stamp_ns(serialize_message(message)) == stamp
+    with pytest.raises(ValueError, match='not a plain CDR message'):
+        cdr_stamp_ns(b'\x00\x02\x00\x00' + bytes(8))
+
+
+def test_tick_gaps_count_the_ticks_never_seen_whatever_the_order():
+    gaps = TickGaps(PERIOD_NS)
+    for k in (5, 6, 9, 7, 12):          # 8, 10, 11 missing; 7 came late
+        gaps.seen(k * PERIOD_NS)
+    assert (gaps.missing, gaps.ticks) == (3, 8)
+    gaps.seen(3 * PERIOD_NS)            # before the first: 4 missing too
+    assert (gaps.missing, gaps.ticks) == (4, 10)
+    for k in (4, 8, 10, 11):
+        gaps.seen(k * PERIOD_NS)
+    assert gaps.missing == 0 and not gaps.holes

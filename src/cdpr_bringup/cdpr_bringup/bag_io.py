@@ -11,6 +11,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import yaml
 from mcap.exceptions import EndOfFile
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
@@ -106,6 +107,23 @@ class BagWriter(Writer):
     def flush(self) -> None:
         """Make everything written so far survive a kill of this process."""
         self.storage.flush()
+
+
+# The recorder's count of the ticks each per-tick topic lacks (JSON, topic → ticks), in
+# the bag's metadata (rosbag2 custom_data).
+MISSING_TICKS_KEY = 'cdpr.missing_ticks'
+
+
+def missing_ticks(bag: str | Path) -> dict[str, int] | None:
+    """Per per-tick topic, the ticks its recorder counted missing (tick_gaps); None for a
+    bag whose recorder did not count (killed before it closed the bag, or written in
+    process, where nothing is lost)."""
+    metadata = Path(bag) / 'metadata.yaml'
+    if not metadata.exists():
+        return None
+    information = yaml.safe_load(metadata.read_text()).get('rosbag2_bagfile_information', {})
+    value = (information.get('custom_data') or {}).get(MISSING_TICKS_KEY)
+    return None if value is None else json.loads(value)
 
 
 def is_complete(bag: str | Path) -> bool:

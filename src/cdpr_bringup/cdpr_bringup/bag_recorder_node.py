@@ -10,9 +10,15 @@ receive time. `effort_command` holds the commands of the graph's controller only
 `effort_command/other_writers`, so that offline FDI and reports see what the motors obeyed. Per-cycle topics are subscribed reliable + keep-all, so none is lost.
 On SIGINT/SIGTERM the node drains its queue and closes the bag; if it is killed, the
 bag keeps every chunk flushed so far (at most `flush_period_s` old, see bag_io).
+
+A bag is the evidence of what the robot did, so a hole in it is said: per per-tick topic
+the recorder counts the ticks it lacks from the stamps (tick_gaps), keeps the counts in
+the bag's metadata (bag_io.MISSING_TICKS_KEY), in /diagnostics, and says them in its last
+log line (WARN when a tick is missing).
 """
 from __future__ import annotations
 
+import json
 import time
 
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
@@ -23,7 +29,8 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime import CdprNode, run
 from cdpr_msgs_py.stamps import ns_parts
 
-from .bag_io import BagWriter
+from .bag_io import MISSING_TICKS_KEY, BagWriter
+from .tick_gaps import TickGaps, cdr_stamp_ns
 
 # topic (relative to the namespace unless absolute) → message class: every topic of the
 # contract (contract.TOPICS)
@@ -71,6 +78,8 @@ class BagRecorderNode(CdprNode):
         self.receipt_ns = (time.time_ns if not clock.ros_time_is_active
                            else lambda: clock.now().nanoseconds)
         self.recorded = 0
+        # connection id → (topic, its gaps) of the per-tick topics
+        self.gaps: dict[int, tuple[str, TickGaps]] = {}
         command_writer = self.parameter('command_writer', 'controller',
                                         'the node whose effort_command is recorded as such; any '
                                         f'other writer\'s goes to effort_command/{OTHER_WRITERS}')
@@ -80,6 +89,8 @@ class BagRecorderNode(CdprNode):
             profile = qos.of_readers(topic)
             kind = contract.TOPICS[topic].type
             connection = self.writer.add_topic(name, kind, [bag_qos(profile)])
+            if contract.TOPICS[topic].every_tick:
+                self.gaps[connection.id] = (topic, TickGaps(settings.period_ns))
             if topic == contract.EFFORT_COMMAND:
                 others = self.writer.add_topic(f'{name}/{OTHER_WRITERS}', kind, [bag_qos(profile)])
                 subscriptions.append((topic, lambda t=topic, c=connection, o=others, p=profile:
@@ -109,11 +120,24 @@ class BagRecorderNode(CdprNode):
         return name[len(prefix):]
 
     def writer_for(self, connection):
+        gaps = self.gaps.get(connection.id, (None, None))[1]
+
         def write(data: bytes) -> None:
             self.writer.write(connection, self.receipt_ns(), data)
             self.recorded += 1
             self.diagnostics.count('messages')
+            if gaps is not None:
+                gaps.seen(cdr_stamp_ns(data))
         return write
+
+    def missing_ticks(self) -> dict[str, int]:
+        """Per per-tick topic that has messages, the ticks it lacks so far."""
+        return {topic: gaps.missing for topic, gaps in self.gaps.values() if gaps.ticks}
+
+    def current_facts(self) -> dict[str, str]:
+        missing = {topic: count for topic, count in self.missing_ticks().items() if count}
+        return {**super().current_facts(),
+                'missing ticks': ', '.join(f'{topic} {count}' for topic, count in missing.items()) or 'none'}
 
     def idle(self) -> None:
         super().idle()
@@ -124,8 +148,19 @@ class BagRecorderNode(CdprNode):
 
     def close(self) -> None:
         super().close()
+        missing = self.missing_ticks()
+        self.writer.set_custom_data(MISSING_TICKS_KEY, json.dumps(missing))
         self.writer.close()
-        self.get_logger().info(f'bag closed with {self.recorded} messages')
+        holes = {topic: count for topic, count in missing.items() if count}
+        if holes:
+            self.get_logger().warning(
+                f'bag closed with {self.recorded} messages and HOLES: ticks missing on '
+                + ', '.join(f'{topic} {count} of {self.gaps_of(topic).ticks}' for topic, count in holes.items()))
+        else:
+            self.get_logger().info(f'bag closed with {self.recorded} messages, no tick missing')
+
+    def gaps_of(self, topic: str) -> TickGaps:
+        return next(gaps for name, gaps in self.gaps.values() if name == topic)
 
 
 def main(args=None):

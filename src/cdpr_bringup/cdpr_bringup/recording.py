@@ -34,9 +34,22 @@ class Recording:
     # electromagnet makes later than the failure it was told (a simulation's ground
     # truth; None when unknown, as in a bag).
     broken_at_s: dict[int, float] | None = None
+    # A bag's recorder's count of the ticks each per-tick topic lacks (bag_io.missing_ticks);
+    # None where nothing was counted (an in-process run loses nothing).
+    missing_ticks: dict[str, int] | None = None
 
     @property
     def has_ground_truth(self) -> bool:
         """Whether the plant's true pose was recorded on every tick (only a simulated run
         has it: a bag of the real robot reads back NaN there)."""
         return bool(np.isfinite(self.true_position_m).all())
+
+
+def holes_said(missing: dict[str, int] | None) -> str:
+    """One line on what a bag lacks: '' when its recorder counted no tick missing."""
+    holes = {topic: count for topic, count in (missing or {}).items() if count}
+    if not holes:
+        return ''
+    return ('the bag lacks ticks (its recorder lost them): '
+            + ', '.join(f'{topic} {count}' for topic, count in holes.items())
+            + '; figures drawn from the bag are of the ticks it holds')

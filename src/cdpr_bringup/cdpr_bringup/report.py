@@ -35,11 +35,11 @@ from cdpr_msgs_py.contract import NOMINAL
 from cdpr_msgs_py.stamps import NANOSECONDS
 
 from . import plots
-from .bag_io import read_messages, recording_from_bag, stamp_ns
+from .bag_io import missing_ticks, read_messages, recording_from_bag, stamp_ns
 from .cli import command
 from .metrics import KnownRun, RunSettings, fdi_summary_from_diagnostics, metrics_json
 from .paths import DEFAULT_ROBOT, SETTLED_RUN, config_file
-from .recording import Recording
+from .recording import Recording, holes_said
 
 
 def run_settings(bag: str | Path, config_path: str | Path | None = None,
@@ -197,6 +197,9 @@ def load_run(bag: str | Path, settings: RunSettings,
                      'measured angles, tensions only as estimated')
     failure_time, true_broken, source = failure_of(bag, recording)
     notes.append(source)
+    holes = holes_said(missing_ticks(bag))
+    if holes:
+        notes.append(holes)
     bag_times = [t for t, _ in found[topics[contract.JOINT_STATES]]]
     return with_safe_point(Run(
         robot=robot, recording=recording, residual_nm=residual,

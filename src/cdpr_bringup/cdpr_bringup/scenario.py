@@ -30,6 +30,7 @@ from .engine import run_inprocess
 from .metrics import (PAPER_KPI, KnownRun, RunSettings, broken_at_from_diagnostics,
                       fdi_summary_from_diagnostics, metrics_json)
 from .paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, SETTLED_RUN
+from .recording import holes_said
 from .scenario_setup import ScenarioOptions, add_graph_form_option, add_push_option, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
@@ -77,7 +78,7 @@ def run_graph(args, scenario, out: Path):
     """The graph's recording, and whether Ctrl-C cut the run short (the graph is stopped
     cleanly either way, so the bag holds what ran); None when the graph failed (said on
     stderr)."""
-    from .bag_io import read_messages, recording_from_bag
+    from .bag_io import missing_ticks, read_messages, recording_from_bag
     from .graph import GraphError, graph_nodes, run_to_completion
     bag = out / 'bag'
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
@@ -102,6 +103,7 @@ def run_graph(args, scenario, out: Path):
     diagnostics = read_messages(bag, ['/diagnostics'])['/diagnostics']
     recording.fdi = fdi_summary_from_diagnostics(diagnostics)
     recording.broken_at_s = broken_at_from_diagnostics(diagnostics)
+    recording.missing_ticks = missing_ticks(bag)
     return recording, interrupted
 
 
@@ -116,6 +118,8 @@ def metrics_of(scenario, recording, wall_time_s: float, interrupted: bool = Fals
     }
     if interrupted:
         metrics['interrupted'] = True
+    if recording is not None and recording.missing_ticks is not None:
+        metrics['bag_missing_ticks'] = recording.missing_ticks
     if recording is None or recording.time_s.size == 0:
         return dict(metrics, cycles=0, wall_time_s=wall_time_s)
     failures = [(at, cable) for at, cable in scenario.failures if at <= recording.time_s[-1]]
@@ -178,6 +182,9 @@ def print_summary(metrics: dict, engine: str) -> None:
     for key, value in metrics['kpi'].items():
         print(f'  {key:<8} {value:10.4f} {PAPER_KPI[key]:10.4f}')
     print(f'  tracking error (true pose vs reference): {metrics["tracking_error_m"] * 1000:.2f} mm')
+    holes = holes_said(metrics.get('bag_missing_ticks'))
+    if holes:
+        print(f'  {holes}')
 
 
 @command('cdpr-scenario')
