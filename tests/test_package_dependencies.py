@@ -26,7 +26,7 @@ TESTS = REPO / 'tests'
 ROSDEP_KEYS = {'numpy': 'python3-numpy', 'yaml': 'python3-yaml', 'matplotlib': 'python3-matplotlib',
                'scipy': 'python3-scipy', 'pytest': 'python3-pytest', 'rosbags': 'python3-rosbags-pip',
                'numba': 'python3-numba'}
-# Modules with no rosdep key: installed with pip, as README's workspace section says.
+# Modules with no rosdep key: installed with pip, as docs/environment.md's workspace section says.
 PIP_ONLY = {'mcap': 'mcap', 'distributed': 'distributed'}
 
 
@@ -107,8 +107,8 @@ def test_each_test_file_runs_under_one_package_at_most():
     assert {path: count for path, count in files.items() if count > 1} == {}
 
 
-def test_the_pip_only_modules_are_on_the_readme_pip_line():
-    pip_lines = [line for line in (REPO / 'README.md').read_text().splitlines()
+def test_the_pip_only_modules_are_on_the_workspace_pages_pip_line():
+    pip_lines = [line for line in (REPO / 'docs' / 'environment.md').read_text().splitlines()
                  if line.startswith('pip install')]
     for module, distribution in PIP_ONLY.items():
         assert any(distribution in line.split() for line in pip_lines), module

@@ -24,7 +24,7 @@ def console_scripts(package: str) -> list[str]:
 
 
 COLCON = Path(sys.executable).parent / 'colcon'
-# The checkout as README's workspace section clones it: the packages' tests are in tests/.
+# The checkout as docs/environment.md's workspace section clones it: the packages' tests are in tests/.
 CHECKOUT = ['src', 'tests']
 
 

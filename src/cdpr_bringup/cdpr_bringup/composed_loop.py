@@ -7,7 +7,7 @@ FILE holds each node's parameters under its own name (`/**/controller:`), as
 graph.NodeSpec.parameters_document lays it out. Each node is the very class its own executable runs
 (`ros2 run cdpr_control controller`); composed, the messages between them stay inside
 this process (ROS 2 composition): a third less CPU per tick than five processes here
-(README, "Graph forms").
+(docs/graph.md, "Graph forms").
 """
 from __future__ import annotations
 

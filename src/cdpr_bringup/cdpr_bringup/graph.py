@@ -361,7 +361,7 @@ def parser() -> argparse.ArgumentParser:
     options.add_argument('--bag', help='record every topic into this bag folder')
     options.add_argument('--hardware', action='store_true',
                          help='no plant simulator: a hardware bridge publishes joint_states and '
-                              'applies effort_command (see README, hardware bridge); realtime; runs '
+                              'applies effort_command (see docs/hardware.md); realtime; runs '
                               'until Ctrl-C')
     return options
 

@@ -281,7 +281,7 @@ def check_options(options: ScenarioOptions, robot: Robot, motion: Motion) -> Non
                              'DURATION_S (positive) and the force FX FY FZ (N), finite')
 
 
-# How the graph's nodes are spread over processes (README, "Graph forms").
+# How the graph's nodes are spread over processes (docs/graph.md, "Graph forms").
 GRAPH_FORMS = ('separate', 'composed')
 DEFAULT_GRAPH_FORM = 'separate'
 

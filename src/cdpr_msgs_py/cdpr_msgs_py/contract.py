@@ -35,7 +35,7 @@ DIAGNOSTICS = '/diagnostics'
 BROKEN_AT_KEY = 'plant broken_at_s'
 
 # The nodes of the graph, by executable. A hardware bridge takes the plant simulator's
-# place on its topics (README, "Hardware bridge").
+# place on its topics (docs/hardware.md).
 TRAJECTORY_GENERATOR = 'trajectory_generator'
 CONTROLLER = 'controller'
 DIGITAL_TWIN = 'digital_twin'

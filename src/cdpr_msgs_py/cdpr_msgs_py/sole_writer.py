@@ -15,7 +15,7 @@ restarted controller is obeyed again.
 
 Names are not credentials: a node that takes the writer's name while no writer is pinned
 is obeyed. This guards against accidents; against a malicious participant only DDS
-Security (SROS2) can, which the Fast DDS build cdpr installs lacks (README, "Hardware
+Security (SROS2) can, which the Fast DDS build cdpr installs lacks (docs/hardware.md,
 bridge").
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""ros2_control_bridge: a ros2_control robot in the plant simulator's place (README,
+"""ros2_control_bridge: a ros2_control robot in the plant simulator's place (docs/hardware.md,
 "ros2_control robots").
 
 Reads joint_state_broadcaster's JointState (parameter `robot_joint_states_topic`,
