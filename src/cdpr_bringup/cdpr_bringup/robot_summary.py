@@ -76,7 +76,9 @@ def print_settings(config, robot):
                 f'{fdi.collapse_reference_n:g} N, over {fdi.collapse_window_cycles} periods')
     print(f'  FDI {detector}, rigid plant ε {epsilon}, identification δ {delta}, tension collapse '
           f'{collapse}; elastic plant calibration {elastic_text}')
-    print(f'  recovery SP height {heights[0]}, table {heights[1]}, move {move}')
+    print(f'  recovery SP height {heights[0]}, table {heights[1]}, move {move}, every remaining '
+          f'cable planned {recovery.plan_tension_margin_n:g} N above τ_min '
+          f"({recovery_section.number('plan_tension_margin_share'):g} τ_min)")
     return recovery, delta_n
 
 
