@@ -16,7 +16,7 @@ from pathlib import Path
 
 from distributed import Client, as_completed, get_worker
 
-from .campaign import SCHEDULER_CONNECT_TIMEOUT_S, Run, SchedulerUnreachable, run_scenario
+from .campaign_run import SCHEDULER_CONNECT_TIMEOUT_S, Run, SchedulerUnreachable, run_scenario
 
 # run_scenario redirects this process's stdout and stderr: a worker with several threads
 # runs one scenario at a time.
