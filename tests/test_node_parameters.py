@@ -75,6 +75,9 @@ def test_a_node_started_with_its_shipped_file_has_described_read_only_settings()
         assert node.supervisor.fdi.epsilon_nm == calibrated
         descriptor = node.describe_parameter('fdi.epsilon_nm')
         assert descriptor.read_only and 'threshold' in descriptor.description
+        # the defaults file's words are of the noise-free default; the value is calibrated
+        assert f'this run has {calibrated!r}' in descriptor.description, descriptor.description
+        assert 'this run has' not in node.describe_parameter('fdi.detector').description
         assert node.describe_parameter('robot_description').read_only
         refused = node.set_parameters([Parameter('fdi.epsilon_nm', value=1.0)])[0]
         assert not refused.successful and 'read-only' in refused.reason

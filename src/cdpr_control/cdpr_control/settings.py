@@ -82,11 +82,16 @@ class Settings:
         checked it against (so once the node has built its core from these settings), and
         read-only but CdprNode.CHANGEABLE_SETTINGS."""
         descriptions = default_descriptions()
+        defaults = flatten(paper_defaults())
         for key, value in self.values.items():
             bounds = self.document.bounds.get(key)
+            described = descriptions.get(key) or f'see cdpr_control/defaults/{key.split(".")[0]}.yaml'
+            if key in defaults and defaults[key] != value:
+                # the defaults file's words are of its value; say that this is another
+                described += (f' [so reads the default, {defaults[key]!r}; this run has {value!r}, '
+                              f'from its set-up or calibration]')
             node.parameter(
-                key, value,
-                descriptions.get(key) or f'see cdpr_control/defaults/{key.split(".")[0]}.yaml',
+                key, value, described,
                 read_only=key not in node.CHANGEABLE_SETTINGS,
                 value_range=(bounds.low, bounds.high) if bounds else None,
                 constraints=bounds.text() if bounds else '')
