@@ -9,6 +9,8 @@ campaign: simulated hours per wall hour of a campaign on a local Dask scheduler 
 workers (cdpr_bringup.bench_campaign). run: one whole cdpr-scenario run, and its stages
 (cdpr_bringup.bench_run). cycle: the in-process engine with the elastic sub-steps compiled
 and in pure Python, and the µs of each stage of a cycle (cdpr_bringup.bench_cycle).
+recorder: whether the bag keeps every tick in realtime with outside readers frozen or
+reading (cdpr_bringup.bench_recorder).
 """
 from __future__ import annotations
 
@@ -100,6 +102,7 @@ SUITES = {
     'run': (lambda a, out: (a.config, out), 'seconds, the best of its repeats; {out}'),
     'cycle': (lambda a, out: (a.config,), 'in-process engine, elastic circle with the supervisor'),
     'graph': (lambda a, out: (a.config,), 'ROS_DOMAIN_ID {domain}'),
+    'recorder': (lambda a, out: (a.config,), 'ROS_DOMAIN_ID {domain}'),
 }
 
 
