@@ -122,11 +122,13 @@ def main(argv=None):
     args = parser.parse_args(argv)
     out = args.out or f'runs/bench-{args.suite}'
     if args.suite == 'soak':
-        from .bench_soak import bench_soak
+        from .bench_soak import bench_soak, targets
         figures = bench_soak(args.config, args.minutes)
         print(f'cdpr-bench soak on {machine()}: {args.minutes:g} min, realtime, failure-free')
         for key, value in figures.items():
             print(f'  {key:<28} {value}')
+        for label, value, target, met in targets(figures):
+            print(f'  {label:<38} {value:>24}  {target:<10} {"yes" if met else "NO"}')
     elif args.suite in SUITES:
         arguments, heading = SUITES[args.suite]
         # imported only for its suite (bench_graph loads rclpy, bench_campaign Dask)

@@ -6,7 +6,18 @@ growth of every node (resident set after a warm-up against at the end, and over 
 second half alone), the plant's deadline misses and tick rate, the supervisor's alarms
 (false, since nothing fails), the commands that came too late to be applied, the ticks
 left unjudged after bursts of them and how far judging trailed, and the state→command
-latency.
+latency; then each judged against its target (TARGETS):
+
+- memory: a node whose resident set grows in the second half (after the warm-up) by more
+  than MEMORY_KIB_PER_5_MIN for every 5 minutes leaks; a high-water mark reached early
+  does not grow there. A node meant to run for days must not grow at all; the bound
+  leaves room for the allocator's pages.
+- false alarms: none.
+- late commands: at most LATE_COMMAND_PCT of the ticks. One late command changes the
+  residual less than its noise; bursts of them make the supervisor stop judging.
+- unjudged ticks: at most UNJUDGED_PCT: the FDI blind for at most 1.5 s in 5 minutes,
+  in stretches of fdi.late_command_guard_cycles (60 ms), each delaying a detection by at
+  most that.
 """
 from __future__ import annotations
 
@@ -26,6 +37,9 @@ WARM_UP_S = 30.0
 GOAL_PERIOD_S = 6.0
 GOALS_M = ((0.6, 1.2, 1.2), (1.1, 0.8, 1.35))
 SAMPLE_S = 1.0
+MEMORY_KIB_PER_5_MIN = 64.0
+LATE_COMMAND_PCT = 0.1
+UNJUDGED_PCT = 0.5
 
 
 def resident_kib(pid: int) -> int:
@@ -99,4 +113,21 @@ def bench_soak(config: str, minutes: float, log=lambda line: None) -> dict:
         'judging_lag_max_ms': float(supervisor.get('judging lag max ms', 'nan')),
         'brake': plant.get('command watchdog', 'never engaged'),
     }
+
+
+def targets(figures: dict) -> list[tuple[str, str, str, bool]]:
+    """(figure, value, target, met) of the soak's figures against TARGETS (docstring)."""
+    second_half_min = (figures['minutes'] * 60.0 - WARM_UP_S) / 2.0 / 60.0
+    bound = MEMORY_KIB_PER_5_MIN * second_half_min / 5.0
+    growth = figures['memory_growth_second_half_kib']
+    ticks = max(figures['ticks_judged'], 1)
+    late = 100.0 * figures['late_commands'] / ticks
+    unjudged = 100.0 * figures['unjudged_ticks'] / ticks
+    return [
+        ('memory growth, second half, largest', f'{max(growth.values())} KiB ({max(growth, key=growth.get)})',
+         f'<= {bound:.0f} KiB', max(growth.values()) <= bound),
+        ('false alarms', str(figures['false_alarms']), '0', figures['false_alarms'] == 0),
+        ('late commands', f'{late:.3f} %', f'<= {LATE_COMMAND_PCT} %', late <= LATE_COMMAND_PCT),
+        ('unjudged ticks', f'{unjudged:.3f} %', f'<= {UNJUDGED_PCT} %', unjudged <= UNJUDGED_PCT),
+    ]
 
