@@ -8,7 +8,7 @@ Table 6 and of the circle within ±30 % of Table 7's and of 190 ms. What the fie
 does not reproduce is marked xfail (strict: it fails the suite once it passes), with the
 reason, and only a figure off the paper's (an AssertionError) counts as that failure; what
 must hold around it (the run detected, the cable named) is judged in tests of its own.
-notes/issue15-field-plant.md has the whole table.
+docs/field-plant.md has the whole table.
 """
 from __future__ import annotations
 
@@ -194,7 +194,7 @@ def test_failure_free_circle_position_gaps_are_measured_and_below_the_papers(cir
 @pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
     "K_c and K_j stay far below the paper's (0.4 mm, 0.007 rad): with the controller's 12 Hz joint PD "
     "(~24 N·m/rad) a joint gap of 0.058 rad would take ~1.4 N·m, nine times the paper's "
-    "K_t; see notes/issue15-field-plant.md"))
+    "K_t; see docs/field-plant.md"))
 def test_failure_free_circle_position_gaps_are_the_papers(circle_without_failure):
     kpi = circle_without_failure['kpi']
     assert within(kpi['K_c_m'], PAPER_KPI['K_c_m']) and within(kpi['K_j_rad'], PAPER_KPI['K_j_rad'])
@@ -217,7 +217,7 @@ def test_every_orthogonal_failure_is_detected_soon_after_the_parting_and_named(o
 @pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
     'the detector sees the freed motor within a few ms of the real parting, which the '
     'electromagnet delays by its release (~80 ms at the ~10 N of cable 4 here); the '
-    "paper's slow rise after it (Fig. 18) is not produced: notes/issue15-field-plant.md"))
+    "paper's slow rise after it (Fig. 18) is not produced: docs/field-plant.md"))
 def test_orthogonal_to_cable_4_the_median_delay_is_table_7s(orthogonal_runs):
     paper = statistics.median(pair[0] for pair in PAPER_ORTHOGONAL_MS.values())
     assert within(statistics.median(run['detection_delay_from_signal_ms']

@@ -157,7 +157,7 @@ def test_a_stopped_outside_reader_neither_stops_nor_crashes_the_realtime_graph(t
     # In realtime the niced recorder, below six SCHED_FIFO-scheduled nodes on two cores,
     # can fall more than streams.history_s behind and lose ticks (12 % in one run, none
     # in others), and in one fresh-clone CI run the plant's report of the stopped reader
-    # did not come: both noted in notes/issue11; the lockstep test checks them.
+    # did not come: both noted in docs/ros2-conditions.md; the lockstep test checks them.
     check_graph_unharmed_and_reader_reported(namespace, bag, log, every_tick=False)
 
 
