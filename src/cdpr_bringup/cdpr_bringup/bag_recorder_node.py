@@ -7,7 +7,8 @@ contract plus /clock and /diagnostics), `flush_period_s` (0.5).
 Messages are taken serialized (no decode/encode on the way) and stamped with their
 receive time. `effort_command` holds the commands of the graph's controller only
 (parameter `command_writer`, as the plant obeys): those of any other writer go to
-`effort_command/other_writers`, so that offline FDI and reports see what the motors obeyed. Per-cycle topics are subscribed reliable + keep-all, so none is lost.
+`effort_command/other_writers`, so that offline FDI and reports see what the motors
+obeyed. Per-cycle topics are subscribed reliable + keep-all, so none is lost.
 On SIGINT/SIGTERM the node drains its queue and closes the bag; if it is killed, the
 bag keeps every chunk flushed so far (at most `flush_period_s` old, see bag_io).
 
@@ -151,16 +152,13 @@ class BagRecorderNode(CdprNode):
         missing = self.missing_ticks()
         self.writer.set_custom_data(MISSING_TICKS_KEY, json.dumps(missing))
         self.writer.close()
-        holes = {topic: count for topic, count in missing.items() if count}
+        holes = [f'{topic} {gaps.missing} of {gaps.ticks}' for topic, gaps in self.gaps.values()
+                 if gaps.missing]
         if holes:
-            self.get_logger().warning(
-                f'bag closed with {self.recorded} messages and HOLES: ticks missing on '
-                + ', '.join(f'{topic} {count} of {self.gaps_of(topic).ticks}' for topic, count in holes.items()))
+            self.get_logger().warning(f'bag closed with {self.recorded} messages and HOLES: ticks '
+                                      f'missing on {", ".join(holes)}')
         else:
             self.get_logger().info(f'bag closed with {self.recorded} messages, no tick missing')
-
-    def gaps_of(self, topic: str) -> TickGaps:
-        return next(gaps for name, gaps in self.gaps.values() if name == topic)
 
 
 def main(args=None):

@@ -36,7 +36,7 @@ import numpy as np
 from cdpr_msgs_py import qos
 from cdpr_msgs_py.contract import DIAGNOSTICS, JOINT_STATES
 
-from .bag_io import read_topics
+from .bag_io import missing_ticks, read_topics
 from .engine import run_inprocess
 from .graph import Graph, GraphError, graph_nodes, launch_environment
 from .scenario_setup import GRAPH_FORMS, ScenarioOptions, build_scenario
@@ -171,8 +171,9 @@ def cpu_percent(samples, first_s: float, last_s: float) -> dict[str, float]:
 def run_graph(parameters: dict, listener: DiagnosticsListener, log, form: str = 'separate',
               recorded: bool = False) -> tuple[dict, dict]:
     """Run the graph in `form` (with the bag recorder if `recorded`) to completion; the
-    plant's final timing facts (with the supervisor's late-command % and the ticks the bag
-    lacks) and CPU % per process and of the machine left idle."""
+    plant's final timing facts (with the supervisor's late-command %, the ticks the bag
+    lacks and those its recorder counted missing) and CPU % per process and of the machine
+    left idle."""
     with tempfile.TemporaryDirectory(prefix='cdpr-bench-') as folder:
         bag = Path(folder) / 'bag' if recorded else None
         facts, cpu = timed_run(graph_nodes(parameters, None if bag is None else str(bag), form=form),
@@ -180,6 +181,7 @@ def run_graph(parameters: dict, listener: DiagnosticsListener, log, form: str = 
         if bag is not None:
             states = read_topics(bag, [f'{NAMESPACE}/{JOINT_STATES}'])[f'{NAMESPACE}/{JOINT_STATES}']
             facts['ticks lost'] = int(facts['ticks timed']) - len(states)
+            facts['ticks counted missing'] = (missing_ticks(bag) or {}).get(JOINT_STATES)
     return facts, cpu
 
 

@@ -20,16 +20,13 @@ import select
 import signal
 import subprocess
 import sys
-import tempfile
 import threading
 import time
-from pathlib import Path
 
 from cdpr_msgs_py import contract
 
-from .bag_io import missing_ticks, read_topics
-from .bench_graph import DiagnosticsListener, NAMESPACE, graph_parameters, timed_run
-from .graph import graph_nodes, launch_environment, node_environment
+from .bench_graph import NAMESPACE, DiagnosticsListener, graph_parameters, run_graph
+from .graph import launch_environment, node_environment
 
 RUN_S = 20.0
 RUNS = 10
@@ -81,17 +78,12 @@ def recorded_run(parameters: dict, listener: DiagnosticsListener, condition: str
     readers = [OutsideReader(FREEZE_AFTER_S if condition == 'frozen' else None)
                for _ in range(CONDITIONS[condition])]
     try:
-        with tempfile.TemporaryDirectory(prefix='cdpr-bench-recorder-') as folder:
-            bag = Path(folder) / 'bag'
-            facts, cpu = timed_run(graph_nodes(parameters, str(bag)), listener, log)
-            name = f'{NAMESPACE}/{contract.JOINT_STATES}'
-            states = read_topics(bag, [name])[name]
-            counted = missing_ticks(bag) or {}
+        facts, cpu = run_graph(parameters, listener, log, recorded=True)
     finally:
         for reader in readers:
             reader.end()
-    return {'ticks': int(facts['ticks timed']), 'lost': int(facts['ticks timed']) - len(states),
-            'recorder says missing': counted.get(contract.JOINT_STATES),
+    return {'ticks': int(facts['ticks timed']), 'lost': facts['ticks lost'],
+            'recorder says missing': facts['ticks counted missing'],
             'tick rate hz': float(facts['tick rate wall hz']),
             'deadline misses pct': float(facts['deadline misses pct']),
             'idle pct': cpu.get('machine idle', float('nan')),

@@ -2,8 +2,8 @@
 nothing else of this project (for the tests and `cdpr-bench recorder`).
 
 Usage: python -m cdpr_bringup.outside_reader NAMESPACE TIMEOUT_S TOPIC… (relative to
-NAMESPACE unless absolute). Subscribes to each TOPIC reliable and keep-all, as a recorder of one's own
-would; prints one line `receiving` once every TOPIC has brought a message (so each
+NAMESPACE unless absolute). Subscribes to each TOPIC reliable and keep-all, as a recorder
+of one's own would; prints one line `receiving` once every TOPIC has brought a message (so each
 writer has matched it), then reads until the timeout. Suspended (SIGSTOP, Ctrl-Z) it
 is a reader that stops acknowledging.
 """
