@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from cdpr_msgs_py.dds import use_shipped_setup
-from cdpr_msgs_py.runtime import LOG_THROTTLE_S
+from cdpr_msgs_py.runtime.diagnostics import LOG_THROTTLE_S
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG_DIR = REPO / 'src' / 'cdpr_bringup' / 'config'
@@ -59,7 +59,7 @@ STALE = ('fastdds_port7000',)
 def settled_parameters(clock_mode: str = 'lockstep', **options) -> dict[str, dict]:
     """Per node, the parameters cdpr-scenario gives it for the paper robot's run that
     `options` (ScenarioOptions' fields) describe."""
-    from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+    from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
     return build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
                                           **options)).node_parameters(clock_mode)
 

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import pytest
 
-from cdpr_bringup.bench_roc import judge, roc_points, sensitivity
-from cdpr_bringup.bench_sweep import AXES, cells
-from cdpr_bringup.engine import run_inprocess
+from cdpr_bringup.bench.roc import judge, roc_points, sensitivity
+from cdpr_bringup.bench.sweep import AXES, cells
+from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.paths import config_file
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_fdi.detectors import DETECTORS
 
 from conftest import MOTIONS, PAPER_ROBOT

@@ -2,7 +2,7 @@
 late commands or unjudged ticks each fail their target."""
 from __future__ import annotations
 
-from cdpr_bringup.bench_soak import MEMORY_KIB_PER_5_MIN, WARM_UP_S, targets
+from cdpr_bringup.bench.soak import MEMORY_KIB_PER_5_MIN, WARM_UP_S, targets
 
 TICKS = 300_000
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdpr_bringup import bulk_cdr
-from cdpr_bringup.bag_io import TYPESTORE
+from cdpr_bringup.bags import bulk_cdr
+from cdpr_bringup.bags.bag_io import TYPESTORE
 from cdpr_msgs_py.stamps import ns_parts
 
 TYPES = TYPESTORE.types

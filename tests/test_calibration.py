@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdpr_bringup import calibrate as cdpr_calibrate
+from cdpr_bringup.campaigns import calibrate as cdpr_calibrate
 from cdpr_control.config import ConfigError
 from cdpr_control.friction import FrictionModel
 from cdpr_control.robot import load_robot

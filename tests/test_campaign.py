@@ -8,7 +8,7 @@ import re
 
 import pytest
 
-from cdpr_bringup.campaign import (CSV_COLUMNS, PAPER_DETECTION_MS, RANDOM_FRACTION_RANGE, Run,
+from cdpr_bringup.campaigns.campaign import (CSV_COLUMNS, PAPER_DETECTION_MS, RANDOM_FRACTION_RANGE, Run,
                                    build_matrix, completed, expand_motion_set, main, outcome, outcome_lines,
                                    progress_bar, run_campaign, summarize, summary_markdown,
                                    write_summary_csv)

@@ -14,9 +14,9 @@ from pathlib import Path
 import pytest
 from distributed import Client
 
-from cdpr_bringup.campaign import main
-from cdpr_bringup import dask_cluster
-from cdpr_bringup.dask_cluster import local_dask_cluster
+from cdpr_bringup.campaigns.campaign import main
+from cdpr_bringup.campaigns import dask_cluster
+from cdpr_bringup.campaigns.dask_cluster import local_dask_cluster
 
 from conftest import CONFIG_DIR, MOTIONS
 

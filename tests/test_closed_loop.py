@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdpr_bringup.engine import run_inprocess
-from cdpr_bringup.metrics import tracking_error_m, twin_kpis
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.engine import run_inprocess
+from cdpr_bringup.runs.metrics import tracking_error_m, twin_kpis
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.kinematics import structure_matrix
 from cdpr_twin.plant import PlantSimulator
 

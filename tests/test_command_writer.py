@@ -22,12 +22,14 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import JointState
 
-from cdpr_bringup.bag_io import read_messages
-from cdpr_bringup.bag_recorder_node import OTHER_WRITERS
-from cdpr_bringup.graph import Graph, graph_nodes, node_environment
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.bags.bag_io import read_messages
+from cdpr_bringup.bags.recorder_node import OTHER_WRITERS
+from cdpr_bringup.graph.launcher import Graph, graph_nodes, node_environment
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.runtime import CdprNode, make_executor, message_info_callback
+from cdpr_msgs_py.runtime.node import CdprNode
+from cdpr_msgs_py.runtime.spin import make_executor
+from cdpr_msgs_py.runtime.subscriptions import message_info_callback
 from cdpr_msgs_py.sole_writer import Endpoint, SoleWriter
 from cdpr_msgs_py.stamps import stamp_to_ns
 

@@ -11,7 +11,7 @@ CORE = ['cdpr_msgs_py.contract', 'cdpr_msgs_py.stamps', 'cdpr_msgs_py.health', '
         'cdpr_control.reference_schedule',
         'cdpr_twin.twin', 'cdpr_twin.plant', 'cdpr_twin.run_length', 'cdpr_twin.joint_mapping',
         'cdpr_fdi.supervisor', 'cdpr_fdi.recovery', 'cdpr_fdi.calibration', 'cdpr_fdi.markers',
-        'cdpr_bringup.engine', 'cdpr_bringup.scenario_setup']
+        'cdpr_bringup.runs.engine', 'cdpr_bringup.runs.settle']
 
 
 def test_the_core_imports_no_rclpy():

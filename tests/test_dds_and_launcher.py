@@ -19,9 +19,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from cdpr_bringup.graph import (STOP_GRACE_S, TEMP_PREFIX, graph_nodes, node_environment, parser,
+from cdpr_bringup.graph.launcher import (STOP_GRACE_S, TEMP_PREFIX, graph_nodes, node_environment, parser,
                                  requested_graph)
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_msgs_py import dds
 from cdpr_twin.plant import FIDELITIES
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdpr_bringup.engine import run_inprocess
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.engine import run_inprocess
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_fdi.residual import sensorless_tension_bounds
 from cdpr_fdi.wrench_balance import WrenchBalance
 

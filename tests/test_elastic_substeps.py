@@ -9,8 +9,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cdpr_bringup.engine import run_inprocess
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.engine import run_inprocess
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.robot import load_robot
 from cdpr_twin.elastic_model import ElasticCableRobot
 from cdpr_twin.elastic_substeps import KERNELS, PYTHON, kernel

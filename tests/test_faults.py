@@ -18,8 +18,8 @@ import time
 
 import pytest
 
-from cdpr_bringup.bag_io import read_messages
-from cdpr_bringup.graph import Graph, GraphError, graph_nodes
+from cdpr_bringup.bags.bag_io import read_messages
+from cdpr_bringup.graph.launcher import Graph, GraphError, graph_nodes
 
 from conftest import GraphLog, settled_parameters, timing_check, wait_until_the_plant_runs
 

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 import yaml
 
-from cdpr_bringup import robot_summary
-from cdpr_bringup import scenario as scenario_cli
-from cdpr_bringup.engine import run_inprocess
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.reports import robot_summary
+from cdpr_bringup.scenario import command as scenario_cli
+from cdpr_bringup.runs.engine import run_inprocess
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.config import Section
 from cdpr_control.controller import PdGains
 from cdpr_control.kinematics import forward_kinematics

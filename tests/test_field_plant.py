@@ -22,11 +22,11 @@ import numpy as np
 import pytest
 import yaml
 
-from cdpr_bringup.engine import run_inprocess
+from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.paths import DEFAULT_ROBOT, config_file
-from cdpr_bringup.metrics import PAPER_KPI
-from cdpr_bringup.scenario import metrics_of
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.metrics import PAPER_KPI
+from cdpr_bringup.scenario.command import metrics_of
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_twin.elastic_model import swivel_pulley_length_m
 from cdpr_control.config import ConfigError, Section, load_config
 from cdpr_twin.plant import PlantConfig, PlantSimulator

@@ -36,7 +36,7 @@ from std_msgs.msg import Int32, String
 
 import cdpr_control.config
 import cdpr_fdi.config
-from cdpr_bringup.scenario_setup import realtime_scheduling
+from cdpr_bringup.runs.settle import realtime_scheduling
 from cdpr_control.config import ConfigError, load_config, load_section, load_yaml, paper_defaults
 from cdpr_control.controller import PdGains
 from cdpr_control.controller_node import ControllerNode

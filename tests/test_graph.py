@@ -10,12 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cdpr_bringup import fdi_offline
-from cdpr_bringup.bag_io import read_messages, recording_from_bag
-from cdpr_bringup.engine import run_inprocess
-from cdpr_bringup.graph import Graph, graph_nodes, node_environment, run_to_completion
-from cdpr_bringup.metrics import fdi_summary_from_diagnostics
-from cdpr_bringup.scenario_setup import GRAPH_FORMS, ScenarioOptions, build_scenario
+from cdpr_bringup.reports import fdi_offline
+from cdpr_bringup.bags.bag_io import read_messages, recording_from_bag
+from cdpr_bringup.runs.engine import run_inprocess
+from cdpr_bringup.graph.launcher import Graph, graph_nodes, node_environment, run_to_completion
+from cdpr_bringup.runs.metrics import fdi_summary_from_diagnostics
+from cdpr_bringup.runs.settle import GRAPH_FORMS, ScenarioOptions, build_scenario
 
 from cdpr_msgs_py.dds import PROFILE_VARIABLE
 from cdpr_msgs_py.stamps import stamp_to_ns

@@ -68,9 +68,19 @@ def circles(graph: dict[str, set[str]]) -> list[list[str]]:
 def test_no_two_modules_import_each_other_even_through_others():
     files = module_files()
     graph = {name: imports(name, path, set(files)) for name, path in files.items()}
-    assert 'cdpr_bringup.campaign_run' in graph['cdpr_bringup.dask_cluster'], 'the graph is read'
+    assert 'cdpr_bringup.campaigns.campaign_run' in graph['cdpr_bringup.campaigns.dask_cluster'], 'the graph is read'
     assert circles(graph) == []
 
 
 def test_a_circle_is_found():
     assert circles({'a': {'b'}, 'b': {'c'}, 'c': {'a'}, 'd': {'a'}}) == [['a', 'b', 'c']]
+
+
+def test_the_contract_imports_nothing_of_the_node_runtime():
+    files = module_files()
+    contract_side = {name: path for name, path in files.items()
+                     if name.startswith('cdpr_msgs_py') and not name.startswith('cdpr_msgs_py.runtime')}
+    runtime = {name for name in files if name.startswith('cdpr_msgs_py.runtime')}
+    assert 'cdpr_msgs_py.contract' in contract_side and 'cdpr_msgs_py.runtime.node' in runtime
+    assert {name: imports(name, path, set(files)) & runtime for name, path in contract_side.items()
+            if imports(name, path, set(files)) & runtime} == {}

@@ -14,14 +14,14 @@ from pathlib import Path
 import pytest
 import yaml
 
-from cdpr_bringup.bag_io import read_messages
-from cdpr_bringup.composed_loop import COMPOSABLE
-from cdpr_bringup.graph import parser, requested_graph, speaker
-from cdpr_bringup.graph import STOP_GRACE_S
-from cdpr_bringup.launching import (SIGTERM_TIMEOUT_S, command_line, graph_from_launch, launch_arguments,
+from cdpr_bringup.bags.bag_io import read_messages
+from cdpr_bringup.graph.composed_loop import COMPOSABLE
+from cdpr_bringup.graph.launcher import parser, requested_graph, speaker
+from cdpr_bringup.graph.launcher import STOP_GRACE_S
+from cdpr_bringup.graph.launch_files import (SIGTERM_TIMEOUT_S, command_line, graph_from_launch, launch_arguments,
                                     launch_parameters)
-from cdpr_msgs_py.runtime import SHUTDOWN_LIMIT_S
-from cdpr_bringup.scenario_setup import GRAPH_FORMS
+from cdpr_msgs_py.runtime.spin import SHUTDOWN_LIMIT_S
+from cdpr_bringup.runs.settle import GRAPH_FORMS
 
 from conftest import REPO
 

@@ -7,9 +7,9 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from cdpr_bringup.bag_io import BagWriter, read_messages, write_recording
-from cdpr_bringup.engine import run_inprocess
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.bags.bag_io import BagWriter, read_messages, write_recording
+from cdpr_bringup.runs.engine import run_inprocess
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.workspace import contains
 from cdpr_fdi.markers import (BROKEN_GREY, LINE_LIST, LINE_STRIP, SPHERE_LIST, TENSION_SCALE,
                               cable_shapes, dashes, tension_colour)

@@ -13,8 +13,8 @@ import rclpy
 import yaml
 from rclpy.parameter import Parameter
 
-from cdpr_bringup.graph import executable_command, node_environment, parser
-from cdpr_bringup.params import parameter_files
+from cdpr_bringup.graph.launcher import executable_command, node_environment, parser
+from cdpr_bringup.graph.params_files import parameter_files
 from cdpr_control.config import load_yaml
 from cdpr_control.controller_node import ControllerNode
 from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode

@@ -14,15 +14,15 @@ import yaml
 
 from cdpr_control.robot import load_robot
 
-from cdpr_bringup import plots
-from cdpr_bringup import scenario as scenario_cli
-from cdpr_bringup.bag_io import BagWriter, recording_from_bag, write_recording
-from cdpr_bringup.engine import run_inprocess
-from cdpr_bringup.graph import graph_nodes, run_to_completion
-from cdpr_bringup.metrics import metrics_json, tracking_error_m, twin_kpis
-from cdpr_bringup.report import (SETTLED_RUN, main, run_of_recording, run_settings, write_report,
+from cdpr_bringup.reports import plots
+from cdpr_bringup.scenario import command as scenario_cli
+from cdpr_bringup.bags.bag_io import BagWriter, recording_from_bag, write_recording
+from cdpr_bringup.runs.engine import run_inprocess
+from cdpr_bringup.graph.launcher import graph_nodes, run_to_completion
+from cdpr_bringup.runs.metrics import metrics_json, tracking_error_m, twin_kpis
+from cdpr_bringup.reports.report import (SETTLED_RUN, main, run_of_recording, run_settings, write_report,
                                  write_run_report)
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 
 from conftest import MOTIONS, PAPER_ROBOT, settled_parameters
 
@@ -199,7 +199,7 @@ def test_the_bag_is_written_beside_the_report_and_what_fails_is_said(failure_run
     def dies(*args):
         raise SystemExit(3)
     with monkeypatch.context() as patched:
-        patched.setattr('cdpr_bringup.report.write_run_report', dies)
+        patched.setattr('cdpr_bringup.reports.report.write_run_report', dies)
         out = tmp_path / 'dead'
         assert not scenario_cli.record_beside_report(scenario_cli.ReportDrawer(), recording, settings,
                                                      own, out, '/cdpr', frame)

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from cdpr_bringup.graph import graph_nodes
-from cdpr_bringup.scenario_setup import BACKGROUND, CONTROL_LOOP, FDI, ScenarioOptions, build_scenario
+from cdpr_bringup.graph.launcher import graph_nodes
+from cdpr_bringup.runs.settle import BACKGROUND, CONTROL_LOOP, FDI, ScenarioOptions, build_scenario
 from cdpr_control.config import ConfigError, load_section
 from cdpr_msgs_py import scheduling
 

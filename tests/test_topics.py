@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import rclpy
 
-from cdpr_bringup.bag_recorder_node import BagRecorderNode
-from cdpr_bringup.graph import graph_nodes
+from cdpr_bringup.bags.recorder_node import BagRecorderNode
+from cdpr_bringup.graph.launcher import graph_nodes
 from cdpr_control.controller_node import ControllerNode
 from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
 from cdpr_fdi.markers_node import MarkersNode

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from cdpr_bringup import graph, robot_summary, scenario
+from cdpr_bringup.graph import launcher
+
+from cdpr_bringup.reports import robot_summary
+
+from cdpr_bringup.scenario import command
 from cdpr_bringup.cli import UsageError
 
 from conftest import MOTIONS, PAPER_ROBOT
@@ -28,7 +32,7 @@ BAD_OPTIONS = [
 
 @pytest.mark.parametrize('options, named', BAD_OPTIONS, ids=[named for _, named in BAD_OPTIONS])
 def test_a_bad_scenario_option_is_one_line_naming_it(options, named, tmp_path, capsys):
-    code = scenario.main(RUN + options + ['--out', str(tmp_path / 'run')])
+    code = command.main(RUN + options + ['--out', str(tmp_path / 'run')])
     err = capsys.readouterr().err
     assert code == 2
     assert err.startswith(f'cdpr-scenario: {named}:') and err.count('\n') == 1, err
@@ -37,17 +41,17 @@ def test_a_bad_scenario_option_is_one_line_naming_it(options, named, tmp_path, c
 
 def test_debug_shows_the_traceback(tmp_path):
     with pytest.raises(UsageError, match='--fail-cable 9'):
-        scenario.main(RUN + ['--fail-cable', '9', '--out', str(tmp_path / 'run'), '--debug'])
+        command.main(RUN + ['--fail-cable', '9', '--out', str(tmp_path / 'run'), '--debug'])
 
 
-@pytest.mark.parametrize('main, name', [(scenario.main, 'cdpr-scenario'), (graph.main, 'cdpr-graph'),
+@pytest.mark.parametrize('main, name', [(command.main, 'cdpr-scenario'), (launcher.main, 'cdpr-graph'),
                                         (robot_summary.main, 'cdpr-robot')])
 def test_a_missing_or_bad_config_is_one_line(main, name, tmp_path, capsys):
     broken = tmp_path / 'broken.yaml'
     broken.write_text('robot: [1, 2]\n')
     for config, named in (('no_such_robot.yaml', 'no config no_such_robot.yaml'),
                           (str(broken), f"{broken}: 'robot' must be a mapping")):
-        extra = ['--out', str(tmp_path / 'run')] if main is scenario.main else []
+        extra = ['--out', str(tmp_path / 'run')] if main is command.main else []
         assert main(['--config', config] + extra) == 2
         err = capsys.readouterr().err
         assert err.startswith(f'{name}: {named}') and err.count('\n') == 1, err
@@ -66,17 +70,17 @@ def test_a_motion_without_tensions_within_the_bounds_is_one_line_naming_what_to_
                        'goal: [0.25, 0.25, 0.3]}\n')
     run = ['--motions', str(motions), '--motion', 'corner', '--engine', 'inprocess',
            '--fidelity', 'rigid', '--no-plots']
-    assert scenario.main(['--config', str(setup)] + run + ['--out', str(tmp_path / 'a')]) == 2
+    assert command.main(['--config', str(setup)] + run + ['--out', str(tmp_path / 'a')]) == 2
     err = capsys.readouterr().err
     assert err.startswith('cdpr-scenario: --motion corner: no feasible cable tensions at p = (')
     assert 'bounded_minimum_norm' in err and err.count('\n') == 1, err
-    assert scenario.main(['--config', str(PAPER_ROBOT)] + run + ['--out', str(tmp_path / 'b')]) == 0
+    assert command.main(['--config', str(PAPER_ROBOT)] + run + ['--out', str(tmp_path / 'b')]) == 0
 
 
 def test_a_campaign_whose_runs_are_refused_says_why_once_in_one_line(tmp_path, capsys):
     """A robot without a calibration for the elastic plant: every run is refused in its
     worker; the campaign says it once, naming options cdpr-campaign has, and exits 2."""
-    from cdpr_bringup import campaign
+    from cdpr_bringup.campaigns import campaign
     robot = tmp_path / 'unseen.yaml'
     robot.write_text(PAPER_ROBOT.read_text().replace('mass_kg: 2.941', 'mass_kg: 3.2'))
     code = campaign.main(['--config', str(robot), '--motions', str(MOTIONS), '--motion-set',

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 
-from cdpr_bringup.scenario_setup import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.controller import JointReference
 from cdpr_fdi.supervisor import Supervisor
 from cdpr_twin.plant import FIDELITIES, PlantSimulator

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from cdpr_bringup.graph import graph_nodes
+from cdpr_bringup.graph.launcher import graph_nodes
 from conftest import REPO, settled_parameters
 
 PACKAGES = ['cdpr_msgs_py', 'cdpr_control', 'cdpr_twin', 'cdpr_fdi', 'cdpr_bringup']

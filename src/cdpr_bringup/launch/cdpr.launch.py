@@ -19,7 +19,7 @@ from launch.events import Shutdown
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from cdpr_bringup.launching import (SIGTERM_TIMEOUT_S, dds_environment, graph_from_launch, launch_arguments,
+from cdpr_bringup.graph.launch_files import (SIGTERM_TIMEOUT_S, dds_environment, graph_from_launch, launch_arguments,
                                     launch_parameters)
 
 

@@ -17,7 +17,8 @@ from std_msgs.msg import Int32, String
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.contract import NOMINAL, SAFE_HOLD
 from cdpr_msgs_py.conversions import joint_state
-from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.runtime.node import CdprNode
+from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import NANOSECONDS
 
 from .controller import JointController, JointReference, PdGains

@@ -1,6 +1,6 @@
 """A settled run as ROS parameters, and back: values, never recipes.
 
-The launcher settles a run once (cdpr_bringup.scenario_setup): every section of the robot
+The launcher settles a run once (cdpr_bringup.runs.settle): every section of the robot
 file (or set-up) filled in from the defaults, the calibration's thresholds merged, the command line
 applied, the motion resolved and the failures placed at absolute times on 0-based cables.
 Each node gets the sections it reads as dotted parameters (`fdi.epsilon_nm`,
@@ -77,7 +77,7 @@ class Settings:
         self.values = dict(values)
 
     def declare(self, node) -> None:
-        """Each value as a ROS parameter of `node` (a cdpr_msgs_py.runtime.CdprNode),
+        """Each value as a ROS parameter of `node` (a cdpr_msgs_py.runtime.node.CdprNode),
         described as the defaults files describe it, with the bounds the node's loaders
         checked it against (so once the node has built its core from these settings), and
         read-only but CdprNode.CHANGEABLE_SETTINGS."""
@@ -121,7 +121,7 @@ class Settings:
 
 
 def node_settings(node, name: str) -> Settings:
-    """The settings `node` (a cdpr_msgs_py.runtime.CdprNode, the contract's node `name`)
+    """The settings `node` (a cdpr_msgs_py.runtime.node.CdprNode, the contract's node `name`)
     runs with, each key of its sections (contract.SETTINGS_OF): the values it was given (a
     launcher's settled run), else those of the robot file its `config_file` parameter
     names, else the paper's. The node is configured from them (its writers' history, its

@@ -21,7 +21,8 @@ from sensor_msgs.msg import JointState
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import (InvalidMessage, joint_state, point_from_message,
                                       point_stamped, stamp_to_ns)
-from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.runtime.node import CdprNode
+from cdpr_msgs_py.runtime.spin import run
 
 from .motions import motion_from_settled, settled_motion
 from .reference import tabulate_reference

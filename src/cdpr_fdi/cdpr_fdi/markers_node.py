@@ -16,7 +16,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import InvalidMessage, ns_to_stamp, point_from_message
-from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.runtime.node import CdprNode
+from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import NANOSECONDS
 
 from .config import settled_fdi

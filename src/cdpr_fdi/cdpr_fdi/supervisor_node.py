@@ -23,7 +23,9 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.contract import NOMINAL
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_msgs_py.health import unjudged_problem, verdict_problems
-from cdpr_msgs_py.runtime import LOG_THROTTLE_S, CdprNode, run
+from cdpr_msgs_py.runtime.diagnostics import LOG_THROTTLE_S
+from cdpr_msgs_py.runtime.node import CdprNode
+from cdpr_msgs_py.runtime.spin import run
 
 from .config import settled_fdi
 from .supervisor import Supervisor

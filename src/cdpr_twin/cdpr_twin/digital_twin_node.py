@@ -10,7 +10,8 @@ from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, point_stamped
-from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.runtime.node import CdprNode
+from cdpr_msgs_py.runtime.spin import run
 
 from .twin import DigitalTwin
 

@@ -27,7 +27,8 @@ from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
 from cdpr_msgs_py.health import loop_problem
-from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.runtime.node import CdprNode
+from cdpr_msgs_py.runtime.spin import run
 
 from .plant import PlantConfig, PlantSimulator, settled_pushes
 from .run_length import RunLength

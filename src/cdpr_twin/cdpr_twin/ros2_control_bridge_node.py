@@ -22,7 +22,8 @@ from std_msgs.msg import Float64MultiArray, Int32
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state
-from cdpr_msgs_py.runtime import CdprNode, run
+from cdpr_msgs_py.runtime.node import CdprNode
+from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import seconds_to_ns, stamp_to_ns
 
 from .joint_mapping import EffortBridge, JointMapping, JointMismatch, StaleWatch, TickStamps

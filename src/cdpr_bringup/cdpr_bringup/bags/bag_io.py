@@ -1,0 +1,382 @@
+"""Bags of the graph: writing them so that a killed recorder leaves a readable prefix,
+and reading them back (timed messages per topic, the Recording per control tick).
+
+A bag is a rosbag2 folder (metadata.yaml and one MCAP or sqlite3 file) with the message
+definitions and type hashes of the ROS 2 Kilted types embedded, so `ros2 bag info`,
+rosbags, and MCAP viewers open it without the message packages.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import yaml
+from mcap.exceptions import EndOfFile
+from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType
+from mcap.writer import Writer as McapFileWriter
+from rosbags.interfaces import MessageDefinitionFormat
+from rosbags.rosbag2 import CompressionMode, Reader, StoragePlugin, Writer
+from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
+from rosbags.typesys import Stores, get_typestore
+
+from cdpr_fdi.markers import FRAME_ID, Frame, Shape
+from cdpr_msgs_py import contract
+from cdpr_msgs_py.stamps import NANOSECONDS, ns_parts, stamp_to_ns
+
+from . import bulk_cdr
+from ..runs.recording import Recording
+
+# A chunk is what survives a SIGKILL whole, so chunks stay small; the recorder also
+# flushes the open one on a timer when traffic is too slow to fill it.
+CHUNK_SIZE_BYTES = 64 * 1024
+TYPESTORE = get_typestore(Stores.ROS2_KILTED)
+
+
+class _McapStorage:
+    """rosbags' storage-writer protocol on the mcap package's Writer.
+
+    rosbags' own MCAP storage closes a chunk only past 1 MiB and cannot be flushed; this
+    one writes what rosbag2's MCAP plugin writes (ros2 profile, ros2msg schemas, QoS and
+    type hash per channel, the bag metadata as a `rosbag2` metadata record) in chunks of
+    CHUNK_SIZE_BYTES, and `flush` closes the open chunk and pushes it to the OS.
+    """
+
+    def __init__(self, path: Path, compression: CompressionMode):
+        self.path = path / f'{path.name}.mcap'
+        self.stream = self.path.open('xb')
+        self.writer = McapFileWriter(
+            self.stream, chunk_size=CHUNK_SIZE_BYTES,
+            compression=CompressionType.ZSTD if compression == CompressionMode.STORAGE
+            else CompressionType.NONE)
+        self.writer.start(profile='ros2', library='cdpr_bringup bag_io')
+        self.schema_ids: dict[str, int] = {}
+        self.channel_ids: dict[int, int] = {}
+
+    def add_msgtype(self, connection) -> None:
+        encoding = 'ros2msg' if connection.msgdef.format == MessageDefinitionFormat.MSG else 'ros2idl'
+        self.schema_ids[connection.msgtype] = self.writer.register_schema(
+            connection.msgtype, encoding, connection.msgdef.data.encode())
+
+    def add_connection(self, connection, offered_qos_profiles: str) -> None:
+        self.channel_ids[connection.id] = self.writer.register_channel(
+            connection.topic, connection.ext.serialization_format,
+            self.schema_ids[connection.msgtype],
+            {'offered_qos_profiles': offered_qos_profiles, 'topic_type_hash': connection.digest})
+
+    def write(self, connection, timestamp: int, data: bytes) -> None:
+        self.writer.add_message(self.channel_ids[connection.id], timestamp, bytes(data), timestamp)
+
+    def flush(self) -> None:
+        self.writer.flush()
+
+    def close(self, _version: int, metadata: str) -> None:
+        self.writer.add_metadata('rosbag2', {'serialized_metadata': metadata})
+        self.writer.finish()
+        self.stream.close()
+
+    def abort(self) -> None:
+        self.stream.close()
+
+
+class _Sqlite3Storage(Sqlite3Writer):
+    """rosbags' sqlite3 storage, committed on `flush` so a killed writer keeps its rows."""
+
+    def flush(self) -> None:
+        self.conn.commit()
+
+
+class BagWriter(Writer):
+    """rosbags' rosbag2 Writer whose storage can be flushed while it records."""
+
+    STORAGE_PLUGINS = {StoragePlugin.MCAP: _McapStorage, StoragePlugin.SQLITE3: _Sqlite3Storage}
+
+    def __init__(self, path: str | Path, storage: str = 'mcap'):
+        plugins = {plugin.name.lower(): plugin for plugin in self.STORAGE_PLUGINS}
+        if storage not in plugins:
+            raise ValueError(f'storage must be one of {", ".join(plugins)}, got {storage!r}')
+        super().__init__(Path(path), version=9, storage_plugin=plugins[storage])
+
+    def add_topic(self, topic: str, msgtype: str, offered_qos_profiles=()):
+        """A connection with the Kilted definition and hash of `msgtype` embedded."""
+        return self.add_connection(topic, msgtype, typestore=TYPESTORE,
+                                   offered_qos_profiles=offered_qos_profiles)
+
+    def flush(self) -> None:
+        """Make everything written so far survive a kill of this process."""
+        self.storage.flush()
+
+
+# The recorder's count of the ticks each per-tick topic lacks (JSON, topic → ticks), in
+# the bag's metadata (rosbag2 custom_data).
+MISSING_TICKS_KEY = 'cdpr.missing_ticks'
+
+
+def missing_ticks(bag: str | Path) -> dict[str, int] | None:
+    """Per per-tick topic, the ticks its recorder counted missing (tick_gaps); None for a
+    bag whose recorder did not count (killed before it closed the bag, or written in
+    process, where nothing is lost)."""
+    metadata = Path(bag) / 'metadata.yaml'
+    if not metadata.exists():
+        return None
+    information = yaml.safe_load(metadata.read_text()).get('rosbag2_bagfile_information', {})
+    value = (information.get('custom_data') or {}).get(MISSING_TICKS_KEY)
+    return None if value is None else json.loads(value)
+
+
+def is_complete(bag: str | Path) -> bool:
+    """False for the folder of a recorder that was killed: it never wrote metadata.yaml."""
+    bag = Path(bag)
+    return not bag.is_dir() or (bag / 'metadata.yaml').exists()
+
+
+def mcap_prefix(path: str | Path):
+    """(topic, msgtype, log time ns, CDR data) of every message in the complete chunks of
+    an MCAP file, also one whose writer died mid-chunk (read with the mcap package only)."""
+    with open(path, 'rb') as file:
+        schemas: dict[int, Schema] = {}
+        channels: dict[int, Channel] = {}
+        try:
+            for record in StreamReader(_ExactReads(file), validate_crcs=True).records:
+                if isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Channel):
+                    channels[record.id] = record
+                elif isinstance(record, Message):
+                    channel = channels[record.channel_id]
+                    yield (channel.topic, schemas[channel.schema_id].name, record.log_time,
+                           record.data)
+        except EndOfFile:
+            return
+
+
+class _ExactReads:
+    """A file on which a short read raises EndOfFile: MCAP records are length-prefixed, so
+    a record cut by a kill must end the stream rather than be parsed from the bytes left."""
+
+    def __init__(self, file):
+        self.file = file
+
+    def read(self, size: int = -1) -> bytes:
+        data = self.file.read(size)
+        if 0 < size != len(data):
+            raise EndOfFile()
+        return data
+
+
+def read_messages(bag: str | Path, topics: list[str]) -> dict[str, list[tuple[int, object]]]:
+    """Per topic, (bag time ns, message) in recording order; a killed recorder's MCAP
+    bag gives the messages of its complete chunks."""
+    found: dict[str, list[tuple[int, object]]] = {topic: [] for topic in topics}
+    if is_complete(bag):
+        with Reader(bag) as reader:
+            connections = [c for c in reader.connections if c.topic in found]
+            if connections:
+                for connection, timestamp, data in reader.messages(connections=connections):
+                    found[connection.topic].append(
+                        (timestamp, TYPESTORE.deserialize_cdr(data, connection.msgtype)))
+        return found
+    files = sorted(Path(bag).glob('*.mcap'))
+    if len(files) != 1:
+        raise ValueError(f'{bag}: no metadata.yaml and {len(files)} MCAP files; cannot recover')
+    for topic, msgtype, timestamp, data in mcap_prefix(files[0]):
+        if topic in found:
+            found[topic].append((timestamp, TYPESTORE.deserialize_cdr(data, msgtype)))
+    return found
+
+
+def stamp_ns(message) -> int:
+    return stamp_to_ns(message.header.stamp)
+
+
+def read_topics(bag: str | Path, topics: list[str]) -> dict[str, dict[int, object]]:
+    """Per topic, the last message of each header stamp (ns); resent ticks count once."""
+    return {topic: {stamp_ns(message): message for _, message in messages}
+            for topic, messages in read_messages(bag, topics).items()}
+
+
+def recording_from_bag(bag: str | Path, namespace: str = '/cdpr') -> Recording:
+    """The Recording of a lockstep or realtime run, on the ticks that have a state, a
+    command, the twin's state and pose, and the reference (a killed recorder's last tick
+    may lack some).
+
+    Ground truth exists only in simulation: without it the true pose and tensions are NaN;
+    the residual is None without the supervisor's /fdi/residual (NaN on ticks it lacks).
+    """
+    names = {key: f'{namespace}/{key}' for key in (
+        'joint_states', 'effort_command', 'twin/joint_states', 'twin/pose', 'reference',
+        'reference/pose', 'ground_truth/pose', 'ground_truth/tensions', 'fdi/residual')}
+    found = read_topics(bag, list(names.values()))
+    required = ['joint_states', 'effort_command', 'twin/joint_states', 'twin/pose', 'reference',
+                'reference/pose']
+    # the plant publishes the truth with every state, so where there is some it is required
+    required += [key for key in ('ground_truth/pose', 'ground_truth/tensions') if found[names[key]]]
+    stamps = sorted(set(found[names['joint_states']]).intersection(
+        *(found[names[key]] for key in required)))
+    if not stamps:
+        raise ValueError(f'{bag}: no tick has all of {", ".join(names[key] for key in required)}')
+    cables = len(found[names['joint_states']][stamps[0]].position)
+
+    def joints(key, field):
+        messages = found[names[key]]
+        return np.array([getattr(messages[s], field) if s in messages else np.full(cables, np.nan)
+                         for s in stamps], dtype=float)
+
+    def points(key):
+        messages = found[names[key]]
+        return np.array([[messages[s].point.x, messages[s].point.y, messages[s].point.z]
+                         if s in messages else [np.nan] * 3 for s in stamps])
+
+    return Recording(
+        time_s=np.array(stamps) / NANOSECONDS,
+        angle_rad=joints('joint_states', 'position'),
+        angular_velocity_rad_s=joints('joint_states', 'velocity'),
+        command_nm=joints('effort_command', 'effort'),
+        twin_angle_rad=joints('twin/joint_states', 'position'),
+        twin_angular_velocity_rad_s=joints('twin/joint_states', 'velocity'),
+        twin_torque_nm=joints('twin/joint_states', 'effort'),
+        twin_position_m=points('twin/pose'),
+        reference_position_m=points('reference/pose'),
+        reference_angle_rad=joints('reference', 'position'),
+        true_position_m=points('ground_truth/pose'),
+        true_tension_n=joints('ground_truth/tensions', 'effort'),
+        residual_nm=joints('fdi/residual', 'effort') if found[names['fdi/residual']] else None,
+    )
+
+
+def write_recording(writer: BagWriter, recording: Recording,
+                    namespace: str = contract.DEFAULT_NAMESPACE, frame: Frame | None = None) -> None:
+    """An in-process Recording into an open bag as the graph would have recorded it, so
+    that it gets the same report: the per-tick topics, the residual, the verdict and mode
+    changes of the supervisor's summary (`recording.fdi`), and that summary on
+    /diagnostics at the last tick. Bag times are the tick stamps plus 1 ns per message in
+    the graph's order: the state, the command and the twin, then the supervisor's verdict
+    and mode, then its residual of that tick. With a `frame` (cdpr_fdi.markers, the
+    markers node's core) also `markers`, every frame_ticks ticks after the residual, from
+    what the node reads of the same ticks, so that a viewer shows the run from its bag."""
+    types = TYPESTORE.types
+    stamps = np.round(recording.time_s * NANOSECONDS).astype(np.int64)
+    names = contract.joint_names(recording.angle_rad.shape[1])
+
+    def header(k):
+        sec, nanosec = ns_parts(int(stamps[k]))
+        return types['std_msgs/msg/Header'](
+            stamp=types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec),
+            frame_id='')
+
+    r = recording
+    applied = np.vstack([np.zeros_like(r.command_nm[:1]), r.command_nm[:-1]])
+    joint_state, point_stamped = 'sensor_msgs/msg/JointState', 'geometry_msgs/msg/PointStamped'
+    # topic → (type, serialised message of each tick), in the graph's order within a tick
+    per_tick = {
+        contract.JOINT_STATES: (joint_state, bulk_cdr.joint_states(
+            stamps, names, r.angle_rad, r.angular_velocity_rad_s, applied)),
+        contract.EFFORT_COMMAND: (joint_state, bulk_cdr.joint_states(stamps, names, effort=r.command_nm)),
+        contract.TWIN_JOINT_STATES: (joint_state, bulk_cdr.joint_states(
+            stamps, names, r.twin_angle_rad, r.twin_angular_velocity_rad_s, r.twin_torque_nm)),
+        contract.TWIN_POSE: (point_stamped, bulk_cdr.point_stampeds(stamps, r.twin_position_m)),
+        contract.REFERENCE: (joint_state, bulk_cdr.joint_states(stamps, names, r.reference_angle_rad)),
+        contract.REFERENCE_POSE: (point_stamped, bulk_cdr.point_stampeds(stamps, r.reference_position_m)),
+    }
+    if r.has_ground_truth:
+        per_tick[contract.GROUND_TRUTH_POSE] = (point_stamped,
+                                                bulk_cdr.point_stampeds(stamps, r.true_position_m))
+        per_tick[contract.GROUND_TRUTH_TENSIONS] = (joint_state,
+                                                    bulk_cdr.joint_states(stamps, names, effort=r.true_tension_n))
+    if r.residual_nm is not None:
+        residual = bulk_cdr.joint_states(stamps, names, effort=r.residual_nm)
+    int32, string = types['std_msgs/msg/Int32'], types['std_msgs/msg/String']
+    events: list[tuple[int, str, object]] = []  # (tick, topic, message)
+    if r.fdi:
+        events += [(0, contract.FDI_BROKEN_CABLE, int32(data=0)),
+                   (0, contract.MODE, string(data='NOMINAL'))]
+        if r.fdi['identified_tick'] is not None:
+            events += [(r.fdi['identified_tick'], contract.FDI_BROKEN_CABLE, int32(data=cable))
+                       for cable in r.fdi['broken_cables']]
+        events += [(tick, contract.MODE, string(data=mode))
+                   for mode, tick in r.fdi['phase_ticks'].items()]
+        events.append((stamps.size - 1, contract.DIAGNOSTICS, supervisor_diagnostics(
+            r.fdi, header(stamps.size - 1), namespace)))
+    events.sort(key=lambda event: event[0])
+    connections = {}
+    # a run of one tick has one frame
+    frame_ticks = (1 if frame is None or stamps.size < 2
+                   else frame.style.frame_ticks(float(r.time_s[1] - r.time_s[0])))
+
+    def write_bytes(topic, msgtype, k, data, order_ns):
+        if topic not in connections:
+            # as ROS resolves names: /diagnostics stays outside the namespace
+            name = topic if topic.startswith('/') else f'{namespace}/{topic}'
+            connections[topic] = writer.add_topic(name, msgtype)
+        writer.write(connections[topic], int(stamps[k]) + order_ns, data)
+
+    def write(topic, k, message, order_ns):
+        write_bytes(topic, message.__msgtype__, k,
+                    TYPESTORE.serialize_cdr(message, message.__msgtype__), order_ns)
+
+    for k in range(stamps.size):
+        for order, (topic, (msgtype, rows)) in enumerate(per_tick.items()):
+            write_bytes(topic, msgtype, k, rows[k].tobytes(), order)
+        while events and events[0][0] == k:
+            order += 1
+            _, topic, message = events.pop(0)
+            write(topic, k, message, order)
+            if frame is not None and topic == contract.FDI_BROKEN_CABLE:
+                frame.on_broken_cable(message.data)
+        if r.residual_nm is not None:
+            write_bytes(contract.FDI_RESIDUAL, joint_state, k, residual[k].tobytes(), order + 1)
+        if frame is not None:
+            frame.on_state(r.time_s[k], r.angle_rad[k], r.angular_velocity_rad_s[k], applied[k])
+            frame.on_twin_pose(r.twin_position_m[k])
+            if (r.recovery_reference_angle_rad is not None
+                    and np.isfinite(r.recovery_reference_angle_rad[k]).all()):
+                frame.on_recovery_reference(r.recovery_reference_angle_rad[k])
+            if k % frame_ticks == 0:
+                write(contract.MARKERS, k, marker_array(frame.shapes(), header(k)), order + 2)
+
+
+def marker_array(shapes: list[Shape], header):
+    """A frame of the markers node (cdpr_fdi.markers_node.marker_array) in the bag's types:
+    DELETEALL, then every shape, its points in the world frame."""
+    types = TYPESTORE.types
+    marker, point = types['visualization_msgs/msg/Marker'], types['geometry_msgs/msg/Point']
+    colour = types['std_msgs/msg/ColorRGBA']
+    header = types['std_msgs/msg/Header'](stamp=header.stamp, frame_id=FRAME_ID)
+    no_bytes = np.zeros(0, dtype=np.uint8)
+
+    def make(action, shape: Shape | None = None):
+        scale = 0.0 if shape is None else float(shape.scale_m)
+        colours = [] if shape is None else [colour(*map(float, rgba)) for rgba in shape.colours]
+        return marker(
+            header=header, ns='' if shape is None else shape.namespace,
+            id=0 if shape is None else shape.id,
+            type=0 if shape is None else getattr(marker, shape.kind), action=action,
+            pose=types['geometry_msgs/msg/Pose'](
+                position=point(0.0, 0.0, 0.0),
+                orientation=types['geometry_msgs/msg/Quaternion'](0.0, 0.0, 0.0, 1.0)),
+            scale=types['geometry_msgs/msg/Vector3'](scale, scale, scale),
+            color=colours[0] if colours else colour(0.0, 0.0, 0.0, 0.0),
+            lifetime=types['builtin_interfaces/msg/Duration'](sec=0, nanosec=0),
+            frame_locked=False,
+            points=[] if shape is None else [point(*map(float, xyz)) for xyz in shape.points_m],
+            colors=colours, texture_resource='',
+            texture=types['sensor_msgs/msg/CompressedImage'](header=header, format='', data=no_bytes),
+            uv_coordinates=[], text='', mesh_resource='',
+            mesh_file=types['visualization_msgs/msg/MeshFile'](filename='', data=no_bytes),
+            mesh_use_embedded_materials=False)
+
+    return types['visualization_msgs/msg/MarkerArray'](
+        markers=[make(marker.DELETEALL)] + [make(marker.ADD, shape) for shape in shapes])
+
+
+def supervisor_diagnostics(summary: dict, header, namespace: str):
+    """The supervisor's summary as its node reports it on /diagnostics (`fdi KEY`: JSON)."""
+    types = TYPESTORE.types
+    status = types['diagnostic_msgs/msg/DiagnosticStatus']
+    return types['diagnostic_msgs/msg/DiagnosticArray'](header=header, status=[status(
+        level=status.ERROR if summary.get('fault') else status.OK,
+        name=f'{namespace}/supervisor', message=summary.get('fault') or '', hardware_id='cdpr',
+        values=[types['diagnostic_msgs/msg/KeyValue'](key=f'fdi {key}', value=json.dumps(value))
+                for key, value in summary.items()])])

@@ -1,0 +1,170 @@
+"""bag_recorder: every /cdpr topic (or the `topics` parameter) into a rosbag2 bag.
+
+Parameters: `bag_path` (folder to create), `storage` (`mcap`, the default, or `sqlite3`),
+`topics` (names relative to the namespace, or absolute; default every topic of the
+contract plus /clock and /diagnostics), `flush_period_s` (0.5).
+
+Messages are taken serialized (no decode/encode on the way) and stamped with their
+receive time. `effort_command` holds the commands of the graph's controller only
+(parameter `command_writer`, as the plant obeys): those of any other writer go to
+`effort_command/other_writers`, so that offline FDI and reports see what the motors
+obeyed. Per-cycle topics are subscribed reliable + keep-all, so none is lost.
+On SIGINT/SIGTERM the node drains its queue and closes the bag; if it is killed, the
+bag keeps every chunk flushed so far (at most `flush_period_s` old, see bag_io).
+
+A bag is the evidence of what the robot did, so a hole in it is said: per per-tick topic
+the recorder counts the ticks it lacks from the stamps (tick_gaps), keeps the counts in
+the bag's metadata (bag_io.MISSING_TICKS_KEY), in /diagnostics, and says them in its last
+log line (WARN when a tick is missing).
+"""
+from __future__ import annotations
+
+import json
+import time
+
+from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
+                                QosTime)
+
+from cdpr_control.settings import node_settings
+from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.runtime.node import CdprNode
+from cdpr_msgs_py.runtime.spin import run
+from cdpr_msgs_py.stamps import ns_parts
+
+from .bag_io import MISSING_TICKS_KEY, BagWriter
+from .tick_gaps import TickGaps, cdr_stamp_ns
+
+# topic (relative to the namespace unless absolute) → message class: every topic of the
+# contract (contract.TOPICS)
+RECORDED = {topic.name: contract.message_class(topic.type)
+            for topic in contract.topics_read_by(contract.BAG_RECORDER)}
+FLUSH_PERIOD_S = 0.5
+# The bag topic, beside effort_command, of the commands of writers other than the controller.
+OTHER_WRITERS = 'other_writers'
+
+
+def bag_qos(profile) -> Qos:
+    """An rclpy QoS profile as rosbag2 metadata, so `ros2 bag play` offers it again."""
+    def duration(value) -> QosTime:
+        seconds, nanoseconds = ns_parts(value.nanoseconds)
+        return QosTime(seconds, nanoseconds)
+    return Qos(QosHistory[profile.history.name], profile.depth,
+               QosReliability[profile.reliability.name], QosDurability[profile.durability.name],
+               duration(profile.deadline), duration(profile.lifespan),
+               QosLiveliness[profile.liveliness.name], duration(profile.liveliness_lease_duration),
+               profile.avoid_ros_namespace_conventions)
+
+
+class BagRecorderNode(CdprNode):
+
+    def __init__(self):
+        super().__init__(contract.BAG_RECORDER)
+        settings = node_settings(self, contract.BAG_RECORDER)
+        path = self.parameter('bag_path', 'bag', 'the bag folder to write')
+        storage = self.parameter('storage', 'mcap', 'mcap or sqlite3')
+        self.flush_period_s = self.parameter('flush_period_s', FLUSH_PERIOD_S,
+                                             'the bag is written out this often (s)',
+                                             value_range=(0.0, None))
+        namespace = self.get_namespace().rstrip('/')
+        topics = [self.contract_name(name, namespace)
+                  for name in self.parameter('topics', list(RECORDED), 'the topics to record')]
+        unknown = [name for name in topics if name not in RECORDED]
+        if unknown:
+            raise ValueError(f'parameter topics: cannot record {unknown}; known: {list(RECORDED)}')
+        self.writer = BagWriter(path, storage)
+        self.writer.open()
+        # A message's log time is this node's clock at its receipt: the system clock
+        # unless use_sim_time is on, read directly then (rclpy's Clock.now() was a third
+        # of a message's writing, ~2.5 % of a core in realtime)
+        clock = self.get_clock()
+        self.receipt_ns = (time.time_ns if not clock.ros_time_is_active
+                           else lambda: clock.now().nanoseconds)
+        self.recorded = 0
+        # connection id → (topic, its gaps) of the per-tick topics
+        self.gaps: dict[int, tuple[str, TickGaps]] = {}
+        command_writer = self.parameter('command_writer', 'controller',
+                                        'the node whose effort_command is recorded as such; any '
+                                        f'other writer\'s goes to effort_command/{OTHER_WRITERS}')
+        subscriptions = []
+        for topic in topics:
+            name = topic if topic.startswith('/') else f'{namespace}/{topic}'
+            profile = qos.of_readers(topic)
+            kind = contract.TOPICS[topic].type
+            connection = self.writer.add_topic(name, kind, [bag_qos(profile)])
+            if contract.TOPICS[topic].every_tick:
+                self.gaps[connection.id] = (topic, TickGaps(settings.period_ns))
+            if topic == contract.EFFORT_COMMAND:
+                others = self.writer.add_topic(f'{name}/{OTHER_WRITERS}', kind, [bag_qos(profile)])
+                subscriptions.append((topic, lambda t=topic, c=connection, o=others, p=profile:
+                                      self.create_sole_writer_subscription(
+                                          RECORDED[t], t, self.writer_for(c), p, command_writer,
+                                          other=self.writer_for(o), raw=True)))
+                continue
+            subscriptions.append((topic, lambda t=topic, n=name, c=connection, p=profile:
+                                  self.create_subscription(RECORDED[t], n, self.writer_for(c), p,
+                                                           raw=True)))
+        # The tick last: the plant starts once it sees this subscription.
+        for topic, subscribe in subscriptions:
+            if topic != contract.JOINT_STATES:
+                subscribe()
+        self.start_when_matched(lambda: [subscribe() for topic, subscribe in subscriptions
+                                         if topic == contract.JOINT_STATES])
+        self.last_flush = time.monotonic()
+        self.get_logger().info(f'recording {len(topics)} topics into {path} ({storage})')
+        settings.declare(self)
+
+    @staticmethod
+    def contract_name(name: str, namespace: str) -> str:
+        """`name` as RECORDED spells it: relative, unless outside the namespace."""
+        prefix = f'{namespace}/'
+        if name in RECORDED or not name.startswith(prefix):
+            return name
+        return name[len(prefix):]
+
+    def writer_for(self, connection):
+        gaps = self.gaps.get(connection.id, (None, None))[1]
+
+        def write(data: bytes) -> None:
+            self.writer.write(connection, self.receipt_ns(), data)
+            self.recorded += 1
+            self.diagnostics.count('messages')
+            if gaps is not None:
+                gaps.seen(cdr_stamp_ns(data))
+        return write
+
+    def missing_ticks(self) -> dict[str, int]:
+        """Per per-tick topic that has messages, the ticks it lacks so far."""
+        return {topic: gaps.missing for topic, gaps in self.gaps.values() if gaps.ticks}
+
+    def current_facts(self) -> dict[str, str]:
+        missing = {topic: count for topic, count in self.missing_ticks().items() if count}
+        return {**super().current_facts(),
+                'missing ticks': ', '.join(f'{topic} {count}' for topic, count in missing.items()) or 'none'}
+
+    def idle(self) -> None:
+        super().idle()
+        now = time.monotonic()
+        if now - self.last_flush >= self.flush_period_s:
+            self.writer.flush()
+            self.last_flush = now
+
+    def close(self) -> None:
+        super().close()
+        missing = self.missing_ticks()
+        self.writer.set_custom_data(MISSING_TICKS_KEY, json.dumps(missing))
+        self.writer.close()
+        holes = [f'{topic} {gaps.missing} of {gaps.ticks}' for topic, gaps in self.gaps.values()
+                 if gaps.missing]
+        if holes:
+            self.get_logger().warning(f'bag closed with {self.recorded} messages and HOLES: ticks '
+                                      f'missing on {", ".join(holes)}')
+        else:
+            self.get_logger().info(f'bag closed with {self.recorded} messages, no tick missing')
+
+
+def main(args=None):
+    return run(BagRecorderNode, args)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,150 @@
+"""cdpr-bench: benchmarks of the project, printing figures (and JSON on request).
+
+model: median µs per call of the model functions. graph: the node graph's and the
+in-process engine's speed against their targets (cdpr_bringup.bench.graph). fdi: each
+detector's figures on a campaign (cdpr_bringup.bench.fdi). roc: detection delay against
+false alarms per hour (cdpr_bringup.bench.roc). sweep: the detectors on plants that differ
+from the one they were calibrated on (cdpr_bringup.bench.sweep). soak: a long realtime run.
+campaign: simulated hours per wall hour of a campaign on a local Dask scheduler with 1, 2
+workers (cdpr_bringup.bench.campaign). run: one whole cdpr-scenario run, and its stages
+(cdpr_bringup.bench.run). cycle: the in-process engine with the elastic sub-steps compiled
+and in pure Python, and the µs of each stage of a cycle (cdpr_bringup.bench.cycle).
+recorder: whether the bag keeps every tick in realtime with outside readers frozen or
+reading (cdpr_bringup.bench.recorder).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import platform
+import os
+import time
+
+import numpy as np
+
+from cdpr_control.dynamics import direct_dynamics, inverse_dynamics
+from cdpr_control.kinematics import forward_kinematics, inverse_kinematics, structure_matrix
+from cdpr_control.robot import load_robot
+from cdpr_control.tension_distribution import METHODS, make_tension_distribution
+
+from cdpr_twin.plant import FIDELITIES
+
+from ..cli import command
+from ..paths import DEFAULT_ROBOT, config_file
+
+REPEATS = 31
+CALLS_PER_REPEAT = 200
+
+
+def median_us(call, *args) -> float:
+    """Median over REPEATS batches of the mean time (µs) of one call."""
+    samples = []
+    for _ in range(REPEATS):
+        start = time.perf_counter()
+        for _ in range(CALLS_PER_REPEAT):
+            call(*args)
+        samples.append((time.perf_counter() - start) / CALLS_PER_REPEAT * 1e6)
+    return float(np.median(samples))
+
+
+def bench_model(config: str) -> dict:
+    """µs per call of the model functions at a pose in the middle of a motion."""
+    robot = load_robot(config_file(config))
+    position = robot.home_position_m + np.array([0.11, -0.07, 0.05])
+    velocity = np.array([0.2, -0.3, 0.1])
+    acceleration = np.array([0.5, 0.4, -0.3])
+    angles = inverse_kinematics(robot, position)
+    all_cables = robot.cable_mask()
+    after_failure = robot.cable_mask([robot.cable_count - 1])
+    structure, _ = structure_matrix(robot, position)
+    wrench = robot.mass_kg * (acceleration - robot.gravity_m_s2)
+    pseudo_inverse = make_tension_distribution('pseudo_inverse', robot.tension_min_n,
+                                               robot.tension_max_n)
+    torque = inverse_dynamics(robot, pseudo_inverse, position, velocity, acceleration)
+    figures = {
+        'inverse_kinematics_us': median_us(inverse_kinematics, robot, position),
+        'forward_kinematics_us': median_us(forward_kinematics, robot, angles, all_cables),
+        'forward_kinematics_after_failure_us': median_us(forward_kinematics, robot, angles,
+                                                         after_failure),
+    }
+    for name in METHODS:
+        method = make_tension_distribution(name, robot.tension_min_n, robot.tension_max_n)
+        figures[f'tension_{name}_us'] = median_us(method.distribute, structure, wrench)
+    figures['inverse_dynamics_us'] = median_us(inverse_dynamics, robot, pseudo_inverse, position,
+                                               velocity, acceleration)
+    figures['direct_dynamics_us'] = median_us(direct_dynamics, robot, position, velocity,
+                                              torque.torque_nm, torque.joint_velocity_rad_s)
+    return figures
+
+
+def machine() -> str:
+    return f'{platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}'
+
+
+def _counts(text: str) -> list[int]:
+    counts = [int(item) for item in text.split(',') if item.strip()]
+    if not counts or min(counts) < 1:
+        raise argparse.ArgumentTypeError('worker counts are positive integers, e.g. 1,2')
+    return counts
+
+
+# suite → (its bench function's arguments from the options and the output folder, heading)
+SUITES = {
+    'fdi': (lambda a, out: (a.config, out, a.jobs, a.fidelity),
+            '{fidelity} plant; campaigns in {out} (summary.md)'),
+    'roc': (lambda a, out: (a.config, out, a.fidelity, a.jobs),
+            '{fidelity} plant; {out}/roc.csv, {out}/roc.png'),
+    'sweep': (lambda a, out: (a.config, out, a.fidelity, a.jobs),
+              '{fidelity} plant; {out}/sweep.csv, {out}/sweep.png'),
+    'campaign': (lambda a, out: (a.config, out, a.fidelity, a.workers),
+                 '{fidelity} plant; campaigns in {out}'),
+    'run': (lambda a, out: (a.config, out), 'seconds, the best of its repeats; {out}'),
+    'cycle': (lambda a, out: (a.config,), 'in-process engine, elastic circle with the supervisor'),
+    'graph': (lambda a, out: (a.config,), 'ROS_DOMAIN_ID {domain}'),
+    'recorder': (lambda a, out: (a.config,), 'ROS_DOMAIN_ID {domain}'),
+}
+
+
+@command('cdpr-bench')
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument('suite', choices=['model', 'soak', *SUITES], help='what to measure')
+    parser.add_argument('--minutes', type=float, default=10.0, help='soak: how long')
+    parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
+    parser.add_argument('--json', action='store_true', help='print one JSON object last')
+    parser.add_argument('--out', help='fdi, roc, sweep, campaign, run: output folder (default runs/bench-SUITE)')
+    parser.add_argument('--fidelity', choices=FIDELITIES, default='elastic',
+                        help='fdi, roc, sweep, campaign: the plant')
+    parser.add_argument('--workers', type=_counts, default=[1, 2],
+                        help='campaign: Dask worker counts, comma-separated (default 1,2)')
+    parser.add_argument('--jobs', type=int, default=None, help='fdi, roc, sweep: parallel runs (default: cores)')
+    args = parser.parse_args(argv)
+    out = args.out or f'runs/bench-{args.suite}'
+    if args.suite == 'soak':
+        from .soak import bench_soak, targets
+        figures = bench_soak(args.config, args.minutes)
+        print(f'cdpr-bench soak on {machine()}: {args.minutes:g} min, realtime, failure-free')
+        for key, value in figures.items():
+            print(f'  {key:<28} {value}')
+        for label, value, target, met in targets(figures):
+            print(f'  {label:<38} {value:>24}  {target:<10} {"yes" if met else "NO"}')
+    elif args.suite in SUITES:
+        arguments, heading = SUITES[args.suite]
+        # imported only for its suite (bench_graph loads rclpy, bench_campaign Dask)
+        module = importlib.import_module(f'.{args.suite}', __package__)
+        figures = getattr(module, f'bench_{args.suite}')(*arguments(args, out))
+        print(f'cdpr-bench {args.suite} on {machine()}, ' + heading.format(
+            fidelity=args.fidelity, out=out, domain=os.environ.get('ROS_DOMAIN_ID', '0')))
+        print('\n'.join(module.table(figures)))
+    else:
+        figures = bench_model(args.config)
+        print(f'cdpr-bench model on {machine()}; median of {REPEATS} x {CALLS_PER_REPEAT} calls')
+        for key, value in figures.items():
+            print(f'  {key:<40} {value:9.2f}')
+    if args.json:
+        print(json.dumps(figures))
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,109 @@
+"""cdpr-calibrate: detector thresholds for a target false-alarm rate, from failure-free runs.
+
+Runs every named motion (both directions, each seed) without a failure on the chosen
+plant fidelity, in-process and in parallel; fits the motors' Coulomb friction and the
+nominal residual spread; and writes the thresholds of both detectors into a YAML file
+the supervisor loads (`cdpr-scenario --calibration FILE`, ROS parameter calibration_file).
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import yaml
+
+from cdpr_control.config import load_section
+from cdpr_control.motions import motion_names
+from cdpr_control.robot import load_robot
+from cdpr_fdi.calibration import FailureFreeRun, calibrate
+from cdpr_twin.plant import FIDELITIES
+
+from ..cli import command
+from ..runs.engine import run_inprocess
+from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
+from ..runs.settle import NO_CALIBRATION, ScenarioOptions, build_scenario
+
+
+def parse_args(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
+    parser.add_argument('--motions', default=DEFAULT_MOTIONS, help='motions YAML')
+    parser.add_argument('--fidelity', choices=FIDELITIES, default='elastic')
+    parser.add_argument('--seeds', default='0,1,2', help='comma-separated plant seeds')
+    parser.add_argument('--false-alarms-per-hour', type=float, default=0.1,
+                        help='target rate (default 0.1: one per 10 hours)')
+    parser.add_argument('--drift', type=float, help='CUSUM drift ν in σ (default: the config\'s)')
+    parser.add_argument('--jobs', type=int, default=os.cpu_count())
+    parser.add_argument('--out', required=True, help='calibration YAML to write')
+    return parser.parse_args(argv)
+
+
+def failure_free_run(job) -> FailureFreeRun:
+    config, motions, motion, reverse, fidelity, seed = job
+    # no supervisor runs, so no thresholds are needed: a new robot calibrates from nothing
+    scenario = build_scenario(ScenarioOptions(config=config, motions=motions, motion=motion,
+                                              reverse=reverse, fidelity=fidelity, seed=seed,
+                                              calibration=NO_CALIBRATION))
+    recording = run_inprocess(scenario, supervised=False)
+    return FailureFreeRun(recording.command_nm - recording.twin_torque_nm,
+                          recording.twin_angular_velocity_rad_s)
+
+
+@command('cdpr-calibrate')
+def main(argv=None):
+    args = parse_args(argv)
+    config, motions = config_file(args.config), config_file(args.motions)
+    seeds = [int(seed) for seed in args.seeds.split(',')]
+    jobs = [(str(config), str(motions), motion, reverse, args.fidelity, seed)
+            for motion in motion_names(motions) for reverse in (False, True) for seed in seeds]
+    print(f'cdpr-calibrate: {len(jobs)} failure-free runs on the {args.fidelity} plant', flush=True)
+    with ProcessPoolExecutor(max(args.jobs, 1)) as pool:
+        runs = list(pool.map(failure_free_run, jobs))
+    robot = load_robot(config)
+    control = load_section(config, 'control')
+    drift = (args.drift if args.drift is not None
+             else load_section(config, 'fdi').section('cusum').number('drift', non_negative=True))
+    result = calibrate(runs, control.number('period_s', positive=True),
+                       control.number('coulomb_smoothing_rad_s', positive=True), drift,
+                       args.false_alarms_per_hour)
+    document = {
+        'fdi': {
+            'coulomb_friction_nm': round(result.coulomb_friction_nm, 5),
+            'epsilon_nm': round(result.epsilon_nm, 5),
+            'cusum': {'sigma_nm': [round(s, 6) for s in result.cusum_sigma_nm],
+                      'drift': round(result.cusum_drift, 3),
+                      'threshold': round(result.cusum_threshold, 3),
+                      'limit': round(result.cusum_limit, 3),
+                      'epsilon_nm': round(result.cusum_epsilon_nm, 5)},
+        },
+        'calibration': {
+            'robot': robot.name, 'robot_fingerprint': robot.fingerprint(),
+            'date': datetime.date.today().isoformat(),
+            'fidelity': args.fidelity, 'seeds': seeds, 'runs': len(runs),
+            'hours': round(result.hours, 4),
+            'target_false_alarms_per_hour': args.false_alarms_per_hour,
+            'largest_residual_nm': round(result.largest_residual_nm, 5),
+            'largest_cusum': round(result.largest_cusum, 3),
+        },
+    }
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text('# Written by cdpr-calibrate; load with cdpr-scenario --calibration.\n'
+                   + yaml.safe_dump(document, sort_keys=False))
+    print(f'  {result.hours * 60:.1f} min of failure-free motion in {result.runs} runs')
+    print(f'  Coulomb friction seen in the residual: {result.coulomb_friction_nm:.4f} N·m')
+    print(f'  threshold ε = {result.epsilon_nm:.4f} N·m (largest |r| seen {result.largest_residual_nm:.4f})')
+    print(f'  CUSUM: σ = {", ".join(f"{s:.4f}" for s in result.cusum_sigma_nm)} N·m, '
+          f'ν = {result.cusum_drift:.2f}, h = {result.cusum_threshold:.2f} (largest sum seen '
+          f'{result.largest_cusum:.2f}), z limit = {result.cusum_limit:.2f}, '
+          f'ε = {result.cusum_epsilon_nm:.4f} N·m')
+    print(f'written: {out}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

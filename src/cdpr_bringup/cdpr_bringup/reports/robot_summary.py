@@ -1,0 +1,137 @@
+"""cdpr-robot: what the model says about a robot — the settings its file resolves to,
+geometry, safe points, named motions."""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from cdpr_control.config import ConfigError, load_config
+from cdpr_control.controller import PdGains
+from cdpr_control.dynamics import inverse_dynamics
+from cdpr_control.motions import load_motion, motion_names
+from cdpr_control.robot import load_robot
+from cdpr_control.statics import closed_form_coverage
+from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
+from cdpr_control.workspace import safe_point
+from cdpr_fdi.config import load_fdi_config, load_recovery_config
+
+from ..cli import command
+from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
+from ..runs.settle import calibration_for
+
+
+def setting(section, name: str, text: str) -> str:
+    """`text` for the value of `name`, marked where the defaults gave it."""
+    return f'{text} (default)' if section.is_default(name) else text
+
+
+def print_settings(config, robot):
+    """What the robot file resolves to: its own values, the paper's defaults, derived ones.
+    Returns the recovery settings and the identification δ (N of tension)."""
+    settings = load_config(config)
+    control = settings.section('control')
+    gains = PdGains.from_section(robot, control)
+    frequency = gains.natural_frequency_hz(robot)
+    asked = control.number('pd_natural_frequency_hz')
+    pd = (f'{frequency:.2f} Hz (derived: the default {asked:g} Hz is not stable on these motors)'
+          if abs(frequency - asked) > 1e-9 else setting(control, 'pd_natural_frequency_hz', f'{frequency:g} Hz'))
+    fdi_section = settings.section('fdi')
+    fdi = load_fdi_config(config, robot)
+    recovery = load_recovery_config(config, robot)
+    recovery_section = settings.section('recovery')
+    try:
+        calibration = calibration_for(config, fdi_section, robot, 'elastic', None)
+        elastic = load_fdi_config(config, robot, calibration)
+        elastic_text = f'{calibration.name}: ε = {elastic.epsilon_nm:g} N·m'
+    except ConfigError as err:
+        elastic_text = (f'cannot be used: {err}' if err.key != 'fdi.elastic_calibration_file'
+                        else 'none (cdpr-calibrate makes one; until then --fidelity rigid)')
+    except FileNotFoundError as err:
+        elastic_text = f'cannot be used: {err}'
+    period = setting(control, 'period_s', f"{control.number('period_s') * 1e3:g} ms")
+    damping = setting(control, 'pd_damping_ratio', f"{control.number('pd_damping_ratio'):g}")
+    distribution = setting(control, 'tension_distribution', control.string('tension_distribution'))
+    closed_form, held = closed_form_coverage(robot)
+    detector = setting(fdi_section, 'detector', fdi.detector)
+    epsilon = setting(fdi_section, 'epsilon_nm', f'{fdi.epsilon_nm:g} N·m')
+    heights = [setting(recovery_section, name, f'{value:g} m') for name, value in
+               (('safe_height_m', recovery.safe_height_m), ('table_height_m', recovery.table_height_m))]
+    move = setting(recovery_section, 'move_peak_speed_m_s', f'{recovery.move_peak_speed_m_s:g} m/s')
+    print("settings (the set-up's, else the paper's defaults):")
+    print(f'  control period {period}, PD {pd}, damping ratio {damping}, '
+          f'tension distribution {distribution}: the paper\'s S+ w, within '
+          f'[{robot.tension_min_n:g}, {robot.tension_max_n:g}] N on {closed_form} of the {held} '
+          'workspace grid points where the cables can hold the end-effector at rest'
+          + ('' if closed_form == held else ', the nearest tensions within the bounds on the others'
+             if control.string('tension_distribution') == 'bounded_minimum_norm'
+             else ', none on the others: bounded_minimum_norm has tensions there'))
+    asked_delta_n = fdi_section.number('identification_delta_n')
+    delta_n = fdi.delta_nm / robot.motor.drum_radius_m
+    delta = (f'{delta_n:.3g} N ({fdi.delta_nm:.3g} N·m; derived: at most '
+             f"{fdi_section.number('identification_delta_weight_share'):g} of each cable's equal "
+             "share of the weight)" if delta_n < asked_delta_n - 1e-9 else
+             setting(fdi_section, 'identification_delta_n', f'{delta_n:g} N ({fdi.delta_nm:.3g} N·m)'))
+    collapse = (f'τ̂ within {fdi.collapse_band_n:g} N of zero while the reference asks at least '
+                f'{fdi.collapse_reference_n:g} N, over {fdi.collapse_window_cycles} periods')
+    print(f'  FDI {detector}, rigid plant ε {epsilon}, identification δ {delta}, tension collapse '
+          f'{collapse}; elastic plant calibration {elastic_text}')
+    print(f'  recovery SP height {heights[0]}, table {heights[1]}, move {move}, every remaining '
+          f'cable planned {recovery.plan_tension_margin_n:g} N above τ_min '
+          f"({recovery_section.number('plan_tension_margin_share'):g} τ_min)")
+    return recovery, delta_n
+
+
+def motion_extremes(robot, tension_distribution, motion, period_s):
+    """Least and greatest tension (N) and largest |torque| (N·m) along a motion."""
+    times = np.arange(0.0, motion.trajectory.duration_s, period_s)
+    tensions, torques = [], []
+    for t in times:
+        result = inverse_dynamics(robot, tension_distribution, *motion.trajectory.sample(t))
+        tensions.append(result.tension_n)
+        torques.append(result.torque_nm)
+    return np.min(tensions), np.max(tensions), np.max(np.abs(torques))
+
+
+@command('cdpr-robot')
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
+    parser.add_argument('--motions', default=DEFAULT_MOTIONS, help='motions YAML')
+    parser.add_argument('--safe-height', type=float,
+                        help='height of the safe points (m; default recovery.safe_height_m)')
+    args = parser.parse_args(argv)
+    config = config_file(args.config)
+    robot = load_robot(config)
+    control = load_config(config).section('control')
+    period = control.number('period_s', positive=True)
+    distribution = configured_tension_distribution(control, robot)
+
+    print(f'robot {robot.name} ({config}): {robot.cable_count} cables, '
+          f'end-effector {robot.mass_kg} kg')
+    recovery, delta_n = print_settings(config, robot)
+    safe_height = recovery.safe_height_m if args.safe_height is None else args.safe_height
+    for i, point in enumerate(robot.exit_points_m):
+        print(f'  A{i + 1} = ({point[0]:.3f}, {point[1]:.3f}, {point[2]:.3f}) m')
+    print(f'safe points at z = {safe_height} m (barycentre of the residual SEW):')
+    for i in range(robot.cable_count):
+        point = safe_point(robot, robot.cable_mask([i]), safe_height)
+        print(f'  cable {i + 1} broken: SP = ({point[0]:.4f}, {point[1]:.4f}, {point[2]:.4f}) m')
+    motions = config_file(args.motions)
+    print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}):')
+    print(f'  {"motion":<14} {"move s":>7} {"min N":>7} {"max N":>7} {"max |c| N·m":>12}')
+    for name in motion_names(motions):
+        motion = load_motion(motions, name)
+        try:
+            low, high, torque = motion_extremes(robot, distribution, motion, period)
+        except InfeasibleTensionError as err:
+            print(f'  {name:<14} {motion.move.duration_s:7.3f} no tensions within the bounds: {err}')
+            continue
+        # a loaded cable below δ looks free to the identification (eq. 21)
+        warning = (f'  below the identification δ {delta_n:g} N: a loaded cable can look free'
+                   if low < delta_n else '')
+        print(f'  {name:<14} {motion.move.duration_s:7.3f} {low:7.2f} {high:7.2f} {torque:12.3f}{warning}')
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,114 @@
+"""The in-process engine: the graph's core classes in one loop, without DDS.
+
+Per cycle k, as the node graph does it: the plant reports θ, θ̇ (and the torque it
+applied); the controller answers with c from the setpoint of tick k (the reference, or
+the recovery's: cdpr_control.setpoints, as the controller node); the twin computes c_DT
+from the same reference and the supervisor judges tick k (cdpr_fdi.monitor); its verdict
+steers the controller from tick k + 1; the plant steps under c.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from cdpr_control.controller import JointController, JointReference
+from cdpr_control.setpoints import Setpoints
+from cdpr_fdi.monitor import Monitor
+from cdpr_fdi.supervisor import Supervisor, Verdict
+from cdpr_msgs_py.stamps import seconds_to_ns
+from cdpr_twin.plant import PlantSimulator
+from cdpr_twin.run_length import RunLength
+from cdpr_twin.twin import DigitalTwin
+
+from .recording import Recording
+from .settle import Scenario
+
+
+def reference_at(scenario: Scenario, k: int) -> JointReference:
+    """The reference of tick k; after the motion it holds the end at rest."""
+    table = scenario.reference
+    row = min(k, len(table) - 1)
+    return JointReference(table.angle_rad[row], table.angular_velocity_rad_s[row],
+                          table.feedforward_nm[row])
+
+
+def steer(setpoints: Setpoints, verdict: Verdict, next_stamp_ns: int) -> None:
+    """What the supervisor node publishes of a verdict, handed to the controller's setpoints:
+    the broken cables, the mode, and the recovery's setpoint for the next tick."""
+    for cable in verdict.broken_cables:
+        setpoints.cable_broken(cable)
+    setpoints.set_mode(verdict.mode)
+    if verdict.tension_setpoint_n is not None:
+        setpoints.put_recovery_tensions(next_stamp_ns, verdict.tension_setpoint_n)
+    if verdict.reference is not None:
+        setpoints.put_recovery_reference(next_stamp_ns, verdict.reference)
+
+
+def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
+    robot = scenario.robot
+    start = scenario.reference.position_m[0]
+    plant = PlantSimulator(robot, scenario.plant, start, scenario.failures, scenario.pushes)
+    twin = DigitalTwin(robot, scenario.gains, start, scenario.twin_substeps)
+    controller = JointController(robot, scenario.gains, scenario.fdi.friction)
+    setpoints = Setpoints(controller, exact=True)
+    supervisor = (Supervisor(robot, scenario.fdi, scenario.recovery, scenario.distribution,
+                             scenario.period_s) if supervised else None)
+    monitor = Monitor(twin, supervisor, scenario.period_s)
+    period_ns = seconds_to_ns(scenario.period_s)
+    cycles, m = scenario.cycles, robot.cable_count
+    rows = {name: np.empty((cycles, width)) for name, width in (
+        ('angle', m), ('speed', m), ('command', m), ('twin_angle', m), ('twin_speed', m),
+        ('twin_torque', m), ('twin_position', 3), ('true_position', 3), ('true_tension', m),
+        ('reference_position', 3), ('reference_angle', m), ('residual', m),
+        ('recovery_reference_angle', m))}
+    rows['recovery_reference_angle'][:] = np.nan
+    applied = np.zeros(m)
+    run_length = RunLength(cycles - 1, scenario.hold_after_cycles)
+    ran = 0
+    try:
+        for k in range(cycles):
+            if k > run_length.last_tick:
+                break
+            stamp = k * period_ns
+            reference = reference_at(scenario, k)
+            setpoints.put_reference(stamp, reference)
+            angle, speed = plant.measure()
+            rows['true_position'][k] = plant.position_m
+            rows['true_tension'][k] = plant.tension_n
+            command = setpoints.command(stamp, angle, speed)
+            if command is None:
+                raise RuntimeError(f'tick {k}: no {controller.mode} setpoint from the supervisor')
+            twin_output, verdict = monitor.step(k, angle, speed, applied, command, reference)
+            if verdict is not None:
+                steer(setpoints, verdict, stamp + period_ns)
+                rows['residual'][k] = verdict.residual_nm
+                if verdict.reference is not None:
+                    rows['recovery_reference_angle'][k] = verdict.reference.angle_rad
+                # the graph's plant learns the verdict once it stands at the next tick
+                run_length.mode(verdict.mode, k + 1)
+            plant.step(command, scenario.period_s)
+            applied = command
+            rows['angle'][k], rows['speed'][k], rows['command'][k] = angle, speed, command
+            rows['twin_angle'][k] = twin_output.angle_rad
+            rows['twin_speed'][k] = twin_output.angular_velocity_rad_s
+            rows['twin_torque'][k] = twin_output.torque_nm
+            rows['twin_position'][k] = twin_output.position_m
+            row = min(k, len(scenario.reference) - 1)
+            rows['reference_position'][k] = scenario.reference.position_m[row]
+            rows['reference_angle'][k] = scenario.reference.angle_rad[row]
+            ran = k + 1
+    except KeyboardInterrupt:
+        pass
+    rows = {name: values[:ran] for name, values in rows.items()}
+    return Recording(
+        time_s=np.arange(ran) * scenario.period_s,
+        angle_rad=rows['angle'], angular_velocity_rad_s=rows['speed'], command_nm=rows['command'],
+        twin_angle_rad=rows['twin_angle'], twin_angular_velocity_rad_s=rows['twin_speed'],
+        twin_torque_nm=rows['twin_torque'], twin_position_m=rows['twin_position'],
+        reference_position_m=rows['reference_position'],
+        reference_angle_rad=rows['reference_angle'],
+        true_position_m=rows['true_position'], true_tension_n=rows['true_tension'],
+        residual_nm=rows['residual'] if supervisor is not None else None,
+        recovery_reference_angle_rad=rows['recovery_reference_angle'],
+        fdi=supervisor.summary() if supervisor is not None else {},
+        interrupted=ran <= run_length.last_tick,
+        broken_at_s=dict(plant.broken_at_s))
