@@ -6,7 +6,7 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from cdpr_control.config import load_yaml, resolve_config
+from cdpr_control.config import Section, load_yaml, resolve_config
 
 DEFAULT_ROBOT = 'paper_robot.yaml'
 DEFAULT_MOTIONS = 'motions.yaml'
@@ -25,15 +25,23 @@ def shipped_folders() -> tuple[Path, ...]:
     return tuple(folder for root in roots for folder in (root, root / 'robots'))
 
 
-def shipped_calibration(fingerprint: str, fidelity: str) -> Path | None:
-    """The shipped calibration made on the robot of this fingerprint for this plant."""
+def shipped_calibration_document(fingerprint: str, fidelity: str) -> Section | None:
+    """The shipped calibration made on the robot of this fingerprint for this plant, as
+    read while looking for it."""
     for folder in shipped_folders():
         for path in sorted(folder.glob('*.yaml')):
-            made_on = load_yaml(path).get('calibration')
+            document = load_yaml(path)
+            made_on = document.get('calibration')
             if (isinstance(made_on, dict) and made_on.get('robot_fingerprint') == fingerprint
                     and made_on.get('fidelity') == fidelity):
-                return path
+                return Section(document, path)
     return None
+
+
+def shipped_calibration(fingerprint: str, fidelity: str) -> Path | None:
+    """The path of the shipped calibration made on the robot of this fingerprint for this plant."""
+    document = shipped_calibration_document(fingerprint, fidelity)
+    return None if document is None else Path(document.path)
 
 
 def config_file(name_or_path: str | Path) -> Path:

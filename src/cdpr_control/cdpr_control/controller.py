@@ -42,12 +42,19 @@ class PdGains:
 
     @classmethod
     def from_section(cls, robot: Robot, control: Section) -> 'PdGains':
-        """The configured gains. The PD, sampled every `period_s`, must be stable on a
-        motor carrying its share of the load *and* on a motor alone: on the elastic plant
-        (and a real drive) the cable is a spring, and the motor's own inertia sets the
-        fastest mode. A `pd_natural_frequency_hz` the file sets that is not is a
-        ConfigError naming the highest it may be; the default (the paper's), where it is
-        not, gives way to that highest stable frequency."""
+        """The configured gains (`settled`)."""
+        return cls.settled(robot, control)[0]
+
+    @classmethod
+    def settled(cls, robot: Robot, control: Section) -> tuple['PdGains', float, bool]:
+        """The configured gains, the natural frequency they place a loaded joint at (Hz),
+        and whether that frequency was derived rather than the one configured. The PD,
+        sampled every `period_s`, must be stable on a motor carrying its share of the
+        load *and* on a motor alone: on the elastic plant (and a real drive) the cable is
+        a spring, and the motor's own inertia sets the fastest mode. A
+        `pd_natural_frequency_hz` the file sets that is not is a ConfigError naming the
+        highest it may be; the default (the paper's), where it is not, gives way to that
+        highest stable frequency."""
         frequency = control.number('pd_natural_frequency_hz', positive=True)
         damping = control.number('pd_damping_ratio', positive=True)
         period = control.number('period_s', positive=True, maximum=MAX_PERIOD_S)
@@ -57,10 +64,10 @@ class PdGains:
         tension_damping = control.number('recovery_tension_damping_nm_s_rad', non_negative=True)
         gains = cls.from_bandwidth(robot, frequency, damping, tension_damping)
         if gains.sampled_stable(robot, period):
-            return gains
+            return gains, frequency, False
         highest = cls.highest_stable_frequency_hz(robot, frequency, damping, period)
         if control.is_default('pd_natural_frequency_hz'):
-            return cls.from_bandwidth(robot, highest, damping, tension_damping)
+            return cls.from_bandwidth(robot, highest, damping, tension_damping), highest, True
         raise control.error('pd_natural_frequency_hz', (
             f'{frequency:g} Hz is not stable at a period of {period:g} s on this robot\'s '
             f'motors (inertia {robot.motor.inertia_kg_m2:g} kg·m² alone): at most '

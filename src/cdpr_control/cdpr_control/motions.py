@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import Section, load_section
+from .config import Section, load_config, load_section
 from .trajectories import Circle, Hold, Sequence, StraightLine, quintic_time_at_fraction
 
 MOTION_TYPES = ('line', 'circle')
@@ -45,8 +45,7 @@ class Motion:
 
 def motion_from_section(name: str, motion: Section, defaults: Section, reverse: bool = False) -> Motion:
     """Build the named motion; `reverse` runs its path from the end back to the start."""
-    speed = motion.number('peak_speed_m_s', defaults.number('peak_speed_m_s', positive=True),
-                          positive=True)
+    speed = (motion if motion.has('peak_speed_m_s') else defaults).number('peak_speed_m_s', positive=True)
     kind = motion.string('type', choices=MOTION_TYPES)
     if kind == 'line':
         move = StraightLine.with_peak_speed(motion.vector('start', 3), motion.vector('goal', 3), speed)
@@ -71,10 +70,11 @@ def settled_motion(path: str | Path, name: str, reverse: bool = False) -> Sectio
     """The motion `name` of the YAML file at `path` as a settled run carries it: its entry
     with `motion_defaults` filled in, its name, its direction, and the peak speed of a
     move to a goal (m/s)."""
-    motions = load_section(path, 'motions')
+    document = load_config(path)
+    motions = document.section('motions')
     if not motions.has(name):
         raise motions.error(name, f'is not a known motion; choose one of {", ".join(motions.data)}')
-    defaults = load_section(path, 'motion_defaults')
+    defaults = document.section('motion_defaults')
     entry = motions.section(name)
     if not isinstance(entry.data, dict):
         raise motions.error(name, 'must be a mapping')

@@ -51,9 +51,9 @@ class FdiConfig:
     def from_section(cls, fdi: Section, robot: Robot, friction: FrictionModel) -> 'FdiConfig':
         cable_count = robot.cable_count
         cusum = fdi.section('cusum')
-        sigma = cusum.raw('sigma_nm')
         sigma = ([cusum.number('sigma_nm', positive=True)] * cable_count
-                 if isinstance(sigma, (int, float)) else list(cusum.vector('sigma_nm', cable_count)))
+                 if isinstance(cusum.data.get('sigma_nm'), (int, float))
+                 else list(cusum.vector('sigma_nm', cable_count)))
         if min(sigma) <= 0.0:
             raise cusum.error('sigma_nm', f'must be positive for every motor, got {sigma!r}')
         return cls(
@@ -112,16 +112,15 @@ def identification_delta_n(fdi: Section, robot: Robot) -> float:
                fdi.number('identification_delta_weight_share', positive=True) * share)
 
 
-def calibrated_fdi(fdi: Section, robot: Robot, calibration_path: str | Path | None) -> Section:
-    """A robot file's `fdi` section with a calibration file's values on top (checked to
-    be made on this robot)."""
-    if not calibration_path:
+def calibrated_fdi(fdi: Section, robot: Robot, calibration: Section | None) -> Section:
+    """A robot file's `fdi` section with a calibration file's values on top (`calibration`:
+    the file, read once by the caller; checked to be made on this robot)."""
+    if calibration is None:
         return fdi
-    document = Section(load_yaml(calibration_path), calibration_path)
-    check_calibration_robot(document, robot, fdi.path)
+    check_calibration_robot(calibration, robot, fdi.path)
     # the calibration's values, the robot file's where it has none
-    data, _ = with_defaults(dict(document.section('fdi').data), fdi.data)
-    return Section(data, calibration_path, 'fdi')
+    data, _ = with_defaults(dict(calibration.section('fdi').data), fdi.data)
+    return Section(data, calibration.path, 'fdi')
 
 
 def load_fdi_config(config_path: str | Path, robot: Robot,
@@ -129,7 +128,8 @@ def load_fdi_config(config_path: str | Path, robot: Robot,
     """The robot file's `fdi` section, with a calibration file's values on top."""
     config = load_config(config_path)
     friction = FrictionModel.of_robot(robot, config.section('control'))
-    return FdiConfig.from_section(calibrated_fdi(config.section('fdi'), robot, calibration_path),
+    calibration = None if not calibration_path else Section(load_yaml(calibration_path), calibration_path)
+    return FdiConfig.from_section(calibrated_fdi(config.section('fdi'), robot, calibration),
                                   robot, friction)
 
 

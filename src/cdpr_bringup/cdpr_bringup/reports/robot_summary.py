@@ -3,6 +3,7 @@ geometry, safe points, named motions."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 
@@ -42,8 +43,8 @@ def print_settings(config, robot):
     recovery_section = settings.section('recovery')
     try:
         calibration = calibration_for(config, fdi_section, robot, 'elastic', None)
-        elastic = load_fdi_config(config, robot, calibration)
-        elastic_text = f'{calibration.name}: ε = {elastic.epsilon_nm:g} N·m'
+        elastic = load_fdi_config(config, robot, Path(calibration.path))
+        elastic_text = f'{Path(calibration.path).name}: ε = {elastic.epsilon_nm:g} N·m'
     except ConfigError as err:
         elastic_text = (f'cannot be used: {err}' if err.key != 'fdi.elastic_calibration_file'
                         else 'none (cdpr-calibrate makes one; until then --fidelity rigid)')

@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from cdpr_control.config import Section, load_config
+from cdpr_control.config import Section, load_config, load_yaml
 from cdpr_control.controller import PdGains
 from cdpr_control.motions import Motion, motion_from_settled, settled_motion
 from cdpr_control.reference import ReferenceTable, tabulate_reference
@@ -26,7 +26,7 @@ from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 from cdpr_twin.plant import FIDELITIES, PlantConfig, Push, settled_pushes
 
 from ..cli import UsageError
-from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file, shipped_calibration
+from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file, shipped_calibration_document
 
 
 # ScenarioOptions.calibration for a run that needs no thresholds (cdpr-calibrate's).
@@ -141,33 +141,47 @@ class Scenario:
                 for node, sections in SETTINGS_OF.items()}
 
 
-def settle(options: ScenarioOptions) -> tuple[Section, Path | None]:
-    """The run `options` describe, settled once: the robot file's sections with the paper's
-    settings for what it leaves out; the plant's fidelity and seed; the thresholds of the
-    calibration for that plant, the detector and ε given; the Coulomb friction the
-    controller and the FDI assume (control.coulomb_friction_nm); the motion; when and
-    which cables fail (absolute s, 0-based), the start and the scheduled length (`run`).
-    Also the calibration file used, if any."""
+@dataclass
+class SettledRun:
+    """A run settled in one pass: the document every node is given (`settings`) and the
+    values read from it on the way, handed on rather than read again."""
+
+    settings: Section
+    config_path: Path
+    calibration_path: Path | None
+    robot: Robot
+    motion: Motion
+    plant: PlantConfig
+
+
+def settle(options: ScenarioOptions) -> SettledRun:
+    """The run `options` describe, settled once, each file read once: the robot file's
+    sections with the paper's settings for what it leaves out; the plant's fidelity and
+    seed; the thresholds of the calibration for that plant, the detector and ε given; the
+    Coulomb friction the controller and the FDI assume (control.coulomb_friction_nm); the
+    motion; when and which cables fail (absolute s, 0-based), the start and the scheduled
+    length (`run`). Also the calibration file used, if any."""
     config_path = config_file(options.config)
-    settings = load_config(config_path)
+    loaded = load_config(config_path)
+    document = copy.deepcopy(dict(loaded.data))
+    settings = Section(document, config_path, defaulted=loaded.defaulted, sources=loaded.sources)
     robot = robot_from_section(settings.section('robot'))
     motion_section = settled_motion(config_file(options.motions), options.motion, options.reverse)
     motion = motion_from_settled(motion_section)
     check_options(options, robot, motion)
-    document = copy.deepcopy(dict(settings.data))
     if options.fidelity is not None:
         document['plant']['fidelity'] = options.fidelity
     if options.seed is not None:
         document['plant']['seed'] = options.seed
-    fidelity = Section(document, config_path).section('plant').string('fidelity', choices=FIDELITIES)
-    calibration = calibration_for(config_path, settings.section('fdi'), robot, fidelity,
-                                  options.calibration)
-    fdi = dict(calibrated_fdi(settings.section('fdi'), robot, calibration).data)
-    for plant in FIDELITIES:
-        fdi.pop(calibration_file_key(plant), None)
+    plant = PlantConfig.from_section(settings.section('plant'))
+    fdi_section = settings.section('fdi')
+    calibration = calibration_for(config_path, fdi_section, robot, plant.fidelity, options.calibration)
+    fdi = dict(calibrated_fdi(fdi_section, robot, calibration).data)
+    for fidelity in FIDELITIES:
+        fdi.pop(calibration_file_key(fidelity), None)
     friction = fdi.pop('coulomb_friction_nm', robot.motor.static_friction_nm)
     # The rigid plant is the twin's model, without Coulomb friction: the stack must know.
-    document['control']['coulomb_friction_nm'] = 0.0 if fidelity == 'rigid' else friction
+    document['control']['coulomb_friction_nm'] = 0.0 if plant.fidelity == 'rigid' else friction
     if options.detector is not None:
         fdi['detector'] = options.detector
     if options.epsilon_nm is not None:
@@ -183,42 +197,40 @@ def settle(options: ScenarioOptions) -> tuple[Section, Path | None]:
         'push_duration_s': [float(push[1]) for push in options.pushes],
         'push_force_n': [float(f) for push in options.pushes for f in push[2:]],
     }
-    return Section(document, config_path, defaulted=settings.defaulted,
-                   sources=settings.sources), calibration
+    return SettledRun(settings, config_path, None if calibration is None else Path(calibration.path),
+                      robot, motion, plant)
 
 
 def build_scenario(options: ScenarioOptions) -> Scenario:
     """The settled run and the cores' settings made from it (each checked here, before
     any node starts); its scheduled length completes `run`."""
-    settings, calibration = settle(options)
-    robot = robot_from_section(settings.section('robot'))
+    settled = settle(options)
+    settings, robot = settled.settings, settled.robot
     control = settings.section('control')
     period = control.number('period_s', positive=True)
     distribution = configured_tension_distribution(control, robot)
-    gains = PdGains.from_section(robot, control)
-    settled_hz = gains.natural_frequency_hz(robot)
-    if not math.isclose(settled_hz, control.number('pd_natural_frequency_hz'), rel_tol=1e-9):
+    gains, frequency_hz, derived = PdGains.settled(robot, control)
+    if derived:
         # the paper's frequency gave way to the highest stable one on these motors: the
         # nodes, to whom every setting is given, are handed that one, not one they refuse
-        settings.data['control']['pd_natural_frequency_hz'] = settled_hz
-    motion = motion_from_settled(settings.section('motion'))
+        settings.data['control']['pd_natural_frequency_hz'] = frequency_hz
     run = settings.section('run')
     failures = list(zip(run.raw('failure_times_s'), run.raw('failure_cable_indices')))
     fdi, recovery = settled_fdi(settings, robot)
     scenario = Scenario(
         options=options,
         settings=settings,
-        config_path=config_file(options.config),
+        config_path=settled.config_path,
         robot=robot,
         period_s=period,
         gains=gains,
         twin_substeps=settings.section('twin').integer('substeps', minimum=1),
-        motion=motion,
-        reference=motion_reference(robot, distribution, motion, period),
-        plant=PlantConfig.from_section(settings.section('plant')),
+        motion=settled.motion,
+        reference=motion_reference(robot, distribution, settled.motion, period),
+        plant=settled.plant,
         failures=failures,
         pushes=settled_pushes(run),
-        calibration_path=calibration,
+        calibration_path=settled.calibration_path,
         distribution=distribution,
         fdi=fdi,
         recovery=recovery,
@@ -309,8 +321,8 @@ def calibration_file_key(fidelity: str) -> str:
 
 
 def calibration_for(config_path: Path, fdi: Section, robot: Robot, fidelity: str,
-                    calibration: str | None) -> Path | None:
-    """The given calibration file; else, on the elastic or field plant, the one the set-up
+                    calibration: str | None) -> Section | None:
+    """The given calibration file, as read; else, on the elastic or field plant, the one the set-up
     names (`fdi.elastic_calibration_file`, `fdi.field_calibration_file`), else the shipped
     calibration made on this robot for that plant; the rigid plant keeps the paper's
     noise-free values. NO_CALIBRATION: the set-up's own thresholds (a run without a
@@ -318,11 +330,11 @@ def calibration_for(config_path: Path, fdi: Section, robot: Robot, fidelity: str
     if calibration == NO_CALIBRATION or (not calibration and fidelity == 'rigid'):
         return None
     if calibration:
-        return config_file(calibration)
+        return read_calibration(config_file(calibration))
     key = calibration_file_key(fidelity)
     if fdi.has(key):
-        return config_file(fdi.string(key))
-    shipped = shipped_calibration(robot.fingerprint(), fidelity)
+        return read_calibration(config_file(fdi.string(key)))
+    shipped = shipped_calibration_document(robot.fingerprint(), fidelity)
     if shipped is None:
         raise fdi.error(key, (
             f'is missing, and no shipped calibration was made on this robot ({robot.name}, '
@@ -331,3 +343,7 @@ def calibration_for(config_path: Path, fdi: Section, robot: Robot, fidelity: str
             '--motions MOTIONS.yaml --out FILE and name FILE here, or pass --calibration FILE, '
             'or run on the rigid plant (the noise-free defaults)'))
     return shipped
+
+
+def read_calibration(path: Path) -> Section:
+    return Section(load_yaml(path), path)
