@@ -141,7 +141,7 @@ def test_nodes_exit_when_their_launcher_is_killed():
         read_until(process, lines, 'all nodes up', 60.0)
         pids = node_pids(lines)
         assert set(pids) == {spec.name for spec in requested_graph(parser().parse_args(
-            ['--config', str(PAPER_ROBOT), '--motion', 'circle', '--fidelity', 'rigid']))}, lines
+            ['--config', str(PAPER_ROBOT), '--motion', 'circle', '--fidelity', 'rigid']))[0]}, lines
         os.kill(process.pid, signal.SIGKILL)
         process.wait(timeout=10)
         deadline = time.monotonic() + STOP_GRACE_S + 5.0

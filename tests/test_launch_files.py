@@ -16,8 +16,7 @@ import yaml
 
 from cdpr_bringup.bags.bag_io import read_messages
 from cdpr_bringup.graph.composed_loop import COMPOSABLE
-from cdpr_bringup.graph.launcher import parser, requested_graph, speaker
-from cdpr_bringup.graph.launcher import STOP_GRACE_S
+from cdpr_bringup.graph.launcher import STOP_GRACE_S, parser, requested_graph, speaker
 from cdpr_bringup.graph.launch_files import (SIGTERM_TIMEOUT_S, command_line, graph_from_launch, launch_arguments,
                                     launch_parameters)
 from cdpr_msgs_py.runtime.spin import SHUTDOWN_LIMIT_S
@@ -52,12 +51,14 @@ def test_the_launch_file_starts_the_nodes_cdpr_graph_starts_with_the_same_parame
     for values, argv in (({}, []),
                          ({'hardware': 'true', 'bag': '/tmp/b', 'detector': 'cusum'},
                           ['--hardware', '--bag', '/tmp/b', '--detector', 'cusum'])):
-        launched, namespace, simulated = graph_from_launch(dict(DEFAULTS, **values))
-        started = requested_graph(parser().parse_args(argv))
+        graph = graph_from_launch(dict(DEFAULTS, **values))
+        launched, namespace, simulated = graph.specs, graph.namespace, graph.simulated
+        started, _ = requested_graph(parser().parse_args(argv))
         assert [(s.package, s.executable, s.parameters) for s in launched] == \
                [(s.package, s.executable, s.parameters) for s in started]
         assert namespace == '/cdpr' and simulated == ('hardware' not in values)
-    assert 'plant_simulator' not in {spec.name for spec in graph_from_launch(dict(DEFAULTS, hardware='true'))[0]}
+        assert graph.bag == values.get('bag')
+    assert 'plant_simulator' not in {spec.name for spec in graph_from_launch(dict(DEFAULTS, hardware='true')).specs}
 
 
 def test_launch_gives_every_node_the_time_its_shutdown_takes_before_sigterm():
@@ -78,7 +79,7 @@ def test_launch_gives_every_node_the_time_its_shutdown_takes_before_sigterm():
 def test_every_package_and_executable_the_launch_files_start_exists():
     arguments = demo_arguments()
     assert set(arguments) <= set(DEFAULTS)
-    specs, _, _ = graph_from_launch(dict(DEFAULTS, **arguments))
+    specs = graph_from_launch(dict(DEFAULTS, **arguments)).specs
     for spec in specs:
         scripts = {entry.name for entry in distribution(spec.package).entry_points
                    if entry.group == 'console_scripts'}
@@ -129,17 +130,21 @@ def test_the_demo_launch_file_runs_the_papers_failure_with_real_launch(tmp_path,
     assert process.returncode == 0, output[-3000:]
     assert 'SAFE_HOLD from tick' in output and 'process has finished cleanly' in output
     assert 'escalating to SIGTERM' not in output, output[-3000:]
+    # it ends as make demo does: how the run went, and where the bag is
+    summary = output[output.index('circle on the elastic plant, node graph'):]
+    assert 'cable(s) [4] broke at' in summary and 'cable(s) [4] named' in summary, output[-3000:]
+    assert 'recovery to SP' in summary and output.rstrip().splitlines()[-1].startswith(f'bag: {bag} ')
     verdicts = read_messages(bag, ['/cdpr/fdi/broken_cable'])['/cdpr/fdi/broken_cable']
     assert [message.data for _, message in verdicts][-1] == 4
 
 
 def test_a_composed_graph_runs_the_loop_in_one_process_each_node_with_its_own_parameters():
     values = dict(DEFAULTS, clock='realtime', bag='/tmp/b')
-    separate, _, _ = graph_from_launch(dict(values, graph_form='separate'))
-    launched, _, _ = graph_from_launch(dict(values, graph_form='composed'))
+    separate = graph_from_launch(dict(values, graph_form='separate')).specs
+    launched = graph_from_launch(dict(values, graph_form='composed')).specs
     assert [(s.executable, s.node_names) for s in launched] == \
            [(s.executable, s.node_names) for s in requested_graph(parser().parse_args(
-               ['--clock', 'realtime', '--bag', '/tmp/b', '--graph-form', 'composed']))]
+               ['--clock', 'realtime', '--bag', '/tmp/b', '--graph-form', 'composed']))[0]]
     loop = launched[0]
     assert (loop.package, loop.executable) == ('cdpr_bringup', 'composed_loop')
     assert loop.node_names == list(COMPOSABLE) == loop.arguments()
@@ -159,12 +164,12 @@ def test_a_composed_graph_runs_the_loop_in_one_process_each_node_with_its_own_pa
 
 
 def test_a_composed_processs_log_lines_are_told_apart_by_the_node_that_wrote_them():
-    loop = next(spec for spec in graph_from_launch(dict(DEFAULTS, graph_form='composed'))[0]
+    loop = next(spec for spec in graph_from_launch(dict(DEFAULTS, graph_form='composed')).specs
                 if spec.members)
     assert speaker('[ERROR] [1764.123] [cdpr_ns.plant_simulator]: the loop does not keep its period',
                    loop) == 'plant_simulator'
     assert speaker('[INFO] [1764.1] [a.b.supervisor]: safety function on', loop) == 'supervisor'
     # what no composed node's logger wrote (a traceback) is the process's
     assert speaker('Traceback (most recent call last):', loop) == 'composed_loop'
-    markers = next(spec for spec in graph_from_launch(DEFAULTS)[0] if spec.name == 'markers')
+    markers = next(spec for spec in graph_from_launch(DEFAULTS).specs if spec.name == 'markers')
     assert speaker('[INFO] [1764.1] [cdpr.markers]: up', markers) == 'markers'

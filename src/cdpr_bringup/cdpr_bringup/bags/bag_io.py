@@ -99,6 +99,11 @@ class BagWriter(Writer):
             raise ValueError(f'storage must be one of {", ".join(plugins)}, got {storage!r}')
         super().__init__(Path(path), version=9, storage_plugin=plugins[storage])
 
+    def open(self) -> None:
+        # a bag inside folders that do not exist yet (the demo launch's runs/demo_launch/<time>/bag)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        super().open()
+
     def add_topic(self, topic: str, msgtype: str, offered_qos_profiles=()):
         """A connection with the Kilted definition and hash of `msgtype` embedded."""
         return self.add_connection(topic, msgtype, typestore=TYPESTORE,

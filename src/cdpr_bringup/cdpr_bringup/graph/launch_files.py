@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import yaml
 
+from cdpr_control.config import Section
 from cdpr_msgs_py.dds import shipped_environment
 
 from .launcher import STOP_GRACE_S, NodeSpec, parser, requested_graph
@@ -69,11 +70,23 @@ def command_line(values: dict[str, str]) -> list[str]:
     return argv
 
 
-def graph_from_launch(values: dict[str, str]) -> tuple[list[NodeSpec], str, bool]:
-    """(the nodes cdpr-graph would start for these launch arguments, their namespace,
-    whether the plant simulator is among them: the run ends when it does)."""
+@dataclass(frozen=True)
+class LaunchedGraph:
+    """What the launch files start for their arguments: the nodes cdpr-graph would start,
+    their namespace, whether the plant simulator is among them (the run ends when it
+    does), the bag they record (None: none) and the run as settled."""
+
+    specs: list[NodeSpec]
+    namespace: str
+    simulated: bool
+    bag: str | None
+    settings: Section
+
+
+def graph_from_launch(values: dict[str, str]) -> LaunchedGraph:
     args = parser().parse_args(command_line(values))
-    return requested_graph(args), args.namespace, not args.hardware
+    specs, settings = requested_graph(args)
+    return LaunchedGraph(specs, args.namespace, not args.hardware, args.bag, settings)
 
 
 def launch_parameters(spec: NodeSpec):

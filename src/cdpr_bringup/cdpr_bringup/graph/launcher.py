@@ -22,6 +22,7 @@ from pathlib import Path
 import yaml
 
 from cdpr_msgs_py import contract
+from cdpr_control.config import Section
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 from cdpr_twin.plant import FIDELITIES
 from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, shipped_environment,
@@ -366,21 +367,22 @@ def parser() -> argparse.ArgumentParser:
     return options
 
 
-def requested_graph(args: argparse.Namespace) -> list[NodeSpec]:
+def requested_graph(args: argparse.Namespace) -> tuple[list[NodeSpec], Section]:
     """The nodes `args` (parser()'s) ask for, each with the parameters of the run settled
-    as cdpr-scenario settles it: thresholds that match the plant, among the rest."""
+    as cdpr-scenario settles it (thresholds that match the plant, among the rest), and
+    that settled run."""
     scenario = build_scenario(ScenarioOptions(
         config=args.config, motions=args.motions, motion=args.motion, fidelity=args.fidelity,
         detector=args.detector, calibration=args.calibration, fail_cables=args.fail_cable,
         fail_at_fraction=args.fail_at_fraction, pushes=[tuple(push) for push in args.push]))
     parameters = scenario.node_parameters('realtime' if args.hardware else args.clock)
-    return graph_nodes(parameters, args.bag, plant=not args.hardware, form=args.graph_form)
+    return graph_nodes(parameters, args.bag, plant=not args.hardware, form=args.graph_form), scenario.settings
 
 
 @command('cdpr-graph')
 def main(argv=None):
     args = parser().parse_args(argv)
-    nodes = requested_graph(args)
+    nodes, _ = requested_graph(args)
     signal.signal(signal.SIGTERM, stop_on_sigterm)
     log = lambda line: print(line, flush=True)  # noqa: E731
     try:

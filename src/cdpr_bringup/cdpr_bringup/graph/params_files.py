@@ -38,7 +38,7 @@ def parameter_files(args: argparse.Namespace) -> dict[str, str]:
             + yaml.dump({'/**': {'ros__parameters': {
                 name: value for name, value in spec.parameters.items() if name != 'matches'}}},
                 Dumper=_Dumper, sort_keys=False)
-            for spec in requested_graph(args)}
+            for spec in requested_graph(args)[0]}
 
 
 @command('cdpr-params')

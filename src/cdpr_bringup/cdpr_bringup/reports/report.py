@@ -37,7 +37,8 @@ from cdpr_msgs_py.stamps import NANOSECONDS
 from . import plots
 from ..bags.bag_io import missing_ticks, read_messages, recording_from_bag, stamp_ns
 from ..cli import command
-from ..runs.metrics import KnownRun, RunSettings, fdi_summary_from_diagnostics, metrics_json
+from ..runs.metrics import (KnownRun, RunSettings, broken_at_from_diagnostics, fdi_summary_from_diagnostics,
+                            metrics_json)
 from ..paths import DEFAULT_ROBOT, SETTLED_RUN, config_file
 from ..runs.recording import Recording, holes_said
 
@@ -49,10 +50,9 @@ def run_settings(bag: str | Path, config_path: str | Path | None = None,
     replace the FDI's (0 friction for the rigid plant, which has none)."""
     settled = Path(bag).parent / SETTLED_RUN
     if config_path is None and settled.exists():
-        settings = Section(load_yaml(settled), settled)
-        robot = robot_from_section(settings.section('robot'))
-        fdi, recovery = settled_fdi(settings, robot)
-        source = f'settings: the run\'s own, {settled}'
+        settings = settled_run_settings(Section(load_yaml(settled), settled),
+                                        f'settings: the run\'s own, {settled}')
+        robot, fdi, recovery, source = settings.robot, settings.fdi, settings.recovery, settings.source
     else:
         path = config_file(config_path or DEFAULT_ROBOT)
         robot = load_robot(path)
@@ -61,6 +61,13 @@ def run_settings(bag: str | Path, config_path: str | Path | None = None,
     return RunSettings(robot, fdi.with_overrides(epsilon_nm=epsilon_nm,
                                                  coulomb_friction_nm=coulomb_friction_nm),
                        recovery, source)
+
+
+def settled_run_settings(settings: Section, source: str) -> RunSettings:
+    """What a report needs of a settled run (`settings`: its document)."""
+    robot = robot_from_section(settings.section('robot'))
+    fdi, recovery = settled_fdi(settings, robot)
+    return RunSettings(robot, fdi, recovery, source)
 
 
 @dataclass
@@ -195,7 +202,7 @@ def load_run(bag: str | Path, settings: RunSettings,
     if not recording.has_ground_truth:
         notes.append('no ground truth (real robot): end-effector from forward kinematics of the '
                      'measured angles, tensions only as estimated')
-    failure_time, true_broken, source = failure_of(bag, recording)
+    failure_time, true_broken, source = failure_of(bag, recording, found[contract.DIAGNOSTICS])
     notes.append(source)
     holes = holes_said(missing_ticks(bag))
     if holes:
@@ -284,15 +291,22 @@ def tick_time(clock: list[tuple[int, object]], following: bool):
     return to_tick
 
 
-def failure_of(bag: Path, recording: Recording) -> tuple[float | None, list[int] | None, str]:
+def failure_of(bag: Path, recording: Recording,
+               diagnostics) -> tuple[float | None, list[int] | None, str]:
     """(failure time s, broken cables 1-based, where that came from): metrics.json beside
-    the bag, else the first tick from which a cable's true tension stays 0 to the end."""
+    the bag; else the instant the plant simulator parted a cable, as its /diagnostics in
+    the bag (`diagnostics`: (time, message) pairs) say; else the first tick from which a
+    cable's true tension stays 0 to the end."""
     written = bag.parent / 'metrics.json'
     if written.exists():
         metrics = json.loads(written.read_text())
         if 'failure_time_s' in metrics:
             return (metrics['failure_time_s'], metrics.get('true_broken_cables'),
                     f'failure time from {written}')
+    parted = broken_at_from_diagnostics(diagnostics)
+    if parted:
+        return (min(parted.values()), sorted(cable + 1 for cable in parted),
+                'failure time: the instant the plant simulator parted the cable (its /diagnostics)')
     tension = recording.true_tension_n
     if not np.isfinite(tension).all():
         return None, None, 'failure time unknown (no metrics.json beside the bag, no ground truth)'

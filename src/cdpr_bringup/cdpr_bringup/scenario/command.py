@@ -27,10 +27,10 @@ from cdpr_twin.plant import FIDELITIES
 
 from ..cli import INTERRUPTED_EXIT_CODE, command
 from ..runs.engine import run_inprocess
-from ..runs.metrics import (PAPER_KPI, KnownRun, RunSettings, broken_at_from_diagnostics,
+from ..runs.metrics import (KnownRun, RunSettings, broken_at_from_diagnostics,
                       fdi_summary_from_diagnostics, metrics_json)
 from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, SETTLED_RUN
-from ..runs.recording import holes_said
+from ..reports.summary import summary_lines
 from ..runs.settle import ScenarioOptions, add_graph_form_option, add_push_option, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
@@ -155,36 +155,7 @@ def metrics_of(scenario, recording, wall_time_s: float, interrupted: bool = Fals
 def print_summary(metrics: dict, engine: str) -> None:
     print(f'{metrics["motion"]} on the {metrics["fidelity"]} plant, {engine} engine, '
           f'{metrics["detector"]} detector: {metrics["cycles"]} cycles in {metrics["wall_time_s"]:.1f} s')
-    if metrics['failure_time_s'] is not None:
-        print(f'  cable(s) {metrics["true_broken_cables"]} broke at {metrics["failure_time_s"]:.4f} s'
-              + ('' if metrics['failure_signal_time_s'] == metrics['failure_time_s']
-                 else f' (signal at {metrics["failure_signal_time_s"]:.4f} s)'))
-    if metrics['detection_time_s'] is None:
-        print('  no failure detected')
-    else:
-        delay = metrics['detection_delay_ms']
-        print(f'  detected at {metrics["detection_time_s"]:.3f} s'
-              + ('' if delay is None else f' ({delay:.1f} ms after the failure')
-              + ('' if delay is None or metrics['failure_signal_time_s'] == metrics['failure_time_s']
-                 else f', {metrics["detection_delay_from_signal_ms"]:.1f} ms after its signal')
-              + ('' if delay is None else ')')
-              + f', cable(s) {metrics["identified_cables"]} named'
-              + (' — FALSE ALARM' if metrics['false_alarm'] else ''))
-    recovery = metrics['recovery']
-    if metrics['fault']:
-        print(f'  FAULT: {metrics["fault"]}')
-    elif recovery['final_error_m'] is not None:
-        safe_point = ', '.join(f'{v:.3f}' for v in metrics['safe_point_m'])
-        print(f'  recovery to SP ({safe_point}) m: final error {recovery["final_error_m"] * 1000:.1f} mm '
-              f'after {recovery["duration_s"] or float("nan"):.2f} s, min tension '
-              f'{recovery["min_tension_n"]:.2f} N, lowest point {recovery["min_height_m"]:.3f} m')
-    print(f'  {"KPI":<8} {"this run":>10} {"paper":>10}   (before any failure)')
-    for key, value in metrics['kpi'].items():
-        print(f'  {key:<8} {value:10.4f} {PAPER_KPI[key]:10.4f}')
-    print(f'  tracking error (true pose vs reference): {metrics["tracking_error_m"] * 1000:.2f} mm')
-    holes = holes_said(metrics.get('bag_missing_ticks'))
-    if holes:
-        print(f'  {holes}')
+    print('\n'.join(summary_lines(metrics)))
 
 
 @command('cdpr-scenario')
