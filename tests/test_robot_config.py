@@ -222,7 +222,7 @@ def test_eight_cable_robot_loads(eight_cable_robot):
 
 def test_shipped_robot_files_hold_the_robot_alone():
     files = sorted((CONFIG_DIR / 'robots').glob('*.yaml'))
-    assert len(files) == 4
+    assert len(files) == 5
     for path in files:
         assert list(yaml.safe_load(path.read_text())) == ['robot'], path
 

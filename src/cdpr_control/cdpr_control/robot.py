@@ -12,12 +12,17 @@ from pathlib import Path
 import numpy as np
 
 from .config import ConfigError, Section, load_section
+from .rotation import normalised, rotation_matrix
 
 # Exit points closer than this (m) are one point; spreads below FLAT_RATIO of the
 # largest are flat (a line, a plane).
 DISTINCT_EXIT_POINTS_M = 1e-3
 FLAT_RATIO = 1e-6
 MIN_CABLES = 4
+# A platform has 6 DOF: six taut cables with gravity, and one more to lose one.
+MIN_PLATFORM_CABLES = 7
+# An inertia tensor this far from symmetric (relative) is a typing mistake.
+SYMMETRY_TOLERANCE = 1e-9
 # Hex digits of Robot.fingerprint(): 2^64 robots before two share one by chance.
 FINGERPRINT_DIGITS = 16
 
@@ -36,12 +41,36 @@ class Motor:
 
 
 @dataclass(frozen=True)
-class Robot:
-    """A point-mass cable-suspended robot with m cables.
+class Platform:
+    """A rigid platform (docs/platform.md): cable i is attached at b_i; the centre of mass
+    c and the inertia tensor about it, all in the platform frame, whose origin is the
+    platform's position p. `home_orientation` is the unit quaternion (w, x, y, z) of the
+    home pose."""
 
-    Cable i runs from exit point A_i to the end-effector; indices are 0-based in code
-    (motor_1 is index 0). Joint angle θ_i grows as cable i pays out:
-    l_i = l_i0 + ρ θ_i with θ = 0 at `home_position_m`.
+    attachment_points_m: np.ndarray
+    centre_of_mass_m: np.ndarray
+    inertia_kg_m2: np.ndarray
+    home_orientation: np.ndarray
+
+    def __post_init__(self):
+        for array in (self.attachment_points_m, self.centre_of_mass_m, self.inertia_kg_m2,
+                      self.home_orientation):
+            array.setflags(write=False)
+
+    def numbers(self) -> np.ndarray:
+        return np.concatenate([self.attachment_points_m.ravel(), self.centre_of_mass_m,
+                               self.inertia_kg_m2.ravel(), self.home_orientation])
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A cable-suspended robot with m cables: a point mass (3 DOF), or with `platform` a
+    rigid platform (6 DOF: position and orientation).
+
+    Cable i runs from exit point A_i to the end-effector (to its attachment point b_i on a
+    platform); indices are 0-based in code (motor_1 is index 0). Joint angle θ_i grows as
+    cable i pays out: l_i = l_i0 + ρ θ_i with θ = 0 at the home pose (`home_position_m`,
+    and the platform's `home_orientation`).
     """
 
     name: str
@@ -54,18 +83,30 @@ class Robot:
     workspace_min_m: np.ndarray
     workspace_max_m: np.ndarray
     home_position_m: np.ndarray
+    platform: Platform | None = None
     cable_length_offset_m: np.ndarray = field(init=False)
 
     def __post_init__(self):
-        offset = np.linalg.norm(self.exit_points_m - self.home_position_m, axis=1)
+        offset = np.linalg.norm(self.exit_points_m - self.home_attachment_points_m(), axis=1)
         object.__setattr__(self, 'cable_length_offset_m', offset)
         for array in (self.exit_points_m, self.gravity_m_s2, self.workspace_min_m,
                       self.workspace_max_m, self.home_position_m, offset):
             array.setflags(write=False)
 
+    def home_attachment_points_m(self) -> np.ndarray:
+        """Where the cables end at the home pose (m, world frame; m × 3)."""
+        if self.platform is None:
+            return self.home_position_m
+        return (self.home_position_m
+                + self.platform.attachment_points_m @ rotation_matrix(self.platform.home_orientation).T)
+
     @property
     def cable_count(self) -> int:
         return self.exit_points_m.shape[0]
+
+    @property
+    def degrees_of_freedom(self) -> int:
+        return 3 if self.platform is None else 6
 
     @property
     def weight_wrench_n(self) -> np.ndarray:
@@ -80,7 +121,8 @@ class Robot:
             self.exit_points_m.ravel(), [self.mass_kg], self.gravity_m_s2,
             [getattr(self.motor, name) for name in Motor.__dataclass_fields__],
             [self.tension_min_n, self.tension_max_n], self.workspace_min_m,
-            self.workspace_max_m, self.home_position_m])
+            self.workspace_max_m, self.home_position_m,
+            [] if self.platform is None else self.platform.numbers()])
         text = ','.join(f'{value:.9g}' for value in numbers)
         return hashlib.sha256(text.encode()).hexdigest()[:FINGERPRINT_DIGITS]
 
@@ -122,12 +164,40 @@ def check_exit_point_geometry(section: Section, exit_points: np.ndarray, low: np
                               'there the cables cannot pull out of that plane')
 
 
+def platform_from_section(platform: Section, cable_count: int) -> Platform:
+    """A Platform from a robot's `platform` section; ConfigError, naming the key, for
+    attachment points that do not match the cables, or an inertia tensor no rigid body has."""
+    attachment = platform.matrix('attachment_points_m', 3)
+    if attachment.shape[0] != cable_count:
+        raise platform.error('attachment_points_m', f'must list one point per cable ({cable_count}), '
+                             f'got {attachment.shape[0]}')
+    inertia = platform.matrix('inertia_kg_m2', 3)
+    if inertia.shape != (3, 3) or not np.allclose(inertia, inertia.T, rtol=0.0,
+                                                  atol=SYMMETRY_TOLERANCE * np.abs(inertia).max()):
+        raise platform.error('inertia_kg_m2', f'must be a symmetric 3 × 3 tensor, got {inertia.tolist()}')
+    principal = np.linalg.eigvalsh(inertia)
+    if principal[0] <= 0.0 or principal[2] > principal[0] + principal[1] + SYMMETRY_TOLERANCE * principal[2]:
+        raise platform.error('inertia_kg_m2', f'has principal moments {principal.round(6).tolist()}: '
+                             'a rigid body\'s are positive and each at most the sum of the other two')
+    try:
+        home = normalised(platform.vector('home_orientation', 4, [1.0, 0.0, 0.0, 0.0]))
+    except ValueError:
+        raise platform.error('home_orientation', 'must be a quaternion (w, x, y, z) of non-zero norm') from None
+    return Platform(attachment_points_m=attachment,
+                    centre_of_mass_m=platform.vector('centre_of_mass_m', 3, [0.0, 0.0, 0.0]),
+                    inertia_kg_m2=inertia, home_orientation=home)
+
+
 def robot_from_section(section: Section) -> Robot:
-    """Build and validate a Robot from the `robot` section of a config file."""
+    """Build and validate a Robot from the `robot` section of a config file: a point mass,
+    or with a `platform` section a rigid platform."""
     exit_points = section.matrix('exit_points_m', 3)
-    if exit_points.shape[0] < MIN_CABLES:
-        raise section.error('exit_points_m', f'must list at least {MIN_CABLES} cables to keep '
-                            f'3 DOF controllable after one failure, got {exit_points.shape[0]}')
+    platform = (platform_from_section(section.section('platform'), exit_points.shape[0])
+                if section.has('platform') else None)
+    least, dof = (MIN_CABLES, 3) if platform is None else (MIN_PLATFORM_CABLES, 6)
+    if exit_points.shape[0] < least:
+        raise section.error('exit_points_m', f'must list at least {least} cables to keep '
+                            f'{dof} DOF controllable after one failure, got {exit_points.shape[0]}')
     end_effector = section.section('end_effector')
     mass = end_effector.number('mass_kg', positive=True)
     gravity = section.vector('gravity_m_s2', 3, [0.0, 0.0, -9.81])
@@ -182,6 +252,7 @@ def robot_from_section(section: Section) -> Robot:
         workspace_min_m=low,
         workspace_max_m=high,
         home_position_m=home,
+        platform=platform,
     )
 
 

@@ -24,8 +24,10 @@ import time
 import numpy as np
 
 from cdpr_control.dynamics import direct_dynamics, inverse_dynamics
+from cdpr_control import pose_dynamics, pose_kinematics
 from cdpr_control.kinematics import forward_kinematics, inverse_kinematics, structure_matrix
 from cdpr_control.robot import load_robot
+from cdpr_control.rotation import from_axis_angle, product
 from cdpr_control.tension_distribution import METHODS, make_tension_distribution
 
 from cdpr_twin.plant import FIDELITIES
@@ -51,6 +53,8 @@ def median_us(call, *args) -> float:
 def bench_model(config: str) -> dict:
     """µs per call of the model functions at a pose in the middle of a motion."""
     robot = load_robot(config_file(config))
+    if robot.platform is not None:
+        return bench_platform_model(robot)
     position = robot.home_position_m + np.array([0.11, -0.07, 0.05])
     velocity = np.array([0.2, -0.3, 0.1])
     acceleration = np.array([0.5, 0.4, -0.3])
@@ -74,6 +78,40 @@ def bench_model(config: str) -> dict:
     figures['inverse_dynamics_us'] = median_us(inverse_dynamics, robot, pseudo_inverse, position,
                                                velocity, acceleration)
     figures['direct_dynamics_us'] = median_us(direct_dynamics, robot, position, velocity,
+                                              torque.torque_nm, torque.joint_velocity_rad_s)
+    return figures
+
+
+def bench_platform_model(robot) -> dict:
+    """µs per call of a platform's model functions at a pose off home, turned 8.6° and
+    moving; forward kinematics as a node calls it, from the pose of the tick before
+    (0.6 mm and 0.06° away: 0.3 m/s and 0.5 rad/s for 2 ms), and cold, from home."""
+    position = robot.home_position_m + np.array([0.11, -0.07, 0.05])
+    orientation = from_axis_angle([1.0, 2.0, 0.5], 0.15)
+    velocity, angular_velocity = np.array([0.2, -0.3, 0.1]), np.array([0.1, 0.2, -0.1])
+    acceleration, angular_acceleration = np.array([0.5, 0.4, -0.3]), np.array([0.3, -0.2, 0.1])
+    angles = pose_kinematics.inverse_kinematics(robot, position, orientation)
+    before = (position - np.array([0.0006, 0.0, 0.0]),
+              product(from_axis_angle([0.0, 0.0, 1.0], 0.001), orientation))
+    structure, _ = pose_kinematics.wrench_matrix(robot, position, orientation)
+    body = pose_dynamics.rigid_body(robot, orientation, angular_velocity)
+    wrench = (body.mass_matrix @ np.concatenate([acceleration, angular_acceleration]) + body.velocity_terms
+              - body.weight_wrench)
+    pseudo_inverse = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
+    motion = (position, orientation, velocity, angular_velocity)
+    torque = pose_dynamics.inverse_dynamics(robot, pseudo_inverse, *motion, acceleration, angular_acceleration)
+    figures = {
+        'inverse_kinematics_us': median_us(pose_kinematics.inverse_kinematics, robot, position, orientation),
+        'forward_kinematics_us': median_us(lambda: pose_kinematics.forward_kinematics(robot, angles, start=before)),
+        'forward_kinematics_from_home_us': median_us(pose_kinematics.forward_kinematics, robot, angles),
+        'wrench_matrix_us': median_us(pose_kinematics.wrench_matrix, robot, position, orientation),
+    }
+    for name in METHODS:
+        method = make_tension_distribution(name, robot.tension_min_n, robot.tension_max_n)
+        figures[f'tension_{name}_us'] = median_us(method.distribute, structure, wrench)
+    figures['inverse_dynamics_us'] = median_us(pose_dynamics.inverse_dynamics, robot, pseudo_inverse, *motion,
+                                               acceleration, angular_acceleration)
+    figures['direct_dynamics_us'] = median_us(pose_dynamics.direct_dynamics, robot, *motion,
                                               torque.torque_nm, torque.joint_velocity_rad_s)
     return figures
 

@@ -14,6 +14,8 @@ from cdpr_control.motions import load_motion, motion_names
 from cdpr_control.robot import load_robot
 from cdpr_control.statics import closed_form_coverage
 from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
+from cdpr_control.pose_statics import workspace_grid, wrench_feasible_share
+from cdpr_control.rotation import from_axis_angle, product
 from cdpr_control.workspace import safe_point
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 
@@ -94,6 +96,43 @@ def motion_extremes(robot, tension_distribution, motion, period_s):
     return np.min(tensions), np.max(tensions), np.max(np.abs(torques))
 
 
+# The grid the platform's wrench-feasible workspace is sampled on (m), and the turns it is
+# sampled at besides the nominal orientation: 15° about x, y and z.
+PLATFORM_GRID_SPACING_M = 0.1
+PLATFORM_TURN_RAD = np.radians(15.0)
+
+
+def print_platform(robot, config, distribution) -> None:
+    """A platform robot: its geometry, and where tensions within the bounds hold it at rest
+    (the wrench-feasible workspace) at its nominal orientation, turned 15° about each axis,
+    and with each cable broken."""
+    platform = robot.platform
+    print(f'robot {robot.name} ({config}): {robot.cable_count} cables, a platform of '
+          f'{robot.mass_kg} kg, 6 DOF (position and orientation)')
+    principal = np.linalg.eigvalsh(platform.inertia_kg_m2)
+    print(f'  centre of mass ({", ".join(f"{value:.3f}" for value in platform.centre_of_mass_m)}) m, principal moments '
+          f'{", ".join(f"{value:.4g}" for value in principal)} kg·m² (platform frame)')
+    for i, (exit_point, attachment) in enumerate(zip(robot.exit_points_m, platform.attachment_points_m)):
+        print(f'  A{i + 1} = ({exit_point[0]:.3f}, {exit_point[1]:.3f}, {exit_point[2]:.3f}) m   '
+              f'b{i + 1} = ({attachment[0]:.3f}, {attachment[1]:.3f}, {attachment[2]:.3f}) m')
+    points = workspace_grid(robot, PLATFORM_GRID_SPACING_M)
+    nominal = platform.home_orientation
+    print(f'wrench-feasible workspace ({type(distribution).__name__}, tensions in '
+          f'[{robot.tension_min_n:g}, {robot.tension_max_n:g}] N), share of {len(points)} grid points '
+          f'{PLATFORM_GRID_SPACING_M:g} m apart:')
+    turns = [('nominal orientation', nominal)] + [
+        (f'turned {sign}{np.degrees(PLATFORM_TURN_RAD):.0f}° about {axis}',
+         product(from_axis_angle(np.eye(3)[k], float(f'{sign}1') * PLATFORM_TURN_RAD), nominal))
+        for k, axis in enumerate('xyz') for sign in '+-']
+    for label, orientation in turns:
+        print(f'  {label:<24} {wrench_feasible_share(robot, distribution, orientation, points):6.1%}')
+    print('with one cable broken, nominal orientation:')
+    for i in range(robot.cable_count):
+        share = wrench_feasible_share(robot, distribution, nominal, points, robot.cable_mask([i]))
+        print(f'  cable {i + 1} broken: {share:6.1%}')
+    print('named motions and the run through the graph: not yet for a platform (issue 28)')
+
+
 @command('cdpr-robot')
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
@@ -108,6 +147,9 @@ def main(argv=None):
     period = control.number('period_s', positive=True)
     distribution = configured_tension_distribution(control, robot)
 
+    if robot.platform is not None:
+        print_platform(robot, config, distribution)
+        return 0
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, '
           f'end-effector {robot.mass_kg} kg')
     recovery, delta_n = print_settings(config, robot)

@@ -166,6 +166,10 @@ def settle(options: ScenarioOptions) -> SettledRun:
     document = copy.deepcopy(dict(loaded.data))
     settings = Section(document, config_path, defaulted=loaded.defaulted, sources=loaded.sources)
     robot = robot_from_section(settings.section('robot'))
+    if robot.platform is not None:
+        raise UsageError(f'--config {options.config}: {robot.name} carries a 6-DOF platform, which the '
+                         'model takes (cdpr-robot shows it) but a run cannot yet: the controller, twin, '
+                         'plants and graph move a point mass (docs/platform.md)')
     motion_section = settled_motion(config_file(options.motions), options.motion, options.reverse)
     motion = motion_from_settled(motion_section)
     check_options(options, robot, motion)

@@ -8,24 +8,33 @@ import numpy as np
 from ..linalg3 import solve3
 
 
+# A platform's S Sᵀ whose smallest Cholesky pivot is this small against its largest
+# diagonal entry: the cables do not span the six directions of force and moment
+# (solve3's determinant test does it for 3 × 3).
+SINGULAR_PIVOT_RATIO = 1e-12
+
+
 class InfeasibleTensionError(ValueError):
     """No tensions within the bounds produce the wrench; names the pose when known."""
 
-    def __init__(self, reason: str, position_m=None, row: int | None = None):
+    def __init__(self, reason: str, position_m=None, row: int | None = None, orientation=None):
         self.reason = reason
         self.row = row
         self.position_m = None if position_m is None else np.array(position_m, dtype=float)
+        self.orientation = None if orientation is None else np.array(orientation, dtype=float)
         where = '' if position_m is None else ' at p = ({:.4f}, {:.4f}, {:.4f}) m'.format(*position_m)
+        if orientation is not None:
+            where += ', q = ({:.4f}, {:.4f}, {:.4f}, {:.4f})'.format(*orientation)
         super().__init__(f'no feasible cable tensions{where}: {reason}')
 
     def __reduce__(self):
         # rebuilt from its parts, not its message, when it crosses to another process (a
         # campaign's or a calibration's worker): the message is not prefixed twice
-        return type(self), (self.reason, self.position_m, self.row)
+        return type(self), (self.reason, self.position_m, self.row, self.orientation)
 
-    def at(self, position_m) -> 'InfeasibleTensionError':
-        """The same error, naming the end-effector position."""
-        return InfeasibleTensionError(self.reason, position_m)
+    def at(self, position_m, orientation=None) -> 'InfeasibleTensionError':
+        """The same error, naming the end-effector's position (and a platform's orientation)."""
+        return InfeasibleTensionError(self.reason, position_m, orientation=orientation)
 
     def in_row(self, row: int) -> 'InfeasibleTensionError':
         """The same error, naming the row of a stack it came from."""
@@ -70,9 +79,21 @@ class TensionDistribution(ABC):
 
 
 def minimum_norm(structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
-    """S⁺ w = Sᵀ (S Sᵀ)⁻¹ w for S of full row rank; of each row for stacks (n × 3 × k, n × 3)."""
+    """S⁺ w = Sᵀ (S Sᵀ)⁻¹ w for S of full row rank (3 × k for a point mass, 6 × k for a
+    platform); of each row for stacks (n × 3 × k, n × 3)."""
     gram = structure @ np.swapaxes(structure, -1, -2)
+    rows = gram.shape[-1]
     try:
-        return np.einsum('...ij,...i->...j', structure, solve3(gram, wrench_n))
+        if rows == 3:
+            solved = solve3(gram, wrench_n)
+        else:
+            # S Sᵀ is positive semi-definite: a Cholesky pivot this small against its
+            # diagonal means the cables do not span the six directions
+            pivots = np.diagonal(np.linalg.cholesky(gram), axis1=-2, axis2=-1) ** 2
+            if np.any(pivots < SINGULAR_PIVOT_RATIO * np.diagonal(gram, axis1=-2, axis2=-1).max(axis=-1,
+                                                                                                keepdims=True)):
+                raise np.linalg.LinAlgError('singular Gram matrix')
+            solved = np.linalg.solve(gram, wrench_n[..., None])[..., 0]
     except np.linalg.LinAlgError:
-        raise InfeasibleTensionError('the cables span less than 3 directions') from None
+        raise InfeasibleTensionError(f'the cables span less than {rows} directions') from None
+    return np.einsum('...ij,...i->...j', structure, solved)

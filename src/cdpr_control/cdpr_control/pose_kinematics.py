@@ -1,0 +1,124 @@
+"""Kinematics of a rigid platform on m cables (docs/platform.md; DESIGN §9).
+
+Pose x = (p, q): the position p of the platform frame's origin (m) and the unit
+quaternion q of its orientation (rotation.py). Attachment point b_i (platform frame) is
+at p + r_i in the world, r_i = R(q) b_i; the cable runs from it to the exit point A_i:
+l_i = A_i − p − r_i, length d_i = |l_i|, unit u_i = l_i / d_i.
+
+Wrench matrix W (6 × m), column i = [u_i ; r_i × u_i]: the force and the moment about p
+that a unit tension in cable i applies. Twist (v, ω), world frame: ḋ_i = −u_iᵀ (v + ω × r_i),
+i.e. ḋ = −Wᵀ (v, ω); with l_i = l_i0 + ρ θ_i, θ̇ = −Wᵀ (v, ω) / ρ.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .kinematics import KinematicsError
+from .robot import Robot
+from .rotation import cross_rows, from_rotation_vector, normalised, product, rotation_matrix, skew
+
+# Forward kinematics: Gauss–Newton on the six pose coordinates until every cable's
+# length is met to FK_TOLERANCE_M, or the step is that small; at most FK_ITERATIONS.
+FK_ITERATIONS = 30
+FK_TOLERANCE_M = 1e-12
+# A converged pose whose lengths are off by more than this (m) fits no pose: the lengths
+# are inconsistent (a stale angle, a broken cable counted).
+FK_RESIDUAL_LIMIT_M = 1e-6
+
+
+def cable_vectors(robot: Robot, position_m, orientation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(u: m × 3 unit vectors platform → exit point, d: m lengths (m), r: m × 3 attachment
+    points relative to p, world frame) at the pose (p, q)."""
+    return cable_geometry(robot, position_m, rotation_matrix(orientation))
+
+
+def cable_geometry(robot: Robot, position_m, rotation: np.ndarray):
+    """cable_vectors for the platform's rotation matrix R."""
+    r = robot.platform.attachment_points_m @ rotation.T
+    cable = robot.exit_points_m - position_m - r
+    d = np.sqrt(np.einsum('ij,ij->i', cable, cable))
+    return cable / d[:, None], d, r
+
+
+def structure_of(u: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """W (6 × m) from the cables' unit vectors and attachment points (m × 3 each)."""
+    return np.concatenate([u, cross_rows(r, u)], axis=1).T
+
+
+def wrench_matrix(robot: Robot, position_m, orientation) -> tuple[np.ndarray, np.ndarray]:
+    """W (6 × m) and the cable lengths d (m) at the pose (p, q)."""
+    u, d, r = cable_vectors(robot, position_m, orientation)
+    return structure_of(u, r), d
+
+
+def inverse_kinematics(robot: Robot, position_m, orientation) -> np.ndarray:
+    """Motor angles θ (rad) that put the platform at the pose (p, q)."""
+    _, d, _ = cable_vectors(robot, position_m, orientation)
+    return (d - robot.cable_length_offset_m) / robot.motor.drum_radius_m
+
+
+def joint_velocity(robot: Robot, position_m, orientation, velocity_m_s, angular_velocity_rad_s) -> np.ndarray:
+    """θ̇ = −Wᵀ (v, ω) / ρ (rad/s)."""
+    structure, _ = wrench_matrix(robot, position_m, orientation)
+    twist = np.concatenate([velocity_m_s, angular_velocity_rad_s])
+    return -(twist @ structure) / robot.motor.drum_radius_m
+
+
+def joint_acceleration(robot: Robot, position_m, orientation, velocity_m_s, angular_velocity_rad_s,
+                       acceleration_m_s2, angular_acceleration_rad_s2) -> np.ndarray:
+    """θ̈ (rad/s²) = (−Wᵀ (a, α) + κ) / ρ (velocity_product: κ)."""
+    u, d, r = cable_vectors(robot, position_m, orientation)
+    accelerations = np.concatenate([acceleration_m_s2, angular_acceleration_rad_s2])
+    return (-(accelerations @ structure_of(u, r))
+            + velocity_product(u, d, r, velocity_m_s, angular_velocity_rad_s)) / robot.motor.drum_radius_m
+
+
+def velocity_product(u: np.ndarray, d: np.ndarray, r: np.ndarray, velocity_m_s,
+                     angular_velocity_rad_s) -> np.ndarray:
+    """κ (m/s², one per cable), the part of d̈ the twist makes without any acceleration:
+    κ_i = s_iᵀ (I − u_i u_iᵀ) s_i / d_i − u_iᵀ (ω × (ω × r_i)), s_i = v + ω × r_i the
+    attachment point's velocity (the derivative of ḋ_i = −u_iᵀ s_i)."""
+    turn = skew(angular_velocity_rad_s).T
+    swept = r @ turn                      # ω × r_i, row by row
+    s = swept + velocity_m_s
+    along = np.einsum('ij,ij->i', u, s)
+    return ((np.einsum('ij,ij->i', s, s) - along * along) / d
+            - np.einsum('ij,ij->i', u, swept @ turn))
+
+
+def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None) -> tuple[np.ndarray, np.ndarray]:
+    """The pose (p, q) whose cable lengths are those of the motor angles of `cables`
+    (boolean mask; at least 6), by Gauss–Newton from `start` (a pose; the home pose when
+    None): each step solves Wᵀ δ = d(x) − l in the least-squares sense for δ = (δp, δφ),
+    moves p by δp and turns q by the rotation vector δφ. It stops when every length is
+    met to FK_TOLERANCE_M or the step is that small; KinematicsError when the lengths are
+    then still off by more than FK_RESIDUAL_LIMIT_M, or after FK_ITERATIONS."""
+    mask = slice(None) if cables is None else np.asarray(cables, dtype=bool)
+    used_count = robot.cable_count if cables is None else np.count_nonzero(mask)
+    if used_count < 6:
+        raise KinematicsError(f'forward kinematics of a platform needs 6 cables, got {used_count}')
+    lengths = (robot.cable_length_offset_m + robot.motor.drum_radius_m * np.asarray(angles_rad, dtype=float))[mask]
+    position, orientation = ((robot.home_position_m, robot.platform.home_orientation) if start is None
+                             else start)
+    position, orientation = np.array(position, dtype=float), normalised(orientation)
+    for _ in range(FK_ITERATIONS):
+        u, d, r = cable_vectors(robot, position, orientation)
+        residual = d[mask] - lengths
+        if np.max(np.abs(residual)) < FK_TOLERANCE_M:
+            return position, orientation
+        # ∂d/∂x = −Wᵀ: the least-squares step δ of −Wᵀ δ = −residual, by its normal equations
+        used = structure_of(u, r)[:, mask]
+        try:
+            step = np.linalg.solve(used @ used.T, used @ residual)
+        except np.linalg.LinAlgError:
+            step = np.linalg.lstsq(used.T, residual, rcond=None)[0]
+        position = position + step[:3]
+        orientation = normalised(product(from_rotation_vector(step[3:]), orientation))
+        if np.max(np.abs(step)) < FK_TOLERANCE_M:
+            break
+    _, d, _ = cable_vectors(robot, position, orientation)
+    worst = np.max(np.abs(d[mask] - lengths))
+    if worst > FK_RESIDUAL_LIMIT_M:
+        raise KinematicsError(f'forward kinematics did not converge in {FK_ITERATIONS} Gauss–Newton steps: '
+                              f'the cable lengths are still off by up to {worst * 1000:.3f} mm')
+    return position, orientation

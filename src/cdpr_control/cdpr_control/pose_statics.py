@@ -1,0 +1,49 @@
+"""Statics of a platform: the tensions that hold it at a pose, and where such tensions
+exist (the wrench-feasible workspace, for the platform's weight alone)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .pose_dynamics import rigid_body
+from .pose_kinematics import wrench_matrix
+from .robot import Robot
+from .tension_distribution import InfeasibleTensionError, TensionDistribution
+
+
+def holding_tensions(robot: Robot, distribution: TensionDistribution, position_m, orientation,
+                     attached=None) -> np.ndarray:
+    """τ (N, 0 for a detached cable) with W τ + w_g = 0 within the bounds;
+    InfeasibleTensionError naming the pose where there are none."""
+    attached = np.ones(robot.cable_count, dtype=bool) if attached is None else np.asarray(attached, dtype=bool)
+    structure, _ = wrench_matrix(robot, position_m, orientation)
+    tension = np.zeros(robot.cable_count)
+    try:
+        tension[attached] = distribution.distribute(
+            structure[:, attached], -rigid_body(robot, orientation, np.zeros(3)).weight_wrench)
+    except InfeasibleTensionError as err:
+        raise err.at(position_m, orientation) from None
+    return tension
+
+
+def wrench_feasible(robot: Robot, distribution: TensionDistribution, position_m, orientation,
+                    attached=None) -> bool:
+    """Whether tensions within the bounds hold the platform at rest at the pose."""
+    try:
+        holding_tensions(robot, distribution, position_m, orientation, attached)
+    except InfeasibleTensionError:
+        return False
+    return True
+
+
+def workspace_grid(robot: Robot, spacing_m: float) -> np.ndarray:
+    """Points (n × 3) spaced about `spacing_m` apart over the workspace box, its faces included."""
+    axes = [np.linspace(low, high, max(2, int(round((high - low) / spacing_m)) + 1))
+            for low, high in zip(robot.workspace_min_m, robot.workspace_max_m)]
+    return np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 3)
+
+
+def wrench_feasible_share(robot: Robot, distribution: TensionDistribution, orientation, points,
+                          attached=None) -> float:
+    """The share of `points` where the platform, at `orientation`, can be held at rest."""
+    return float(np.mean([wrench_feasible(robot, distribution, point, orientation, attached)
+                          for point in points]))

@@ -1,0 +1,360 @@
+"""The 6-DOF platform model against physics: kinematics by finite differences and round
+trips, statics, Newton–Euler dynamics (inverse ∘ direct, equilibrium, energy) and an
+independent rigid-body integrator written here."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from cdpr_control import pose_dynamics, pose_kinematics
+from cdpr_control.config import ConfigError, Section
+from cdpr_control.dynamics import direct_dynamics as point_mass_direct_dynamics
+from cdpr_control.kinematics import KinematicsError, structure_matrix
+from cdpr_control.robot import Platform, load_robot, robot_from_section
+from cdpr_control.rotation import (IDENTITY, difference, from_axis_angle, from_rotation_vector, normalised,
+                                   product, rotation_matrix, to_rotation_vector)
+from cdpr_control.tension_distribution import InfeasibleTensionError, make_tension_distribution
+
+from conftest import CONFIG_DIR, EIGHT_CABLE_ROBOT, PAPER_ROBOT
+
+PLATFORM_ROBOT = CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'
+TILT_RAD = np.radians(15.0)
+
+
+@pytest.fixture(scope='module')
+def robot():
+    return load_robot(PLATFORM_ROBOT)
+
+
+@pytest.fixture(scope='module')
+def distribution(robot):
+    return make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
+
+
+def random_poses(robot, rng, count):
+    """Poses inside the workspace, tilted up to 15° about a random axis."""
+    low, high = robot.workspace_min_m, robot.workspace_max_m
+    for _ in range(count):
+        yield (low + rng.random(3) * (high - low),
+               from_axis_angle(rng.normal(size=3), rng.uniform(-TILT_RAD, TILT_RAD)))
+
+
+def moved(position, orientation, step):
+    """The pose x ⊕ δ: p + δp, and q turned by the rotation vector δφ (world frame)."""
+    return position + step[:3], normalised(product(from_rotation_vector(step[3:]), orientation))
+
+
+# ---- the robot file and the point mass as a special case ------------------------------
+
+def test_the_platform_robot_loads_with_six_degrees_and_the_point_masses_are_unchanged(robot):
+    assert robot.degrees_of_freedom == 6 and robot.cable_count == 8
+    assert robot.platform.inertia_kg_m2[0, 0] == pytest.approx(5.0 * (0.15 ** 2 + 0.1 ** 2) / 12, rel=1e-5)
+    for path in (PAPER_ROBOT, EIGHT_CABLE_ROBOT):
+        point_mass = load_robot(path)
+        assert point_mass.platform is None and point_mass.degrees_of_freedom == 3
+    # the home pose's lengths are the offsets: θ = 0 there
+    assert np.allclose(pose_kinematics.inverse_kinematics(robot, robot.home_position_m,
+                                                          robot.platform.home_orientation), 0.0, atol=1e-13)
+
+
+def test_a_platform_of_points_at_its_origin_is_the_point_mass(rng):
+    """b_i = 0, c = 0: the wrench matrix's force rows are S, its moment rows 0, and the
+    platform accelerates as the point mass does under the same torques."""
+    point_mass = load_robot(PAPER_ROBOT)
+    platform = replace(point_mass, platform=Platform(np.zeros((4, 3)), np.zeros(3), 1e-3 * np.eye(3),
+                                                     IDENTITY.copy()))
+    assert np.array_equal(platform.cable_length_offset_m, point_mass.cable_length_offset_m)
+    position = np.array([0.55, 0.8, 0.9])
+    structure, lengths = pose_kinematics.wrench_matrix(platform, position, IDENTITY)
+    expected, expected_lengths = structure_matrix(point_mass, position)
+    assert np.allclose(structure[:3], expected, atol=1e-15) and np.allclose(structure[3:], 0.0)
+    assert np.allclose(lengths, expected_lengths, atol=1e-15)
+    velocity, torque = rng.normal(size=3) * 0.1, -0.3 + 0.05 * rng.normal(size=4)
+    joint_velocity = pose_kinematics.joint_velocity(platform, position, IDENTITY, velocity, np.zeros(3))
+    ours = pose_dynamics.direct_dynamics(platform, position, IDENTITY, velocity, np.zeros(3), torque,
+                                         joint_velocity)
+    theirs = point_mass_direct_dynamics(point_mass, position, velocity, torque, joint_velocity)
+    assert np.allclose(ours.acceleration_m_s2, theirs.acceleration_m_s2, rtol=1e-12, atol=1e-12)
+    assert np.allclose(ours.angular_acceleration_rad_s2, 0.0, atol=1e-12)
+    assert np.allclose(ours.tension_n, theirs.tension_n, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize('change, words', [
+    (lambda p: p.update(attachment_points_m=p['attachment_points_m'][:7]), 'one point per cable'),
+    (lambda p: p.update(inertia_kg_m2=[[1, 0.5, 0], [0, 1, 0], [0, 0, 1]]), 'symmetric'),
+    (lambda p: p.update(inertia_kg_m2=[[1, 0, 0], [0, 1, 0], [0, 0, 3]]), 'at most the sum'),
+    (lambda p: p.update(home_orientation=[0, 0, 0, 0]), 'non-zero norm'),
+])
+def test_a_platform_no_rigid_body_has_is_refused_naming_the_key(change, words):
+    import yaml
+    document = yaml.safe_load(PLATFORM_ROBOT.read_text())['robot']
+    change(document['platform'])
+    with pytest.raises(ConfigError, match=words):
+        robot_from_section(Section(document, PLATFORM_ROBOT, 'robot'))
+
+
+def test_a_platform_needs_a_cable_to_spare_beyond_six():
+    import yaml
+    document = yaml.safe_load(PLATFORM_ROBOT.read_text())['robot']
+    document['exit_points_m'] = document['exit_points_m'][:6]
+    document['platform']['attachment_points_m'] = document['platform']['attachment_points_m'][:6]
+    with pytest.raises(ConfigError, match='at least 7 cables to keep 6 DOF'):
+        robot_from_section(Section(document, PLATFORM_ROBOT, 'robot'))
+
+
+# ---- orientation ---------------------------------------------------------------------
+
+def test_quaternions_and_rotation_vectors_agree_with_rotation_matrices(rng):
+    for _ in range(20):
+        phi = rng.normal(size=3) * rng.uniform(0.0, 3.0)
+        q = from_rotation_vector(phi)
+        rotation = rotation_matrix(q)
+        assert np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-14)
+        assert np.linalg.det(rotation) == pytest.approx(1.0)
+        # Rodrigues' formula, written here
+        angle = np.linalg.norm(phi)
+        axis = phi / angle
+        cross = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        assert np.allclose(rotation, np.eye(3) + np.sin(angle) * cross + (1 - np.cos(angle)) * cross @ cross,
+                           atol=1e-14)
+        if angle < np.pi:
+            assert np.allclose(to_rotation_vector(q), phi, atol=1e-12)
+        other = from_rotation_vector(rng.normal(size=3))
+        assert np.allclose(rotation_matrix(product(q, other)), rotation @ rotation_matrix(other), atol=1e-14)
+        assert np.allclose(rotation_matrix(product(from_rotation_vector(difference(q, other)), other)),
+                           rotation, atol=1e-12)
+    # a pitch of 90°, Euler angles' singular orientation, is an orientation like any other
+    pitched = from_axis_angle([0, 1, 0], np.pi / 2)
+    assert np.allclose(to_rotation_vector(pitched), [0, np.pi / 2, 0])
+
+
+# ---- kinematics ----------------------------------------------------------------------
+
+def test_inverse_then_forward_kinematics_returns_the_pose(robot, rng):
+    for position, orientation in random_poses(robot, rng, 25):
+        angles = pose_kinematics.inverse_kinematics(robot, position, orientation)
+        found_position, found_orientation = pose_kinematics.forward_kinematics(robot, angles)
+        assert np.allclose(found_position, position, atol=1e-10)
+        assert np.linalg.norm(difference(found_orientation, orientation)) < 1e-10
+        # from the pose of the tick before, as a node asks it, and with a cable left out
+        near = moved(position, orientation, 1e-3 * rng.normal(size=6))
+        seven = np.arange(8) != rng.integers(8)
+        found_position, _ = pose_kinematics.forward_kinematics(robot, angles, seven, start=near)
+        assert np.allclose(found_position, position, atol=1e-10)
+
+
+def test_forward_kinematics_of_lengths_no_pose_has_says_so(robot):
+    angles = pose_kinematics.inverse_kinematics(robot, robot.home_position_m, IDENTITY)
+    angles[0] += 5.0   # 25 cm more of one cable than any pose near the others allows
+    with pytest.raises(KinematicsError, match='did not converge'):
+        pose_kinematics.forward_kinematics(robot, angles)
+    with pytest.raises(KinematicsError, match='needs 6 cables'):
+        pose_kinematics.forward_kinematics(robot, angles, np.arange(8) < 5)
+
+
+def test_the_wrench_matrix_is_minus_the_jacobian_of_the_cable_lengths(robot, rng):
+    """d(x ⊕ δ) − d(x ⊖ δ) = −2 Wᵀ δ + O(δ³), for each of the six directions."""
+    step = 1e-6
+    for position, orientation in random_poses(robot, rng, 5):
+        structure, _ = pose_kinematics.wrench_matrix(robot, position, orientation)
+        for axis in range(6):
+            delta = np.eye(6)[axis] * step
+            ahead = pose_kinematics.cable_vectors(robot, *moved(position, orientation, delta))[1]
+            behind = pose_kinematics.cable_vectors(robot, *moved(position, orientation, -delta))[1]
+            assert np.allclose((ahead - behind) / (2 * step), -structure[axis], atol=1e-8)
+
+
+def trajectory(time_s):
+    """A pose that moves and turns smoothly (p, q), and its twist and twist rate, exact."""
+    position = np.array([1.0 + 0.2 * np.sin(time_s), 0.75 + 0.1 * np.cos(2 * time_s), 1.0 + 0.1 * time_s ** 2])
+    velocity = np.array([0.2 * np.cos(time_s), -0.2 * np.sin(2 * time_s), 0.2 * time_s])
+    acceleration = np.array([-0.2 * np.sin(time_s), -0.4 * np.cos(2 * time_s), 0.2])
+    axis = np.array([1.0, 2.0, 0.5]) / np.linalg.norm([1.0, 2.0, 0.5])
+    angle, rate, rate_of_rate = 0.2 * np.sin(time_s), 0.2 * np.cos(time_s), -0.2 * np.sin(time_s)
+    return (position, from_rotation_vector(axis * angle), velocity, axis * rate, acceleration,
+            axis * rate_of_rate)
+
+
+def test_joint_velocity_and_acceleration_are_the_derivatives_of_the_joint_angles(robot):
+    step = 1e-4
+    for time_s in (0.3, 1.1, 2.0):
+        position, orientation, velocity, omega, acceleration, alpha = trajectory(time_s)
+        angles = [pose_kinematics.inverse_kinematics(robot, *trajectory(time_s + k * step)[:2])
+                  for k in (-1, 0, 1)]
+        numeric_velocity = (angles[2] - angles[0]) / (2 * step)
+        numeric_acceleration = (angles[2] - 2 * angles[1] + angles[0]) / step ** 2
+        assert np.allclose(pose_kinematics.joint_velocity(robot, position, orientation, velocity, omega),
+                           numeric_velocity, atol=1e-7)
+        assert np.allclose(pose_kinematics.joint_acceleration(robot, position, orientation, velocity, omega,
+                                                              acceleration, alpha),
+                           numeric_acceleration, atol=1e-4)
+
+
+# ---- statics ---------------------------------------------------------------------------
+
+def test_the_tensions_hold_the_platform_within_their_bounds(robot, distribution, rng):
+    for position, orientation in random_poses(robot, rng, 20):
+        structure, _ = pose_kinematics.wrench_matrix(robot, position, orientation)
+        body = pose_dynamics.rigid_body(robot, orientation, np.zeros(3))
+        tension = distribution.distribute(structure, -body.weight_wrench)
+        assert np.allclose(structure @ tension + body.weight_wrench, 0.0, atol=1e-9)
+        assert tension.min() >= robot.tension_min_n - 1e-9 and tension.max() <= robot.tension_max_n + 1e-9
+
+
+def test_a_pose_no_tensions_hold_is_named_with_its_orientation(robot, distribution):
+    """5 cm below the exit points the cables pull almost sideways: holding 5 kg up takes
+    more than τ_max; turned upside down, the crossings unwind and a cable goes slack."""
+    for position, orientation, words in (
+            ((1.0, 0.75, 1.95), IDENTITY, r'q = \(1.0000, 0.0000, 0.0000, 0.0000\): cable \d cannot be brought to 120'),
+            ((1.0, 0.75, 1.0), from_axis_angle([1, 0, 0], np.radians(170)), r'p = \(1.0000, 0.7500, 1.0000\) m')):
+        with pytest.raises(InfeasibleTensionError, match=words):
+            pose_dynamics.inverse_dynamics(robot, distribution, np.array(position), orientation,
+                                           *[np.zeros(3)] * 4)
+
+
+# ---- dynamics --------------------------------------------------------------------------
+
+def test_direct_dynamics_undoes_inverse_dynamics(robot, distribution):
+    for time_s in (0.2, 0.9, 1.7):
+        position, orientation, velocity, omega, acceleration, alpha = trajectory(time_s)
+        inverse = pose_dynamics.inverse_dynamics(robot, distribution, position, orientation, velocity, omega,
+                                                 acceleration, alpha)
+        assert inverse.tension_n.min() > 0.0
+        direct = pose_dynamics.direct_dynamics(robot, position, orientation, velocity, omega,
+                                               inverse.torque_nm, inverse.joint_velocity_rad_s)
+        assert direct.taut.all()
+        assert np.allclose(direct.acceleration_m_s2, acceleration, atol=1e-9)
+        assert np.allclose(direct.angular_acceleration_rad_s2, alpha, atol=1e-9)
+        assert np.allclose(direct.tension_n, inverse.tension_n, atol=1e-8)
+        assert np.allclose(direct.joint_acceleration_rad_s2, inverse.joint_acceleration_rad_s2, atol=1e-8)
+
+
+def test_the_holding_torques_keep_the_platform_at_rest(robot, distribution, rng):
+    for position, orientation in random_poses(robot, rng, 5):
+        holding = pose_dynamics.inverse_dynamics(robot, distribution, position, orientation,
+                                                 *[np.zeros(3)] * 4)
+        assert np.all(holding.torque_nm < 0.0)   # every motor holds its cable up
+        at_rest = pose_dynamics.direct_dynamics(robot, position, orientation, np.zeros(3), np.zeros(3),
+                                                holding.torque_nm, np.zeros(8))
+        assert np.allclose(at_rest.acceleration_m_s2, 0.0, atol=1e-10)
+        assert np.allclose(at_rest.angular_acceleration_rad_s2, 0.0, atol=1e-10)
+
+
+def derivative(robot, state, torque, attached):
+    """(ṗ, q̇, a, α) of the state (p, q, v, ω) under constant motor torques, cables rigid."""
+    position, orientation, velocity, omega = state
+    joint_velocity = pose_kinematics.joint_velocity(robot, position, orientation, velocity, omega)
+    direct = pose_dynamics.direct_dynamics(robot, position, orientation, velocity, omega, torque,
+                                           joint_velocity, attached)
+    return (velocity, 0.5 * product(np.concatenate([[0.0], omega]), orientation),
+            direct.acceleration_m_s2, direct.angular_acceleration_rad_s2), direct
+
+
+def rk4(robot, state, torque, attached, step_s):
+    def shifted(base, slopes, scale):
+        return tuple(value + scale * slope for value, slope in zip(base, slopes))
+    k1, direct = derivative(robot, state, torque, attached)
+    k2, _ = derivative(robot, shifted(state, k1, step_s / 2), torque, attached)
+    k3, _ = derivative(robot, shifted(state, k2, step_s / 2), torque, attached)
+    k4, _ = derivative(robot, shifted(state, k3, step_s), torque, attached)
+    position, orientation, velocity, omega = (value + step_s / 6 * (a + 2 * b + 2 * c + d)
+                                              for value, a, b, c, d in zip(state, k1, k2, k3, k4))
+    return (position, normalised(orientation), velocity, omega), direct
+
+
+def energy(robot, state, torque):
+    """Kinetic energy of the platform and the motors, its weight's potential, and the
+    motors' constant torques' potential −c·θ (J)."""
+    position, orientation, velocity, omega = state
+    body = pose_dynamics.rigid_body(robot, orientation, omega)
+    twist = np.concatenate([velocity, omega])
+    joint_velocity = pose_kinematics.joint_velocity(robot, position, orientation, velocity, omega)
+    centre = position + rotation_matrix(orientation) @ robot.platform.centre_of_mass_m
+    return (0.5 * twist @ body.mass_matrix @ twist
+            + 0.5 * robot.motor.inertia_kg_m2 * joint_velocity @ joint_velocity
+            - robot.mass_kg * robot.gravity_m_s2 @ centre
+            - torque @ pose_kinematics.inverse_kinematics(robot, position, orientation))
+
+
+def test_without_friction_the_cables_and_motors_conserve_energy(robot, distribution):
+    """Motors without friction under constant torques 10 % under the holding ones: the
+    platform sinks and swings, its cables taut, and the energy of platform, motors, weight
+    and torques stays constant."""
+    frictionless = replace(robot, motor=replace(robot.motor, viscous_friction_nm_s_rad=0.0),
+                           platform=replace(robot.platform, centre_of_mass_m=np.array([0.01, -0.02, -0.03])))
+    position, orientation = robot.home_position_m, from_axis_angle([1, 1, 0], 0.1)
+    holding = pose_dynamics.inverse_dynamics(frictionless, distribution, position, orientation,
+                                             *[np.zeros(3)] * 4).torque_nm
+    torque = 0.9 * holding
+    state = (position, orientation, np.array([0.05, 0.0, 0.0]), np.array([0.0, 0.2, 0.1]))
+    start = energy(frictionless, state, torque)
+    for _ in range(250):
+        state, direct = rk4(frictionless, state, torque, None, 1e-3)
+        assert direct.taut.all()
+    assert state[0][2] < position[2] - 0.01, 'the platform moved'
+    assert energy(frictionless, state, torque) == pytest.approx(start, abs=1e-7 * abs(start))
+
+
+def independent_free_flight(robot, state, duration_s, steps):
+    """The platform without cables, written from scratch: its centre of mass falls
+    freely, and its rotation obeys Euler's equations in the body frame,
+    I ω̇_b + ω_b × I ω_b = 0, q̇ = ½ q ⊗ (0, ω_b); classic RK4."""
+    position, orientation, velocity, omega = state
+    rotation = rotation_matrix(orientation)
+    centre = position + rotation @ robot.platform.centre_of_mass_m
+    centre_velocity = velocity + np.cross(omega, rotation @ robot.platform.centre_of_mass_m)
+    inertia = robot.platform.inertia_kg_m2
+
+    def rate(q, w_body):
+        spin = np.linalg.solve(inertia, -np.cross(w_body, inertia @ w_body))
+        return 0.5 * product(q, np.concatenate([[0.0], w_body])), spin
+
+    q, w_body = orientation, rotation.T @ omega
+    h = duration_s / steps
+    for _ in range(steps):
+        a1, b1 = rate(q, w_body)
+        a2, b2 = rate(q + h / 2 * a1, w_body + h / 2 * b1)
+        a3, b3 = rate(q + h / 2 * a2, w_body + h / 2 * b2)
+        a4, b4 = rate(q + h * a3, w_body + h * b3)
+        q = normalised(q + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4))
+        w_body = w_body + h / 6 * (b1 + 2 * b2 + 2 * b3 + b4)
+    centre = centre + centre_velocity * duration_s + 0.5 * robot.gravity_m_s2 * duration_s ** 2
+    return centre - rotation_matrix(q) @ robot.platform.centre_of_mass_m, q
+
+
+def test_a_free_platform_tumbles_as_an_independent_rigid_body_integrator_says(robot):
+    """Every cable detached, the centre of mass off the frame's origin: the model's
+    Newton–Euler about the origin, integrated, against the free fall of the centre of
+    mass and Euler's equations written here."""
+    body = replace(robot, platform=replace(robot.platform, centre_of_mass_m=np.array([0.02, -0.01, 0.03])))
+    state = (robot.home_position_m, from_axis_angle([0, 1, 1], 0.3), np.array([0.1, -0.2, 0.3]),
+             np.array([1.5, -0.7, 2.0]))
+    detached = np.zeros(8, dtype=bool)
+    ours = state
+    for _ in range(500):
+        ours, _ = rk4(body, ours, np.zeros(8), detached, 1e-3)
+    position, orientation = independent_free_flight(body, state, 0.5, 500)
+    assert np.allclose(ours[0], position, atol=1e-9)
+    assert np.linalg.norm(difference(ours[1], orientation)) < 1e-9
+
+
+def test_a_run_of_a_platform_robot_is_refused_in_one_line_until_the_stack_moves_platforms(tmp_path, capsys):
+    from cdpr_bringup.scenario import command
+    assert command.main(['--config', str(PLATFORM_ROBOT), '--engine', 'inprocess', '--out', str(tmp_path)]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and 'carries a 6-DOF platform' in error[0] and 'Traceback' not in error[0]
+
+
+def test_cdpr_robot_shows_the_platforms_wrench_feasible_workspace(capsys):
+    from cdpr_bringup.reports import robot_summary
+    assert robot_summary.main(['--config', str(PLATFORM_ROBOT)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    shares = {line.rsplit(None, 1)[0].strip(): float(line.split()[-1].rstrip('%'))
+              for line in lines if line.strip().startswith(('nominal', 'turned', 'cable'))}
+    assert len(shares) == 1 + 6 + 8
+    assert shares['nominal orientation'] > 95.0 and shares['turned +15° about y'] > 95.0
+    # one cable fewer, a smaller workspace, but one there is: where a recovery can go
+    assert all(0.0 < share < shares['nominal orientation'] for key, share in shares.items()
+               if key.startswith('cable'))
