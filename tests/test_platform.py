@@ -347,10 +347,16 @@ def test_a_run_of_a_platform_robot_is_refused_in_one_line_until_the_stack_moves_
     assert len(error) == 1 and 'carries a 6-DOF platform' in error[0] and 'Traceback' not in error[0]
 
 
-def test_cdpr_robot_shows_the_platforms_wrench_feasible_workspace(capsys):
+def test_cdpr_robot_shows_the_platforms_wrench_feasible_workspace_and_its_motions_tensions(capsys):
     from cdpr_bringup.reports import robot_summary
-    assert robot_summary.main(['--config', str(PLATFORM_ROBOT)]) == 0
+    assert robot_summary.main(['--config', str(PLATFORM_ROBOT), '--motions',
+                               str(CONFIG_DIR / 'crossed_platform_motions.yaml')]) == 0
     lines = capsys.readouterr().out.splitlines()
+    motions = {line.split()[0]: [float(value) for value in line.split()[1:]] for line in lines
+               if line.startswith('  ') and line.split()[0] in ('climb-tilt', 'across-yaw', 'along', 'circle')}
+    assert motions['climb-tilt'][1] == 15.0 and motions['along'][1] == 0.0
+    # move s, turn °, least and greatest tension (N), largest torque: within the cables' bounds
+    assert all(2.0 <= least <= greatest <= 120.0 for _, _, least, greatest, _ in motions.values())
     shares = {line.rsplit(None, 1)[0].strip(): float(line.split()[-1].rstrip('%'))
               for line in lines if line.strip().startswith(('nominal', 'turned', 'cable'))}
     assert len(shares) == 1 + 6 + 8

@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from .config import Section, load_config, load_section
+from .pose_trajectories import PoseTrajectory, Turn
+from .rotation import from_axis_angle, product
 from .trajectories import Circle, Hold, Sequence, StraightLine, quintic_time_at_fraction
 
 MOTION_TYPES = ('line', 'circle')
@@ -91,3 +93,33 @@ def motion_from_settled(motion: Section) -> Motion:
 def load_motion(path: str | Path, name: str, reverse: bool = False) -> Motion:
     """The motion `name` of the `motions` section of the YAML file at `path`."""
     return motion_from_settled(settled_motion(path, name, reverse))
+
+
+def pose_motion_from_settled(motion: Section, start_orientation) -> 'PoseMotion':
+    """A platform's motion from a settled motion section: its path as `motion_from_settled`
+    reads it, and its `turn` (axis: a world direction, angle_deg) over the move, from
+    `start_orientation`; without `turn` the orientation stays `start_orientation`."""
+    path = motion_from_settled(motion)
+    turn = motion.section('turn', {})
+    axis = turn.vector('axis', 3, [0.0, 0.0, 1.0])
+    if not np.linalg.norm(axis) > 0.0:
+        raise turn.error('axis', 'must be a non-zero direction')
+    angle = np.radians(turn.number('angle_deg', 0.0))
+    if motion.raw('reverse', False):
+        start_orientation = product(from_axis_angle(axis, angle), start_orientation)
+        angle = -angle
+    return PoseMotion(path, PoseTrajectory(path.trajectory, Turn(start_orientation, axis, angle,
+                                                                  path.move.duration_s, path.move_start_s)))
+
+
+@dataclass
+class PoseMotion:
+    """A platform's rest → move → rest reference: the point-mass motion of its position
+    (`motion`, whose timing it shares) and the pose trajectory with the turn."""
+
+    motion: Motion
+    trajectory: PoseTrajectory
+
+    @property
+    def name(self) -> str:
+        return self.motion.name

@@ -10,7 +10,8 @@ import numpy as np
 from cdpr_control.config import ConfigError, load_config
 from cdpr_control.controller import PdGains
 from cdpr_control.dynamics import inverse_dynamics
-from cdpr_control.motions import load_motion, motion_names
+from cdpr_control.motions import load_motion, motion_names, pose_motion_from_settled, settled_motion
+from cdpr_control.pose_reference import tabulate_pose_reference
 from cdpr_control.robot import load_robot
 from cdpr_control.statics import closed_form_coverage
 from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
@@ -98,14 +99,14 @@ def motion_extremes(robot, tension_distribution, motion, period_s):
 
 # The grid the platform's wrench-feasible workspace is sampled on (m), and the turns it is
 # sampled at besides the nominal orientation: 15° about x, y and z.
-PLATFORM_GRID_SPACING_M = 0.1
+PLATFORM_GRID_SPACING_M = 0.15
 PLATFORM_TURN_RAD = np.radians(15.0)
 
 
-def print_platform(robot, config, distribution) -> None:
+def print_platform(robot, config, distribution, motions, period_s: float) -> None:
     """A platform robot: its geometry, and where tensions within the bounds hold it at rest
     (the wrench-feasible workspace) at its nominal orientation, turned 15° about each axis,
-    and with each cable broken."""
+    and with each cable broken; the least and greatest tension along each of `motions`."""
     platform = robot.platform
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, a platform of '
           f'{robot.mass_kg} kg, 6 DOF (position and orientation)')
@@ -130,7 +131,19 @@ def print_platform(robot, config, distribution) -> None:
     for i in range(robot.cable_count):
         share = wrench_feasible_share(robot, distribution, nominal, points, robot.cable_mask([i]))
         print(f'  cable {i + 1} broken: {share:6.1%}')
-    print('named motions and the run through the graph: not yet for a platform (issue 28)')
+    print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}):')
+    print(f'  {"motion":<14} {"move s":>7} {"turn °":>7} {"min N":>7} {"max N":>7} {"max |c| N·m":>12}')
+    for name in motion_names(motions):
+        motion = pose_motion_from_settled(settled_motion(motions, name), nominal)
+        try:
+            reference = tabulate_pose_reference(robot, distribution, motion.trajectory, period_s)
+        except InfeasibleTensionError as err:
+            print(f'  {name:<14} {motion.motion.move.duration_s:7.3f} no tensions within the bounds: {err}')
+            continue
+        turn = np.degrees(abs(motion.trajectory.turn.angle_rad))
+        print(f'  {name:<14} {motion.motion.move.duration_s:7.3f} {turn:7.1f} {reference.tension_n.min():7.2f} '
+              f'{reference.tension_n.max():7.2f} {np.abs(reference.feedforward_nm).max():12.3f}')
+    print('a run through the graph or the in-process engine: not yet for a platform (issue 28)')
 
 
 @command('cdpr-robot')
@@ -148,7 +161,7 @@ def main(argv=None):
     distribution = configured_tension_distribution(control, robot)
 
     if robot.platform is not None:
-        print_platform(robot, config, distribution)
+        print_platform(robot, config, distribution, config_file(args.motions), period)
         return 0
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, '
           f'end-effector {robot.mass_kg} kg')

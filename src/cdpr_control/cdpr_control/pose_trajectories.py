@@ -1,0 +1,77 @@
+"""Reference motions of a platform: a path of its position (trajectories.py) and a turn of
+its orientation, both starting and ending at rest.
+
+A turn rotates the platform by `angle_rad` about a fixed world axis, from its starting
+orientation, with the quintic rest-to-rest law; with the axis fixed, ω = axis · angle · ṡ
+and α = axis · angle · s̈ exactly. A turn of angle 0 keeps the orientation constant.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .rotation import from_rotation_vector, normalised, product
+from .trajectories import Trajectory, quintic_profile
+
+
+@dataclass(frozen=True)
+class PoseSample:
+    """Position p (m), orientation q, velocity v (m/s), angular velocity ω (rad/s),
+    acceleration a (m/s²), angular acceleration α (rad/s²); world frame."""
+
+    position_m: np.ndarray
+    orientation: np.ndarray
+    velocity_m_s: np.ndarray
+    angular_velocity_rad_s: np.ndarray
+    acceleration_m_s2: np.ndarray
+    angular_acceleration_rad_s2: np.ndarray
+
+    @property
+    def motion(self) -> tuple:
+        """(p, q, v, ω, a, α), the arguments of the pose dynamics."""
+        return (self.position_m, self.orientation, self.velocity_m_s, self.angular_velocity_rad_s,
+                self.acceleration_m_s2, self.angular_acceleration_rad_s2)
+
+
+class Turn:
+    """The orientation's part of a motion: from `start` by `angle_rad` about `axis`
+    (world frame), over `duration_s` beginning `delay_s` after the motion's start."""
+
+    def __init__(self, start, axis, angle_rad: float, duration_s: float, delay_s: float = 0.0):
+        axis = np.asarray(axis, dtype=float)
+        if np.linalg.norm(axis) == 0.0 or duration_s <= 0.0:
+            raise ValueError('a turn needs a non-zero axis and a positive duration')
+        self.start = normalised(start)
+        self.axis = axis / np.linalg.norm(axis)
+        self.angle_rad = float(angle_rad)
+        self.duration_s = float(duration_s)
+        self.delay_s = float(delay_s)
+
+    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, ω, α) at time t (s) of the motion."""
+        s, s_dot, s_ddot = quintic_profile(t - self.delay_s, self.duration_s)
+        turned = normalised(product(from_rotation_vector(self.axis * (self.angle_rad * float(s))), self.start))
+        return turned, self.axis * (self.angle_rad * float(s_dot)), self.axis * (self.angle_rad * float(s_ddot))
+
+    def reversed(self, total_s: float) -> 'Turn':
+        """The turn run backward within a motion of `total_s`."""
+        end = self.sample(self.delay_s + self.duration_s)[0]
+        return Turn(end, self.axis, -self.angle_rad, self.duration_s, total_s - self.delay_s - self.duration_s)
+
+
+class PoseTrajectory:
+    """A platform's motion: `path` for its position, `turn` for its orientation."""
+
+    def __init__(self, path: Trajectory, turn: Turn):
+        self.path = path
+        self.turn = turn
+        self.duration_s = path.duration_s
+
+    def sample(self, t: float) -> PoseSample:
+        position, velocity, acceleration = self.path.sample(t)
+        orientation, angular_velocity, angular_acceleration = self.turn.sample(t)
+        return PoseSample(position, orientation, velocity, angular_velocity, acceleration, angular_acceleration)
+
+    def reversed(self) -> 'PoseTrajectory':
+        return PoseTrajectory(self.path.reversed(), self.turn.reversed(self.duration_s))

@@ -1,0 +1,78 @@
+"""Rigid-cable simulation of a platform robot (6 DOF): the digital twin's model of it, and
+the plant's `rigid` fidelity for it (docs/platform.md)."""
+from __future__ import annotations
+
+import numpy as np
+
+from cdpr_control import pose_dynamics, pose_kinematics
+from cdpr_control.robot import Robot
+from cdpr_control.rotation import from_rotation_vector, normalised, product
+
+from .rigid_model import RETAUT_TOLERANCE_M
+
+
+class RigidPlatform:
+    """State: pose (p, q), twist (v, ω), motors θ, θ̇ (rad, rad/s); taut cables tie θ to
+    the pose.
+
+    Each step integrates the Newton–Euler direct dynamics (cdpr_control.pose_dynamics) by
+    semi-implicit Euler in `substeps`: twist first, then the pose with it (the orientation
+    turned by the rotation vector h ω). A cable is taut while attached, not paid out
+    beyond the straight-line length and pulling; otherwise its motor spins freely. After
+    each sub-step the taut motors are put back on the kinematic constraint. As
+    RigidCableRobot, a step replaces the state arrays rather than writing into them.
+    """
+
+    def __init__(self, robot: Robot, position_m, orientation, substeps: int = 1):
+        self.robot = robot
+        self.substeps = int(substeps)
+        self.position_m = np.array(position_m, dtype=float)
+        self.orientation = normalised(orientation)
+        self.velocity_m_s = np.zeros(3)
+        self.angular_velocity_rad_s = np.zeros(3)
+        self.angle_rad = pose_kinematics.inverse_kinematics(robot, self.position_m, self.orientation)
+        self.joint_velocity_rad_s = np.zeros(robot.cable_count)
+        self.drums_locked = False
+        self.attached = np.ones(robot.cable_count, dtype=bool)
+        self.taut = self.attached.copy()
+        self.tension_n = np.zeros(robot.cable_count)
+
+    def break_cables(self, cables) -> None:
+        """Detach the 0-based `cables` for good."""
+        for index in cables:
+            self.attached[index] = False
+
+    def step(self, torque_nm, period_s: float, external_wrench=None) -> None:
+        """Apply `torque_nm` (N·m) for `period_s` (s), and `external_wrench` (force N and
+        moment N·m about the platform's origin, world frame)."""
+        if self.drums_locked:
+            self.velocity_m_s, self.angular_velocity_rad_s = np.zeros(3), np.zeros(3)
+            self.joint_velocity_rad_s = np.zeros(self.robot.cable_count)
+            return
+        robot = self.robot
+        radius = robot.motor.drum_radius_m
+        h = period_s / self.substeps
+        torque = np.asarray(torque_nm, dtype=float)
+        position, orientation = self.position_m, self.orientation
+        velocity, omega = self.velocity_m_s, self.angular_velocity_rad_s
+        angle, speed = self.angle_rad, self.joint_velocity_rad_s
+        for _ in range(self.substeps):
+            _, lengths, _ = pose_kinematics.cable_vectors(robot, position, orientation)
+            candidates = self.attached & (robot.cable_length_offset_m + radius * angle
+                                          <= lengths + RETAUT_TOLERANCE_M)
+            motion = pose_dynamics.direct_dynamics(robot, position, orientation, velocity, omega, torque, speed,
+                                                   candidates, external_wrench)
+            velocity = velocity + h * motion.acceleration_m_s2
+            omega = omega + h * motion.angular_acceleration_rad_s2
+            position = position + h * velocity
+            orientation = normalised(product(from_rotation_vector(h * omega), orientation))
+            taut = motion.taut
+            speed = speed + h * motion.joint_acceleration_rad_s2
+            angle = angle + h * speed
+            # on the kinematic constraint: l = d, θ̇ = −Wᵀ (v, ω) / ρ
+            angle[taut] = pose_kinematics.inverse_kinematics(robot, position, orientation)[taut]
+            speed[taut] = pose_kinematics.joint_velocity(robot, position, orientation, velocity, omega)[taut]
+            self.tension_n, self.taut = motion.tension_n, taut
+        self.position_m, self.orientation = position, orientation
+        self.velocity_m_s, self.angular_velocity_rad_s = velocity, omega
+        self.angle_rad, self.joint_velocity_rad_s = angle, speed

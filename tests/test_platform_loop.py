@@ -1,0 +1,108 @@
+"""The platform's closed loop without DDS: the PD + feed-forward controller on the rigid
+and the elastic platform plants, through the shipped robot's motions, each with its
+reference tabulated from the pose trajectory."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cdpr_control.config import load_config
+from cdpr_control.controller import JointController, JointReference, PdGains
+from cdpr_control.motions import motion_names, pose_motion_from_settled, settled_motion
+from cdpr_control.pose_reference import tabulate_pose_reference
+from cdpr_control.robot import load_robot
+from cdpr_control.rotation import difference, tilt_rad
+from cdpr_control.tension_distribution import configured_tension_distribution
+from cdpr_twin.elastic_platform import ElasticPlatform
+from cdpr_twin.plant import PlantConfig
+from cdpr_twin.rigid_platform import RigidPlatform
+
+from conftest import CONFIG_DIR
+
+ROBOT = CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'
+MOTIONS = CONFIG_DIR / 'crossed_platform_motions.yaml'
+# The issue's bounds for a failure-free run on the rigid plant (m, rad).
+POSITION_BOUND_M = 2e-3
+ORIENTATION_BOUND_RAD = np.radians(0.2)
+
+
+def setup(motion_name: str, reverse: bool = False):
+    robot = load_robot(ROBOT)
+    settings = load_config(ROBOT)
+    control = settings.section('control')
+    motion = pose_motion_from_settled(settled_motion(MOTIONS, motion_name, reverse),
+                                      robot.platform.home_orientation)
+    reference = tabulate_pose_reference(robot, configured_tension_distribution(control, robot),
+                                        motion.trajectory, control.number('period_s', positive=True))
+    return robot, settings, motion, reference
+
+
+def run(robot, plant, gains, reference):
+    """Tracking errors (m, rad) and tensions (N) of every tick after the first."""
+    controller = JointController(robot, gains)
+    errors, turns, tensions = [], [], []
+    for k in range(len(reference)):
+        errors.append(np.linalg.norm(plant.position_m - reference.position_m[k]))
+        turns.append(np.linalg.norm(difference(plant.orientation, reference.orientation[k])))
+        torque = controller.command(plant.angle_rad, plant.joint_velocity_rad_s, JointReference(
+            reference.angle_rad[k], reference.joint_velocity_rad_s[k], reference.feedforward_nm[k]))
+        plant.step(torque, reference.period_s)
+        tensions.append(plant.tension_n.copy())
+    return np.array(errors), np.array(turns), np.array(tensions)
+
+
+def test_the_motions_turn_the_platform_as_their_files_say():
+    robot, _, motion, reference = setup('climb-tilt')
+    assert np.degrees(tilt_rad(reference.orientation[-1])) == pytest.approx(15.0, abs=1e-9)
+    assert np.degrees(tilt_rad(reference.orientation[0])) == pytest.approx(0.0, abs=1e-9)
+    # the turn and the path start and stop together, at rest
+    moving = np.linalg.norm(reference.angular_velocity_rad_s, axis=1) > 0.0
+    assert np.array_equal(moving, np.linalg.norm(reference.velocity_m_s, axis=1) > 0.0)
+    _, _, _, backward = setup('climb-tilt', reverse=True)
+    assert np.allclose(backward.position_m[0], reference.position_m[-1])
+    assert np.linalg.norm(difference(backward.orientation[0], reference.orientation[-1])) < 1e-12
+    assert np.linalg.norm(difference(backward.orientation[-1], reference.orientation[0])) < 1e-12
+    assert set(motion_names(MOTIONS)) == {'climb-tilt', 'across-yaw', 'along', 'circle'}
+
+
+@pytest.mark.parametrize('motion_name', ['climb-tilt', 'across-yaw', 'circle'])
+def test_the_rigid_platform_tracks_each_motion_within_the_bounds(motion_name):
+    robot, settings, _, reference = setup(motion_name)
+    gains = PdGains.from_section(robot, settings.section('control'))
+    assert gains.sampled_stable(robot, reference.period_s)
+    plant = RigidPlatform(robot, reference.position_m[0], reference.orientation[0])
+    errors, turns, tensions = run(robot, plant, gains, reference)
+    assert errors.max() < POSITION_BOUND_M and turns.max() < ORIENTATION_BOUND_RAD
+    assert tensions.min() >= robot.tension_min_n and tensions.max() <= robot.tension_max_n
+    assert plant.taut.all()
+
+
+def test_the_elastic_platform_tracks_the_tilting_climb_with_every_cable_within_its_bounds():
+    """Springs of EA / l from exit to attachment point, Coulomb friction the feed-forward
+    does not know: the PD holds the pose to a fraction of a millimetre."""
+    robot, settings, _, reference = setup('climb-tilt')
+    config = PlantConfig.from_section(settings.section('plant'), fidelity='elastic')
+    plant = ElasticPlatform(robot, reference.position_m[0], reference.orientation[0], config.substeps,
+                            config.axial_stiffness_n, config.damping_n_s_m, robot.motor.static_friction_nm,
+                            config.coulomb_velocity_rad_s)
+    errors, turns, tensions = run(robot, plant, PdGains.from_section(robot, settings.section('control')),
+                                  reference)
+    assert errors.max() < POSITION_BOUND_M and turns.max() < ORIENTATION_BOUND_RAD
+    assert tensions.min() >= robot.tension_min_n and tensions.max() <= robot.tension_max_n
+
+
+def test_a_broken_cable_frees_its_motor_and_the_others_take_the_load():
+    """Cable 1 detached in the rigid platform at rest under the holding torques: its motor,
+    no longer held by the cable, spins up under its own torque; the others take the load."""
+    robot, settings, _, reference = setup('along')
+    plant = RigidPlatform(robot, reference.position_m[0], reference.orientation[0])
+    holding = reference.feedforward_nm[0]
+    plant.step(holding, reference.period_s)
+    assert np.linalg.norm(plant.velocity_m_s) < 1e-9
+    plant.break_cables([0])
+    plant.step(holding, reference.period_s)
+    assert not plant.taut[0] and plant.tension_n[0] == 0.0
+    # the holding torque, no longer met by the cable: the freed drum winds in, J θ̈ = c
+    assert plant.joint_velocity_rad_s[0] == pytest.approx(holding[0] / robot.motor.inertia_kg_m2
+                                                          * reference.period_s, rel=1e-12)
+    assert np.linalg.norm(plant.velocity_m_s) > 1e-4
