@@ -45,7 +45,7 @@ def run(robot, plant, gains, reference):
         errors.append(np.linalg.norm(plant.position_m - reference.position_m[k]))
         turns.append(np.linalg.norm(difference(plant.orientation, reference.orientation[k])))
         torque = controller.command(plant.angle_rad, plant.joint_velocity_rad_s, JointReference(
-            reference.angle_rad[k], reference.joint_velocity_rad_s[k], reference.feedforward_nm[k]))
+            reference.angle_rad[k], reference.angular_velocity_rad_s[k], reference.feedforward_nm[k]))
         plant.step(torque, reference.period_s)
         tensions.append(plant.tension_n.copy())
     return np.array(errors), np.array(turns), np.array(tensions)
@@ -56,7 +56,7 @@ def test_the_motions_turn_the_platform_as_their_files_say():
     assert np.degrees(tilt_rad(reference.orientation[-1])) == pytest.approx(15.0, abs=1e-9)
     assert np.degrees(tilt_rad(reference.orientation[0])) == pytest.approx(0.0, abs=1e-9)
     # the turn and the path start and stop together, at rest
-    moving = np.linalg.norm(reference.angular_velocity_rad_s, axis=1) > 0.0
+    moving = np.linalg.norm(reference.platform_angular_velocity_rad_s, axis=1) > 0.0
     assert np.array_equal(moving, np.linalg.norm(reference.velocity_m_s, axis=1) > 0.0)
     _, _, _, backward = setup('climb-tilt', reverse=True)
     assert np.allclose(backward.position_m[0], reference.position_m[-1])
@@ -82,9 +82,7 @@ def test_the_elastic_platform_tracks_the_tilting_climb_with_every_cable_within_i
     does not know: the PD holds the pose to a fraction of a millimetre."""
     robot, settings, _, reference = setup('climb-tilt')
     config = PlantConfig.from_section(settings.section('plant'), fidelity='elastic')
-    plant = ElasticPlatform(robot, reference.position_m[0], reference.orientation[0], config.substeps,
-                            config.axial_stiffness_n, config.damping_n_s_m, robot.motor.static_friction_nm,
-                            config.coulomb_velocity_rad_s)
+    plant = ElasticPlatform(robot, reference.position_m[0], reference.orientation[0], config)
     errors, turns, tensions = run(robot, plant, PdGains.from_section(robot, settings.section('control')),
                                   reference)
     assert errors.max() < POSITION_BOUND_M and turns.max() < ORIENTATION_BOUND_RAD

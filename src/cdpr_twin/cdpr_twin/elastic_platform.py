@@ -20,6 +20,8 @@ from cdpr_control.robot import Robot
 from cdpr_control.rotation import from_rotation_vector, normalised, product, rotation_matrix
 from cdpr_control.tension_distribution import make_tension_distribution
 
+from .plant import PlantConfig
+
 
 class ElasticPlatform:
     """State: pose (p, q), twist (v, ω), motors θ, θ̇; tensions τ (N) follow from it.
@@ -28,14 +30,11 @@ class ElasticPlatform:
     platform there (the minimum-norm tensions within the cable bounds).
     """
 
-    def __init__(self, robot: Robot, position_m, orientation, substeps: int, axial_stiffness_n: float,
-                 damping_n_s_m: float, coulomb_friction_nm: float, coulomb_velocity_rad_s: float):
+    def __init__(self, robot: Robot, position_m, orientation, config: PlantConfig):
+        """`config`: the plant's settings (sub-steps, the cables' EA and damping, the Coulomb
+        friction's smoothing); the Coulomb friction is the robot's motors' static friction."""
         self.robot = robot
-        self.substeps = int(substeps)
-        self.axial_stiffness_n = axial_stiffness_n
-        self.damping_n_s_m = damping_n_s_m
-        self.coulomb_friction_nm = coulomb_friction_nm
-        self.coulomb_velocity_rad_s = coulomb_velocity_rad_s
+        self.config = config
         self.position_m = np.array(position_m, dtype=float)
         self.orientation = normalised(orientation)
         self.velocity_m_s = np.zeros(3)
@@ -45,7 +44,7 @@ class ElasticPlatform:
         distribution = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
         tension = holding_tensions(robot, distribution, self.position_m, self.orientation)
         _, d, _ = pose_kinematics.cable_vectors(robot, self.position_m, self.orientation)
-        unstretched = d / (1.0 + tension / axial_stiffness_n)
+        unstretched = d / (1.0 + tension / config.axial_stiffness_n)
         self.angle_rad = (unstretched - robot.cable_length_offset_m) / robot.motor.drum_radius_m
         self.joint_velocity_rad_s = np.zeros(robot.cable_count)
         self.tension_n = self.spring_tensions(self.position_m, self.orientation, self.velocity_m_s,
@@ -70,7 +69,7 @@ class ElasticPlatform:
         # the cable's stretch rate: its end on the platform moves with ḋ = −Wᵀ (v, ω), its
         # drum pays out ρ θ̇
         rate = -(np.concatenate([velocity, omega]) @ structure) - radius * speed
-        pull = (self.axial_stiffness_n / length) * (d - length) + self.damping_n_s_m * rate
+        pull = (self.config.axial_stiffness_n / length) * (d - length) + self.config.damping_n_s_m * rate
         tension = np.where(self.attached & (d > length) & (pull > 0.0), pull, 0.0)
         return tension, structure, rotation
 
@@ -78,13 +77,13 @@ class ElasticPlatform:
         """Apply `torque_nm` (N·m) for `period_s` (s), and `external_wrench` (force N and
         moment N·m about the platform's origin, world frame)."""
         robot, motor = self.robot, self.robot.motor
-        h = period_s / self.substeps
+        h = period_s / self.config.substeps
         torque = np.asarray(torque_nm, dtype=float)
         position, orientation = self.position_m, self.orientation
         velocity, omega = self.velocity_m_s, self.angular_velocity_rad_s
         angle, speed = self.angle_rad, self.joint_velocity_rad_s
         tension, structure, rotation = self.spring_tensions(position, orientation, velocity, omega, angle, speed)
-        for _ in range(self.substeps):
+        for _ in range(self.config.substeps):
             body = rigid_body_at(robot, rotation, omega)
             wrench = structure @ tension + body.weight_wrench - body.velocity_terms
             if external_wrench is not None:
@@ -98,7 +97,7 @@ class ElasticPlatform:
                 speed = np.zeros(robot.cable_count)
             else:
                 friction = (motor.viscous_friction_nm_s_rad * speed
-                            + self.coulomb_friction_nm * np.tanh(speed / self.coulomb_velocity_rad_s))
+                            + motor.static_friction_nm * np.tanh(speed / self.config.coulomb_velocity_rad_s))
                 speed = speed + h * (torque - friction + motor.drum_radius_m * tension) / motor.inertia_kg_m2
                 angle = angle + h * speed
             tension, structure, rotation = self.spring_tensions(position, orientation, velocity, omega, angle,
