@@ -61,6 +61,8 @@ def test_the_top_holds_only_the_base_and_the_rooms():
     top = {path.stem for path in ROOT.glob('*.py')} - {'__init__'}
     assert top == BASE
     assert set(rooms()) >= {'runs', 'bags', 'reports', 'graph', 'scenario', 'campaigns', 'bench'}
+    # a folder of modules without __init__.py would not be installed (find_packages)
+    assert {path.parent.name for path in ROOT.glob('*/*.py')} == set(rooms())
 
 
 @pytest.mark.parametrize('room', sorted(rooms()))
