@@ -14,8 +14,9 @@ from cdpr_control.robot import load_robot
 from cdpr_control.rotation import difference, tilt_rad
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_twin.elastic_platform import ElasticPlatform
-from cdpr_twin.plant import PlantConfig
+from cdpr_twin.plant import PlantConfig, PlantSimulator
 from cdpr_twin.rigid_platform import RigidPlatform
+from cdpr_twin.twin import DigitalTwin
 
 from conftest import CONFIG_DIR
 
@@ -44,7 +45,7 @@ def run(robot, plant, gains, reference):
     for k in range(len(reference)):
         errors.append(np.linalg.norm(plant.position_m - reference.position_m[k]))
         turns.append(np.linalg.norm(difference(plant.orientation, reference.orientation[k])))
-        torque = controller.command(plant.angle_rad, plant.joint_velocity_rad_s, JointReference(
+        torque = controller.command(plant.angle_rad, plant.angular_velocity_rad_s, JointReference(
             reference.angle_rad[k], reference.angular_velocity_rad_s[k], reference.feedforward_nm[k]))
         plant.step(torque, reference.period_s)
         tensions.append(plant.tension_n.copy())
@@ -101,6 +102,44 @@ def test_a_broken_cable_frees_its_motor_and_the_others_take_the_load():
     plant.step(holding, reference.period_s)
     assert not plant.taut[0] and plant.tension_n[0] == 0.0
     # the holding torque, no longer met by the cable: the freed drum winds in, J θ̈ = c
-    assert plant.joint_velocity_rad_s[0] == pytest.approx(holding[0] / robot.motor.inertia_kg_m2
+    assert plant.angular_velocity_rad_s[0] == pytest.approx(holding[0] / robot.motor.inertia_kg_m2
                                                           * reference.period_s, rel=1e-12)
     assert np.linalg.norm(plant.velocity_m_s) > 1e-4
+
+
+def test_the_plant_simulator_and_the_twin_take_a_platform_and_a_break_shows_on_its_motor():
+    """The graph's plant and twin cores on the platform: on the rigid plant, failure-free,
+    the twin's torque is the controller's to rounding (the same model); cable 3, broken
+    0.7 ms into a period, parts at that instant, and the residual c − c_DT grows on its
+    motor first, as the paper's on a point mass."""
+    robot, settings, _, reference = setup('climb-tilt')
+    gains = PdGains.from_section(robot, settings.section('control'))
+    config = PlantConfig.from_section(settings.section('plant'), fidelity='rigid')
+    period = reference.period_s
+    failure_s = 600 * period + 0.0007
+    plant = PlantSimulator(robot, config, reference.position_m[0], failures=[(failure_s, 2)],
+                           start_orientation=reference.orientation[0])
+    twin = DigitalTwin(robot, gains, reference.position_m[0], 1, reference.orientation[0])
+    controller = JointController(robot, gains)
+    assert np.allclose(plant.holding_torque_nm(), reference.feedforward_nm[0], atol=1e-9)
+    residuals = []
+    for k in range(700):
+        joint_reference = JointReference(reference.angle_rad[k], reference.angular_velocity_rad_s[k],
+                                         reference.feedforward_nm[k])
+        angle, speed = plant.measure()
+        command = controller.command(angle, speed, joint_reference)
+        residuals.append(command - twin.step(joint_reference, period).torque_nm)
+        plant.step(command, period)
+    residuals = np.abs(np.array(residuals))
+    assert residuals[:601].max() < 1e-9
+    assert plant.broken_at_s == {2: pytest.approx(failure_s, abs=1e-12)}
+    grown = residuals[601:].max(axis=0)
+    assert int(np.argmax(grown)) == 2 and grown[2] > 0.1
+    assert np.linalg.norm(difference(plant.orientation, reference.orientation[699])) > 0.0
+
+
+def test_the_field_plant_is_refused_for_a_platform_naming_why():
+    robot, settings, _, reference = setup('along')
+    config = PlantConfig.from_section(settings.section('plant'), fidelity='field')
+    with pytest.raises(ValueError, match='field plant models the paper.s rig, a point mass'):
+        PlantSimulator(robot, config, reference.position_m[0])

@@ -16,11 +16,10 @@ import numpy as np
 from cdpr_control import pose_kinematics
 from cdpr_control.pose_dynamics import rigid_body_at
 from cdpr_control.pose_statics import holding_tensions
+from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.robot import Robot
 from cdpr_control.rotation import from_rotation_vector, normalised, product, rotation_matrix
 from cdpr_control.tension_distribution import make_tension_distribution
-
-from .plant import PlantConfig
 
 
 class ElasticPlatform:
@@ -30,15 +29,15 @@ class ElasticPlatform:
     platform there (the minimum-norm tensions within the cable bounds).
     """
 
-    def __init__(self, robot: Robot, position_m, orientation, config: PlantConfig):
-        """`config`: the plant's settings (sub-steps, the cables' EA and damping, the Coulomb
+    def __init__(self, robot: Robot, position_m, orientation, config):
+        """`config`: the plant's PlantConfig (sub-steps, the cables' EA and damping, the Coulomb
         friction's smoothing); the Coulomb friction is the robot's motors' static friction."""
         self.robot = robot
         self.config = config
         self.position_m = np.array(position_m, dtype=float)
         self.orientation = normalised(orientation)
         self.velocity_m_s = np.zeros(3)
-        self.angular_velocity_rad_s = np.zeros(3)
+        self.platform_angular_velocity_rad_s = np.zeros(3)
         self.drums_locked = False
         self.attached = np.ones(robot.cable_count, dtype=bool)
         distribution = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
@@ -46,10 +45,10 @@ class ElasticPlatform:
         _, d, _ = pose_kinematics.cable_vectors(robot, self.position_m, self.orientation)
         unstretched = d / (1.0 + tension / config.axial_stiffness_n)
         self.angle_rad = (unstretched - robot.cable_length_offset_m) / robot.motor.drum_radius_m
-        self.joint_velocity_rad_s = np.zeros(robot.cable_count)
+        self.angular_velocity_rad_s = np.zeros(robot.cable_count)
         self.tension_n = self.spring_tensions(self.position_m, self.orientation, self.velocity_m_s,
-                                              self.angular_velocity_rad_s, self.angle_rad,
-                                              self.joint_velocity_rad_s)[0]
+                                              self.platform_angular_velocity_rad_s, self.angle_rad,
+                                              self.angular_velocity_rad_s)[0]
 
     def break_cables(self, cables) -> None:
         """Detach the 0-based `cables` for good."""
@@ -73,17 +72,19 @@ class ElasticPlatform:
         tension = np.where(self.attached & (d > length) & (pull > 0.0), pull, 0.0)
         return tension, structure, rotation
 
-    def step(self, torque_nm, period_s: float, external_wrench=None) -> None:
-        """Apply `torque_nm` (N·m) for `period_s` (s), and `external_wrench` (force N and
-        moment N·m about the platform's origin, world frame)."""
+    def step(self, torque_nm, period_s: float, substeps: int | None = None, external_force_n=NO_FORCE) -> None:
+        """Apply `torque_nm` (N·m) for `period_s` (s), in `substeps` (default: the model's),
+        and `external_force_n` (N, world frame) at the platform's origin."""
+        external_wrench = None if tuple(external_force_n) == NO_FORCE else np.concatenate([external_force_n, np.zeros(3)])
         robot, motor = self.robot, self.robot.motor
-        h = period_s / self.config.substeps
+        substeps = substeps or self.config.substeps
+        h = period_s / substeps
         torque = np.asarray(torque_nm, dtype=float)
         position, orientation = self.position_m, self.orientation
-        velocity, omega = self.velocity_m_s, self.angular_velocity_rad_s
-        angle, speed = self.angle_rad, self.joint_velocity_rad_s
+        velocity, omega = self.velocity_m_s, self.platform_angular_velocity_rad_s
+        angle, speed = self.angle_rad, self.angular_velocity_rad_s
         tension, structure, rotation = self.spring_tensions(position, orientation, velocity, omega, angle, speed)
-        for _ in range(self.config.substeps):
+        for _ in range(substeps):
             body = rigid_body_at(robot, rotation, omega)
             wrench = structure @ tension + body.weight_wrench - body.velocity_terms
             if external_wrench is not None:
@@ -103,6 +104,6 @@ class ElasticPlatform:
             tension, structure, rotation = self.spring_tensions(position, orientation, velocity, omega, angle,
                                                                 speed)
         self.position_m, self.orientation = position, orientation
-        self.velocity_m_s, self.angular_velocity_rad_s = velocity, omega
-        self.angle_rad, self.joint_velocity_rad_s = angle, speed
+        self.velocity_m_s, self.platform_angular_velocity_rad_s = velocity, omega
+        self.angle_rad, self.angular_velocity_rad_s = angle, speed
         self.tension_n = tension

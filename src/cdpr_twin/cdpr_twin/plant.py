@@ -20,11 +20,16 @@ import numpy as np
 from cdpr_control.config import Section
 from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.robot import Robot
+from cdpr_control.pose_statics import holding_tensions
+from cdpr_control.rotation import IDENTITY
 from cdpr_control.statics import holding_torque_nm
+from cdpr_control.tension_distribution import make_tension_distribution
 
 from .elastic_model import DriveTrain, ElasticCableRobot
+from .elastic_platform import ElasticPlatform
 from .elastic_substeps import KERNELS
 from .rigid_model import RigidCableRobot
+from .rigid_platform import RigidPlatform
 
 FIDELITIES = ('rigid', 'elastic', 'field')
 # Instants closer than this (s) are one: summed 2 ms periods drift by ~1e-13 s.
@@ -166,13 +171,29 @@ def drive_train(robot: Robot, config: PlantConfig) -> DriveTrain:
     return dataclasses.replace(config.drive, hanging_mass_kg=tuple(hanging))
 
 
-class PlantSimulator:
-    """Steps the plant under commanded torques, breaks cables on schedule, measures θ, θ̇."""
+def platform_model(robot: Robot, config: PlantConfig, position_m, orientation):
+    """A platform robot's model for the plant's fidelity (docs/platform.md)."""
+    if config.fidelity == 'rigid':
+        return RigidPlatform(robot, position_m, orientation, config.substeps)
+    if config.fidelity == 'elastic':
+        return ElasticPlatform(mismatched_robot(robot, config), position_m, orientation, config)
+    raise ValueError(f'plant.fidelity {config.fidelity}: the field plant models the paper\'s rig, a point '
+                     'mass; a platform runs on the rigid or the elastic plant')
 
-    def __init__(self, robot: Robot, config: PlantConfig, start_position_m, failures=(), pushes=()):
+
+class PlantSimulator:
+    """Steps the plant under commanded torques, breaks cables on schedule, measures θ, θ̇.
+    A platform robot starts at `start_orientation` (its home orientation when None)."""
+
+    def __init__(self, robot: Robot, config: PlantConfig, start_position_m, failures=(), pushes=(),
+                 start_orientation=None):
         self.robot = robot
         self.config = config
-        if config.fidelity == 'rigid':
+        if robot.platform is not None:
+            self.model = platform_model(robot, config, start_position_m,
+                                        robot.platform.home_orientation if start_orientation is None
+                                        else start_orientation)
+        elif config.fidelity == 'rigid':
             self.model = RigidCableRobot(robot, start_position_m, config.substeps)
         else:
             true_robot = mismatched_robot(robot, config)
@@ -248,7 +269,13 @@ class PlantSimulator:
     def holding_torque_nm(self) -> np.ndarray:
         """c = −ρ t (N·m), t the static tensions of the cables still attached where the
         end-effector is: what the drive holds the load with before its first command."""
-        return holding_torque_nm(self.robot, self.position_m, self.robot.cable_mask(self.broken))
+        attached = self.robot.cable_mask(self.broken)
+        if self.robot.platform is None:
+            return holding_torque_nm(self.robot, self.position_m, attached)
+        distribution = make_tension_distribution('bounded_minimum_norm', self.robot.tension_min_n,
+                                                 self.robot.tension_max_n)
+        return -self.robot.motor.drum_radius_m * holding_tensions(self.robot, distribution, self.position_m,
+                                                                  self.model.orientation, attached)
 
     def applied_torque_nm(self, command_nm) -> np.ndarray:
         """The torque (N·m) the motors apply, and the drive reports as applied, for
@@ -324,3 +351,8 @@ class PlantSimulator:
     @property
     def tension_n(self) -> np.ndarray:
         return self.model.tension_n
+
+    @property
+    def orientation(self) -> np.ndarray:
+        """The platform's orientation (unit quaternion); the identity for a point mass."""
+        return self.model.orientation if self.robot.platform is not None else IDENTITY

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from cdpr_control import pose_dynamics, pose_kinematics
+from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.robot import Robot
 from cdpr_control.rotation import from_rotation_vector, normalised, product
 
@@ -29,9 +30,9 @@ class RigidPlatform:
         self.position_m = np.array(position_m, dtype=float)
         self.orientation = normalised(orientation)
         self.velocity_m_s = np.zeros(3)
-        self.angular_velocity_rad_s = np.zeros(3)
+        self.platform_angular_velocity_rad_s = np.zeros(3)
         self.angle_rad = pose_kinematics.inverse_kinematics(robot, self.position_m, self.orientation)
-        self.joint_velocity_rad_s = np.zeros(robot.cable_count)
+        self.angular_velocity_rad_s = np.zeros(robot.cable_count)
         self.drums_locked = False
         self.attached = np.ones(robot.cable_count, dtype=bool)
         self.taut = self.attached.copy()
@@ -42,21 +43,23 @@ class RigidPlatform:
         for index in cables:
             self.attached[index] = False
 
-    def step(self, torque_nm, period_s: float, external_wrench=None) -> None:
-        """Apply `torque_nm` (N·m) for `period_s` (s), and `external_wrench` (force N and
-        moment N·m about the platform's origin, world frame)."""
+    def step(self, torque_nm, period_s: float, substeps: int | None = None, external_force_n=NO_FORCE) -> None:
+        """Apply `torque_nm` (N·m) for `period_s` (s), in `substeps` (default: the model's),
+        and `external_force_n` (N, world frame) at the platform's origin."""
+        external_wrench = None if tuple(external_force_n) == NO_FORCE else np.concatenate([external_force_n, np.zeros(3)])
         if self.drums_locked:
-            self.velocity_m_s, self.angular_velocity_rad_s = np.zeros(3), np.zeros(3)
-            self.joint_velocity_rad_s = np.zeros(self.robot.cable_count)
+            self.velocity_m_s, self.platform_angular_velocity_rad_s = np.zeros(3), np.zeros(3)
+            self.angular_velocity_rad_s = np.zeros(self.robot.cable_count)
             return
         robot = self.robot
         radius = robot.motor.drum_radius_m
-        h = period_s / self.substeps
+        substeps = substeps or self.substeps
+        h = period_s / substeps
         torque = np.asarray(torque_nm, dtype=float)
         position, orientation = self.position_m, self.orientation
-        velocity, omega = self.velocity_m_s, self.angular_velocity_rad_s
-        angle, speed = self.angle_rad, self.joint_velocity_rad_s
-        for _ in range(self.substeps):
+        velocity, omega = self.velocity_m_s, self.platform_angular_velocity_rad_s
+        angle, speed = self.angle_rad, self.angular_velocity_rad_s
+        for _ in range(substeps):
             _, lengths, _ = pose_kinematics.cable_vectors(robot, position, orientation)
             candidates = self.attached & (robot.cable_length_offset_m + radius * angle
                                           <= lengths + RETAUT_TOLERANCE_M)
@@ -74,5 +77,5 @@ class RigidPlatform:
             speed[taut] = pose_kinematics.joint_velocity(robot, position, orientation, velocity, omega)[taut]
             self.tension_n, self.taut = motion.tension_n, taut
         self.position_m, self.orientation = position, orientation
-        self.velocity_m_s, self.angular_velocity_rad_s = velocity, omega
-        self.angle_rad, self.joint_velocity_rad_s = angle, speed
+        self.velocity_m_s, self.platform_angular_velocity_rad_s = velocity, omega
+        self.angle_rad, self.angular_velocity_rad_s = angle, speed

@@ -1,31 +1,40 @@
 """The digital twin: a healthy rigid model driven by its own copy of the controller."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from cdpr_control.controller import JointController, JointReference, PdGains
 from cdpr_control.robot import Robot
+from cdpr_control.rotation import IDENTITY
 
 from .rigid_model import RigidCableRobot
+from .rigid_platform import RigidPlatform
 
 
 @dataclass
 class TwinOutput:
-    """The twin at one tick: θ (rad), θ̇ (rad/s), its torque c_DT (N·m), pose p (m)."""
+    """The twin at one tick: θ (rad), θ̇ (rad/s), its torque c_DT (N·m), position p (m)
+    and orientation (unit quaternion; the identity for a point mass)."""
 
     angle_rad: np.ndarray
     angular_velocity_rad_s: np.ndarray
     torque_nm: np.ndarray
     position_m: np.ndarray
+    orientation: np.ndarray = field(default_factory=IDENTITY.copy)
 
 
 class DigitalTwin:
-    """Fed the same reference as the robot; never sees the robot's measurements."""
+    """Fed the same reference as the robot; never sees the robot's measurements. A
+    platform robot's twin is its rigid platform model, starting at `start_orientation`
+    (its home orientation when None)."""
 
-    def __init__(self, robot: Robot, gains: PdGains, start_position_m, substeps: int):
-        self.model = RigidCableRobot(robot, start_position_m, substeps)
+    def __init__(self, robot: Robot, gains: PdGains, start_position_m, substeps: int, start_orientation=None):
+        self.model = (RigidCableRobot(robot, start_position_m, substeps) if robot.platform is None
+                      else RigidPlatform(robot, start_position_m,
+                                         robot.platform.home_orientation if start_orientation is None
+                                         else start_orientation, substeps))
         self.controller = JointController(robot, gains)
 
     def step(self, reference: JointReference, period_s: float) -> TwinOutput:
@@ -34,5 +43,6 @@ class DigitalTwin:
         # No copies needed: the model's step replaces its state arrays, never writes into them.
         angle, speed, position = model.angle_rad, model.angular_velocity_rad_s, model.position_m
         torque = self.controller.command(angle, speed, reference)
+        orientation = getattr(model, 'orientation', IDENTITY)
         model.step(torque, period_s)
-        return TwinOutput(angle, speed, torque, position)
+        return TwinOutput(angle, speed, torque, position, orientation)
