@@ -143,3 +143,25 @@ def test_the_field_plant_is_refused_for_a_platform_naming_why():
     config = PlantConfig.from_section(settings.section('plant'), fidelity='field')
     with pytest.raises(ValueError, match='field plant models the paper.s rig, a point mass'):
         PlantSimulator(robot, config, reference.position_m[0])
+
+
+def test_the_in_process_engine_runs_a_platform_on_the_elastic_plant_without_a_false_alarm():
+    """cdpr-scenario's in-process engine, as a user runs it: the settled run of the
+    platform, its twin and supervisor (the calibration made on it, found by its
+    fingerprint), the turning motion tracked within the bounds, no alarm, and the twin's
+    position, by forward kinematics of the platform's angles, where the plant is."""
+    from cdpr_bringup.runs.engine import run_inprocess
+    from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
+    from cdpr_bringup.scenario.command import metrics_of
+    scenario = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='across-yaw',
+                                              fidelity='elastic'))
+    assert scenario.calibration_path.name == 'crossed_platform_calibration_elastic.yaml'
+    recording = run_inprocess(scenario)
+    metrics = metrics_of(scenario, recording, 1.0)
+    assert metrics['detection_time_s'] is None and not metrics['false_alarm']
+    assert metrics['tracking_error_m'] < POSITION_BOUND_M
+    assert metrics['orientation_tracking_error_rad'] < ORIENTATION_BOUND_RAD
+    assert metrics['kpi']['K_c_m'] < 1e-3
+    assert recording.true_tension_n[1:].min() >= scenario.robot.tension_min_n
+    turned = np.linalg.norm(difference(recording.true_orientation[-1], recording.true_orientation[0]))
+    assert np.degrees(turned) == pytest.approx(12.0, abs=0.2)

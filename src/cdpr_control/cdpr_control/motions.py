@@ -97,9 +97,14 @@ def load_motion(path: str | Path, name: str, reverse: bool = False) -> Motion:
 
 def pose_motion_from_settled(motion: Section, start_orientation) -> 'PoseMotion':
     """A platform's motion from a settled motion section: its path as `motion_from_settled`
-    reads it, and its `turn` (axis: a world direction, angle_deg) over the move, from
+    reads it, and its turn (`with_turn`)."""
+    return with_turn(motion_from_settled(motion), motion, start_orientation)
+
+
+def with_turn(path: Motion, motion: Section, start_orientation) -> 'PoseMotion':
+    """The platform's motion of `path` (read from the settled `motion` section) with the
+    section's `turn` (axis: a world direction, angle_deg) over the move, from
     `start_orientation`; without `turn` the orientation stays `start_orientation`."""
-    path = motion_from_settled(motion)
     turn = motion.section('turn', {})
     axis = turn.vector('axis', 3, [0.0, 0.0, 1.0])
     if not np.linalg.norm(axis) > 0.0:

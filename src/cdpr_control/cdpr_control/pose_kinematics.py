@@ -14,16 +14,20 @@ from __future__ import annotations
 import numpy as np
 
 from .kinematics import KinematicsError
+from .kinematics import forward_kinematics as point_mass_forward_kinematics
 from .robot import Robot
 from .rotation import cross_rows, from_rotation_vector, normalised, product, rotation_matrix, skew
 
 # Forward kinematics: Gauss–Newton on the six pose coordinates until every cable's
-# length is met to FK_TOLERANCE_M, or the step is that small; at most FK_ITERATIONS.
+# length is met to FK_TOLERANCE_M, or the step is below FK_STEP_TOLERANCE (m, rad): the
+# least-squares pose of lengths that carry noise and stretch; at most FK_ITERATIONS.
 FK_ITERATIONS = 30
 FK_TOLERANCE_M = 1e-12
-# A converged pose whose lengths are off by more than this (m) fits no pose: the lengths
-# are inconsistent (a stale angle, a broken cable counted).
-FK_RESIDUAL_LIMIT_M = 1e-6
+FK_STEP_TOLERANCE = 1e-11
+# The least-squares pose whose lengths are still off by more than this (m) fits the
+# lengths of no pose: they are inconsistent (a stale angle, a broken cable counted).
+# Resolver noise and the cables' stretch leave up to a few tenths of a millimetre.
+FK_RESIDUAL_LIMIT_M = 1e-3
 
 
 def cable_vectors(robot: Robot, position_m, orientation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -91,8 +95,9 @@ def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None) -> tup
     (boolean mask; at least 6), by Gauss–Newton from `start` (a pose; the home pose when
     None): each step solves Wᵀ δ = d(x) − l in the least-squares sense for δ = (δp, δφ),
     moves p by δp and turns q by the rotation vector δφ. It stops when every length is
-    met to FK_TOLERANCE_M or the step is that small; KinematicsError when the lengths are
-    then still off by more than FK_RESIDUAL_LIMIT_M, or after FK_ITERATIONS."""
+    met to FK_TOLERANCE_M or the step is below FK_STEP_TOLERANCE (the least-squares pose
+    of lengths with noise); KinematicsError after FK_ITERATIONS steps, or when the
+    lengths are then still off by more than FK_RESIDUAL_LIMIT_M."""
     mask = slice(None) if cables is None else np.asarray(cables, dtype=bool)
     used_count = robot.cable_count if cables is None else np.count_nonzero(mask)
     if used_count < 6:
@@ -114,11 +119,37 @@ def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None) -> tup
             step = np.linalg.lstsq(used.T, residual, rcond=None)[0]
         position = position + step[:3]
         orientation = normalised(product(from_rotation_vector(step[3:]), orientation))
-        if np.max(np.abs(step)) < FK_TOLERANCE_M:
+        if np.max(np.abs(step)) < FK_STEP_TOLERANCE:
             break
+    else:
+        raise KinematicsError(f'forward kinematics did not converge in {FK_ITERATIONS} Gauss–Newton steps')
     _, d, _ = cable_vectors(robot, position, orientation)
     worst = np.max(np.abs(d[mask] - lengths))
     if worst > FK_RESIDUAL_LIMIT_M:
-        raise KinematicsError(f'forward kinematics did not converge in {FK_ITERATIONS} Gauss–Newton steps: '
-                              f'the cable lengths are still off by up to {worst * 1000:.3f} mm')
+        raise KinematicsError(f'the cable lengths fit no pose: at the closest, one is off by '
+                              f'{worst * 1000:.3f} mm')
     return position, orientation
+
+
+def forward_kinematics_rows(robot: Robot, angles_rad, cables=None) -> tuple[np.ndarray, np.ndarray]:
+    """`forward_kinematics` of each row of a stack of angles (n × m), as a recorded run is
+    read: (positions n × 3, orientations n × 4), each row started from the row before's pose
+    (the first from home), as a node follows the platform tick by tick."""
+    angles = np.asarray(angles_rad, dtype=float)
+    positions, orientations = np.empty((len(angles), 3)), np.empty((len(angles), 4))
+    pose = None
+    for row, row_angles in enumerate(angles):
+        pose = forward_kinematics(robot, row_angles, cables, start=pose)
+        positions[row], orientations[row] = pose
+    return positions, orientations
+
+
+def end_effector_positions(robot: Robot, angles_rad, cables=None) -> np.ndarray:
+    """Where the motor angles put the end-effector (m; a stack n × m gives n × 3), of any
+    robot: the point mass's forward kinematics, or the origin of a platform's pose."""
+    if robot.platform is None:
+        return point_mass_forward_kinematics(robot, angles_rad, cables)
+    angles = np.asarray(angles_rad, dtype=float)
+    if angles.ndim == 1:
+        return forward_kinematics(robot, angles, cables)[0]
+    return forward_kinematics_rows(robot, angles, cables)[0]

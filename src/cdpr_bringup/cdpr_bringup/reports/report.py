@@ -25,7 +25,7 @@ import numpy as np
 
 from cdpr_control.config import Section, load_yaml
 from cdpr_control.friction import FrictionModel
-from cdpr_control.kinematics import forward_kinematics
+from cdpr_control.pose_kinematics import end_effector_positions
 from cdpr_control.robot import Robot, load_robot, robot_from_section
 from cdpr_fdi.config import load_fdi_config, load_recovery_config, settled_fdi
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
@@ -133,9 +133,9 @@ class Run:
         after = (self.time_s >= self.detection_time_s if self.detection_time_s is not None
                  else np.zeros(self.time_s.size, dtype=bool))
         position = np.empty((angles.shape[0], 3))
-        position[~after] = forward_kinematics(self.robot, angles[~after])
+        position[~after] = end_effector_positions(self.robot, angles[~after])
         if after.any():
-            position[after] = forward_kinematics(self.robot, angles[after], self.attached)
+            position[after] = end_effector_positions(self.robot, angles[after], self.attached)
         return position
 
     @cached_property

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from cdpr_control.config import Section
 from cdpr_msgs_py import contract
 
@@ -43,7 +45,9 @@ def summary_lines(metrics: dict) -> list[str]:
     lines += [f'  {key:<8} {value:10.4f} {PAPER_KPI[key]:10.4f}' for key, value in metrics['kpi'].items()
               if value is not None]
     if metrics['tracking_error_m'] is not None:
-        lines.append(f'  tracking error (true pose vs reference): {metrics["tracking_error_m"] * 1000:.2f} mm')
+        turn = metrics.get('orientation_tracking_error_rad')
+        lines.append(f'  tracking error (true pose vs reference): {metrics["tracking_error_m"] * 1000:.2f} mm'
+                     + ('' if turn is None else f', {np.degrees(turn):.3f}°'))
     holes = holes_said(metrics.get('bag_missing_ticks'))
     if holes:
         lines.append(f'  {holes}')

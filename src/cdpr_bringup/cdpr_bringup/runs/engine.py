@@ -46,8 +46,9 @@ def steer(setpoints: Setpoints, verdict: Verdict, next_stamp_ns: int) -> None:
 def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     robot = scenario.robot
     start = scenario.reference.position_m[0]
-    plant = PlantSimulator(robot, scenario.plant, start, scenario.failures, scenario.pushes)
-    twin = DigitalTwin(robot, scenario.gains, start, scenario.twin_substeps)
+    plant = PlantSimulator(robot, scenario.plant, start, scenario.failures, scenario.pushes,
+                           scenario.start_orientation)
+    twin = DigitalTwin(robot, scenario.gains, start, scenario.twin_substeps, scenario.start_orientation)
     controller = JointController(robot, scenario.gains, scenario.fdi.friction)
     setpoints = Setpoints(controller, exact=True)
     supervisor = (Supervisor(robot, scenario.fdi, scenario.recovery, scenario.distribution,
@@ -61,6 +62,10 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
         ('reference_position', 3), ('reference_angle', m), ('residual', m),
         ('recovery_reference_angle', m))}
     rows['recovery_reference_angle'][:] = np.nan
+    platform = robot.platform is not None
+    if platform:
+        rows.update({name: np.empty((cycles, 4)) for name in ('true_orientation', 'twin_orientation',
+                                                               'reference_orientation')})
     applied = np.zeros(m)
     run_length = RunLength(cycles - 1, scenario.hold_after_cycles)
     ran = 0
@@ -74,6 +79,8 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             angle, speed = plant.measure()
             rows['true_position'][k] = plant.position_m
             rows['true_tension'][k] = plant.tension_n
+            if platform:
+                rows['true_orientation'][k] = plant.orientation
             command = setpoints.command(stamp, angle, speed)
             if command is None:
                 raise RuntimeError(f'tick {k}: no {controller.mode} setpoint from the supervisor')
@@ -95,6 +102,9 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             row = min(k, len(scenario.reference) - 1)
             rows['reference_position'][k] = scenario.reference.position_m[row]
             rows['reference_angle'][k] = scenario.reference.angle_rad[row]
+            if platform:
+                rows['twin_orientation'][k] = twin_output.orientation
+                rows['reference_orientation'][k] = scenario.reference.orientation[row]
             ran = k + 1
     except KeyboardInterrupt:
         pass
@@ -111,4 +121,6 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
         recovery_reference_angle_rad=rows['recovery_reference_angle'],
         fdi=supervisor.summary() if supervisor is not None else {},
         interrupted=ran <= run_length.last_tick,
-        broken_at_s=dict(plant.broken_at_s))
+        broken_at_s=dict(plant.broken_at_s),
+        **({name: rows[name] for name in ('true_orientation', 'twin_orientation', 'reference_orientation')}
+           if platform else {}))

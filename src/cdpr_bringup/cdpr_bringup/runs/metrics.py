@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cdpr_control.kinematics import forward_kinematics
+from cdpr_control.pose_kinematics import end_effector_positions
+from cdpr_control.rotation import difference
 from cdpr_control.robot import Robot
 from cdpr_fdi.config import FdiConfig, RecoveryConfig
 from cdpr_msgs_py.contract import BROKEN_AT_KEY, SAFE_HOLD
@@ -23,7 +24,7 @@ def twin_kpis(robot: Robot, recording, ticks: slice = slice(None)) -> dict:
     ticks before it.
     """
     angles = recording.angle_rad[ticks]
-    measured = forward_kinematics(robot, angles)
+    measured = end_effector_positions(robot, angles)
     return {
         'K_c_m': float(np.max(np.linalg.norm(measured - recording.twin_position_m[ticks], axis=1))),
         'K_j_rad': float(np.max(np.abs(angles - recording.twin_angle_rad[ticks]))),
@@ -35,6 +36,15 @@ def tracking_error_m(recording, ticks: slice = slice(None)) -> float:
     """Largest distance between the true end-effector and the reference pose (m)."""
     return float(np.max(np.linalg.norm(recording.true_position_m[ticks]
                                        - recording.reference_position_m[ticks], axis=1)))
+
+
+def orientation_tracking_error_rad(recording, ticks: slice = slice(None)) -> float | None:
+    """Largest angle between the true platform's orientation and the reference's (rad);
+    None for a point mass."""
+    if recording.true_orientation is None:
+        return None
+    return float(np.max(np.linalg.norm(difference(recording.true_orientation[ticks],
+                                                  recording.reference_orientation[ticks]), axis=-1)))
 
 
 def ticks_before(recording, time_s: float | None) -> int:
@@ -144,6 +154,9 @@ def metrics_json(run: KnownRun) -> dict:
                              if run.recording.has_ground_truth else None),
         'cycles': int(run.recording.time_s.size),
         'wall_time_s': run.wall_time_s,
+        # a platform's: the largest angle between its true and its reference orientation
+        **({} if run.recording.true_orientation is None
+           else {'orientation_tracking_error_rad': orientation_tracking_error_rad(run.recording, nominal)}),
     }
 
 

@@ -37,6 +37,11 @@ class Recording:
     # A bag's recorder's count of the ticks each per-tick topic lacks (bag_io.missing_ticks);
     # None where nothing was counted (an in-process run loses nothing).
     missing_ticks: dict[str, int] | None = None
+    # A platform's orientations (unit quaternions, a row per cycle): the plant's true one,
+    # the twin's and the reference's; None for a point mass.
+    true_orientation: np.ndarray | None = None
+    twin_orientation: np.ndarray | None = None
+    reference_orientation: np.ndarray | None = None
 
     @property
     def has_ground_truth(self) -> bool:

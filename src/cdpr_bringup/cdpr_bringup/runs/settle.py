@@ -12,7 +12,8 @@ from pathlib import Path
 
 from cdpr_control.config import Section, load_config, load_yaml
 from cdpr_control.controller import PdGains
-from cdpr_control.motions import Motion, motion_from_settled, settled_motion
+from cdpr_control.motions import Motion, PoseMotion, motion_from_settled, settled_motion, with_turn
+from cdpr_control.pose_reference import tabulate_pose_reference
 from cdpr_control.reference import ReferenceTable, tabulate_reference
 from cdpr_control.robot import Robot, robot_from_section
 from cdpr_control.settings import ROBOT_DESCRIPTION, flatten, robot_description
@@ -81,6 +82,12 @@ class Scenario:
     fdi: FdiConfig
     recovery: RecoveryConfig
     markers: MarkerStyle
+    pose_motion: PoseMotion | None = None    # a platform's motion, with its turn
+
+    @property
+    def start_orientation(self):
+        """A platform's orientation at the start (unit quaternion); None for a point mass."""
+        return None if self.pose_motion is None else self.reference.orientation[0]
 
     def marker_frame(self) -> Frame:
         """The markers node's core for this run, as the node settles it."""
@@ -131,6 +138,10 @@ class Scenario:
         """Per node of the graph, the ROS parameters it is started with: the settled
         sections it reads (cdpr_control.settings) and, in realtime, the OS scheduling the
         `scheduling` section asks for (unless not `scheduling`: the OS's normal one)."""
+        if self.pose_motion is not None:
+            raise UsageError(f'--config {self.options.config}: {self.robot.name} carries a 6-DOF platform, '
+                             'which the in-process engine runs (--engine inprocess) but the node graph '
+                             'cannot yet: its nodes and pose topics move a point mass (docs/platform.md)')
         document = self.settings.data
         scheduling = (realtime_scheduling(self.settings.section('scheduling'))
                       if clock_mode == 'realtime' and scheduling else {})
@@ -152,6 +163,7 @@ class SettledRun:
     robot: Robot
     motion: Motion
     plant: PlantConfig
+    pose_motion: PoseMotion | None     # a platform's: the motion with its turn
 
 
 def settle(options: ScenarioOptions) -> SettledRun:
@@ -166,12 +178,10 @@ def settle(options: ScenarioOptions) -> SettledRun:
     document = copy.deepcopy(dict(loaded.data))
     settings = Section(document, config_path, defaulted=loaded.defaulted, sources=loaded.sources)
     robot = robot_from_section(settings.section('robot'))
-    if robot.platform is not None:
-        raise UsageError(f'--config {options.config}: {robot.name} carries a 6-DOF platform, which the '
-                         'model takes (cdpr-robot shows it) but a run cannot yet: the controller, twin, '
-                         'plants and graph move a point mass (docs/platform.md)')
     motion_section = settled_motion(config_file(options.motions), options.motion, options.reverse)
     motion = motion_from_settled(motion_section)
+    pose_motion = (None if robot.platform is None
+                   else with_turn(motion, motion_section, robot.platform.home_orientation))
     check_options(options, robot, motion)
     if options.fidelity is not None:
         document['plant']['fidelity'] = options.fidelity
@@ -194,6 +204,8 @@ def settle(options: ScenarioOptions) -> SettledRun:
     document['motion'] = dict(motion_section.data)
     document['run'] = {
         'start_position_m': motion.trajectory.start.tolist(),
+        **({} if pose_motion is None
+           else {'start_orientation': pose_motion.trajectory.sample(0.0).orientation.tolist()}),
         'failure_times_s': [motion.failure_time(options.fail_at_s, options.fail_at_fraction)
                             for _ in options.fail_cables],
         'failure_cable_indices': [cable - 1 for cable in options.fail_cables],
@@ -202,7 +214,7 @@ def settle(options: ScenarioOptions) -> SettledRun:
         'push_force_n': [float(f) for push in options.pushes for f in push[2:]],
     }
     return SettledRun(settings, config_path, None if calibration is None else Path(calibration.path),
-                      robot, motion, plant)
+                      robot, motion, plant, pose_motion)
 
 
 def build_scenario(options: ScenarioOptions) -> Scenario:
@@ -230,7 +242,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         gains=gains,
         twin_substeps=settings.section('twin').integer('substeps', minimum=1),
         motion=settled.motion,
-        reference=motion_reference(robot, distribution, settled.motion, period),
+        reference=motion_reference(robot, distribution, settled.pose_motion or settled.motion, period),
         plant=settled.plant,
         failures=failures,
         pushes=settled_pushes(run),
@@ -239,6 +251,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         fdi=fdi,
         recovery=recovery,
         markers=MarkerStyle.from_section(settings.section('markers')),
+        pose_motion=settled.pose_motion,
     )
     settings.data['run']['last_tick'] = scenario.cycles - 1
     if options.duration_s is None:
@@ -246,11 +259,14 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
     return scenario
 
 
-def motion_reference(robot: Robot, distribution: TensionDistribution, motion: Motion,
+def motion_reference(robot: Robot, distribution: TensionDistribution, motion: Motion | PoseMotion,
                      period_s: float) -> ReferenceTable:
-    """The motion's reference; UsageError, naming the motion, the pose and what to change,
+    """The motion's reference (a PoseReferenceTable for a platform's PoseMotion); UsageError,
+    naming the motion, the pose and what to change,
     where no tensions within the bounds hold the end-effector on it."""
     try:
+        if isinstance(motion, PoseMotion):
+            return tabulate_pose_reference(robot, distribution, motion.trajectory, period_s)
         return tabulate_reference(robot, distribution, motion.trajectory, period_s)
     except InfeasibleTensionError as err:
         remedy = ('set control.tension_distribution: bounded_minimum_norm (the nearest tensions '
