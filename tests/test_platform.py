@@ -365,3 +365,11 @@ def test_cdpr_robot_shows_the_platforms_wrench_feasible_workspace_and_its_motion
     # one cable fewer, a smaller workspace, but one there is: where a recovery can go
     assert all(0.0 < share < shares['nominal orientation'] for key, share in shares.items()
                if key.startswith('cable'))
+
+
+def test_a_failure_on_a_platform_is_refused_naming_the_option(tmp_path, capsys):
+    from cdpr_bringup.scenario import command
+    assert command.main(['--config', str(PLATFORM_ROBOT), '--motions', str(CONFIG_DIR / 'crossed_platform_motions.yaml'),
+                         '--motion', 'along', '--engine', 'inprocess', '--fail-cable', '2', '--out', str(tmp_path)]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and error[0].startswith('cdpr-scenario: --fail-cable 2: ')
