@@ -11,7 +11,7 @@ from cdpr_bringup.bags.bag_io import TYPESTORE
 from cdpr_msgs_py.stamps import ns_parts
 
 TYPES = TYPESTORE.types
-JOINT_STATE, POINT_STAMPED = 'sensor_msgs/msg/JointState', 'geometry_msgs/msg/PointStamped'
+JOINT_STATE, POSE_STAMPED = 'sensor_msgs/msg/JointState', 'geometry_msgs/msg/PoseStamped'
 
 
 def header(stamp_ns: int):
@@ -46,10 +46,18 @@ def test_joint_states_are_rosbags_bytes(names, fields):
             np.testing.assert_array_equal(getattr(read, field), values[field][k])
 
 
-def test_point_stampeds_are_rosbags_bytes():
-    xyz = np.random.default_rng(3).normal(size=(40, 3))
-    rows = bulk_cdr.point_stampeds(stamps(40), xyz)
+@pytest.mark.parametrize('turning', [False, True])
+def test_pose_stampeds_are_rosbags_bytes(turning):
+    """Positions, and a platform's orientations given (w, x, y, z) or a point mass's
+    identity, in ROS's (x, y, z, w) order."""
+    rng = np.random.default_rng(3)
+    xyz = rng.normal(size=(40, 3))
+    wxyz = rng.normal(size=(40, 4)) if turning else None
+    rows = bulk_cdr.pose_stampeds(stamps(40), xyz, wxyz)
     for k, stamp in enumerate(stamps(40)):
-        point = TYPES['geometry_msgs/msg/Point'](*map(float, xyz[k]))
-        message = TYPES[POINT_STAMPED](header=header(stamp), point=point)
-        assert rows[k].tobytes() == bytes(TYPESTORE.serialize_cdr(message, POINT_STAMPED)), f'tick {k}'
+        w, x, y, z = wxyz[k] if turning else (1.0, 0.0, 0.0, 0.0)
+        pose = TYPES['geometry_msgs/msg/Pose'](position=TYPES['geometry_msgs/msg/Point'](*map(float, xyz[k])),
+                                               orientation=TYPES['geometry_msgs/msg/Quaternion'](
+                                                   x=float(x), y=float(y), z=float(z), w=float(w)))
+        message = TYPES[POSE_STAMPED](header=header(stamp), pose=pose)
+        assert rows[k].tobytes() == bytes(TYPESTORE.serialize_cdr(message, POSE_STAMPED)), f'tick {k}'

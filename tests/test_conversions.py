@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from cdpr_msgs_py.contract import joint_names
-from cdpr_msgs_py.conversions import InvalidMessage, joint_state, joints_from_message
+from cdpr_msgs_py.conversions import InvalidMessage, joint_state, joints_from_message, pose_from_message, pose_stamped
 
 NAMES = joint_names(4)
 
@@ -49,3 +49,17 @@ def test_only_the_required_fields_are_checked():
     assert joints.position.size == 0
     with pytest.raises(InvalidMessage, match='position has 0 values'):
         joints_from_message(command, NAMES)
+
+
+def test_a_pose_keeps_its_orientation_and_a_bad_one_is_rejected():
+    """The pose topics carry (w, x, y, z) in ROS's (x, y, z, w) fields; a point mass's is
+    the identity."""
+    turned = (np.cos(0.2), 0.0, np.sin(0.2), 0.0)
+    position, orientation = pose_from_message(pose_stamped(5, [0.1, 0.2, 0.3], turned))
+    assert position.tolist() == [0.1, 0.2, 0.3] and orientation.tolist() == list(turned)
+    message = pose_stamped(5, [0.1, 0.2, 0.3])
+    assert (message.pose.orientation.w, message.pose.orientation.x) == (1.0, 0.0)
+    with pytest.raises(InvalidMessage, match='not a unit quaternion'):
+        pose_from_message(pose_stamped(5, [0.1, 0.2, 0.3], (1.0, 0.5, 0.0, 0.0)))
+    with pytest.raises(InvalidMessage, match='non-finite'):
+        pose_from_message(pose_stamped(5, [np.nan, 0.2, 0.3]))

@@ -79,8 +79,8 @@ def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_pa
     assert all(message.data == 0 for _, message in verdicts), \
         f'a false failure alarm (node scheduling: {scheduling})'
     poses = found[topics[1]]
-    before = [message.point.z for at, message in poses if at < killed_ns]
-    after = [message.point.z for at, message in poses if at >= killed_ns]
+    before = [message.pose.position.z for at, message in poses if at < killed_ns]
+    after = [message.pose.position.z for at, message in poses if at >= killed_ns]
     with timing_check(log, (started_s, killed_s), f'{victim} killed: the verdict recorded'):
         assert verdicts, 'no failure verdict in the bag'
     with timing_check(log, (started_s, killed_s), f'{victim} killed: the run before it recorded'):

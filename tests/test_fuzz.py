@@ -493,7 +493,9 @@ def test_digital_twin_rejects_bad_or_stale_references_and_stays_finite(
         for twin in twin_states:
             assert np.all(np.abs(twin.effort) <= TORQUE_LIMIT_NM)
         for pose in poses:
-            assert all(map(math.isfinite, (pose.point.x, pose.point.y, pose.point.z)))
+            position = pose.pose.position
+            assert all(map(math.isfinite, (position.x, position.y, position.z)))
+            assert pose.pose.orientation.w == 1.0   # a point mass: the identity
 
 
 # ---- supervisor -----------------------------------------------------------------------

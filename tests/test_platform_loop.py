@@ -1,6 +1,7 @@
 """The platform's closed loop without DDS: the PD + feed-forward controller on the rigid
-and the elastic platform plants, through the shipped robot's motions, each with its
-reference tabulated from the pose trajectory."""
+platform plant through the shipped robot's motions, each with its reference tabulated
+from the pose trajectory; the plant simulator and the twin on a platform; and the
+in-process engine on the elastic plant, as cdpr-scenario runs it."""
 from __future__ import annotations
 
 import numpy as np
@@ -13,7 +14,6 @@ from cdpr_control.pose_reference import tabulate_pose_reference
 from cdpr_control.robot import load_robot
 from cdpr_control.rotation import difference, tilt_rad
 from cdpr_control.tension_distribution import configured_tension_distribution
-from cdpr_twin.elastic_platform import ElasticPlatform
 from cdpr_twin.plant import PlantConfig, PlantSimulator
 from cdpr_twin.rigid_platform import RigidPlatform
 from cdpr_twin.twin import DigitalTwin
@@ -76,18 +76,6 @@ def test_the_rigid_platform_tracks_each_motion_within_the_bounds(motion_name):
     assert errors.max() < POSITION_BOUND_M and turns.max() < ORIENTATION_BOUND_RAD
     assert tensions.min() >= robot.tension_min_n and tensions.max() <= robot.tension_max_n
     assert plant.taut.all()
-
-
-def test_the_elastic_platform_tracks_the_tilting_climb_with_every_cable_within_its_bounds():
-    """Springs of EA / l from exit to attachment point, Coulomb friction the feed-forward
-    does not know: the PD holds the pose to a fraction of a millimetre."""
-    robot, settings, _, reference = setup('climb-tilt')
-    config = PlantConfig.from_section(settings.section('plant'), fidelity='elastic')
-    plant = ElasticPlatform(robot, reference.position_m[0], reference.orientation[0], config)
-    errors, turns, tensions = run(robot, plant, PdGains.from_section(robot, settings.section('control')),
-                                  reference)
-    assert errors.max() < POSITION_BOUND_M and turns.max() < ORIENTATION_BOUND_RAD
-    assert tensions.min() >= robot.tension_min_n and tensions.max() <= robot.tension_max_n
 
 
 def test_a_broken_cable_frees_its_motor_and_the_others_take_the_load():

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rclpy
-from geometry_msgs.msg import PointStamped
+from geometry_msgs.msg import PoseStamped
 from mcap.exceptions import EndOfFile
 from mcap.reader import NonSeekingReader, make_reader
 from mcap_ros2.decoder import DecoderFactory
@@ -49,8 +49,8 @@ STREAMS = {
     contract.JOINT_STATES: lambda k: joint_state(NAMES, k, [k, 1, 2, 3], [0.5] * 4, [-0.3] * 4),
     contract.EFFORT_COMMAND: lambda k: joint_state(NAMES, k, effort=[-0.4, -0.3, 0.1, k]),
     contract.TWIN_JOINT_STATES: lambda k: joint_state(NAMES, k, [k] * 4, [0.0] * 4, [0.2] * 4),
-    contract.REFERENCE_POSE: lambda k: point(k),
-    contract.GROUND_TRUTH_POSE: lambda k: point(k),
+    contract.REFERENCE_POSE: lambda k: pose(k),
+    contract.GROUND_TRUTH_POSE: lambda k: pose(k),
     contract.CLOCK: lambda k: Clock(clock=ns_to_stamp(k)),
 }
 
@@ -59,10 +59,11 @@ def full_name(namespace: str, topic: str) -> str:
     return topic if topic.startswith('/') else f'{namespace}/{topic}'
 
 
-def point(k: int) -> PointStamped:
-    message = PointStamped()
+def pose(k: int) -> PoseStamped:
+    message = PoseStamped()
     message.header.stamp = ns_to_stamp(k)
-    message.point.x, message.point.y, message.point.z = 0.1 * k, 1.0, 1.25
+    message.pose.position.x, message.pose.position.y, message.pose.position.z = 0.1 * k, 1.0, 1.25
+    message.pose.orientation.w = 1.0
     return message
 
 
@@ -114,7 +115,7 @@ def sample_messages():
     """One message of every recorded type, serialized by rclpy (which may pad the CDR)."""
     mode = String(data='RECOVERY_TENSION')
     return {contract.JOINT_STATES: joint_state(NAMES, 7, [1.5, -2, 3, 4], [0.1] * 4, [-0.2] * 4),
-            contract.REFERENCE_POSE: point(7), contract.FDI_BROKEN_CABLE: Int32(data=4),
+            contract.REFERENCE_POSE: pose(7), contract.FDI_BROKEN_CABLE: Int32(data=4),
             contract.MODE: mode, contract.CLOCK: Clock(clock=ns_to_stamp(7)),
             contract.DIAGNOSTICS: RECORDED[contract.DIAGNOSTICS]()}
 
@@ -331,7 +332,7 @@ def test_the_recorder_counts_and_says_the_ticks_a_topic_lacks(tmp_path):
 def test_a_serialized_messages_stamp_is_read_without_decoding_it():
     """Each per-tick type starts with its stamp, as rclpy serializes it."""
     stamp = 1_234 * NANOSECONDS + 567_000
-    for message in (joint_state(NAMES, stamp, [1.0] * 4, [0.0] * 4, [0.0] * 4), point(stamp),
+    for message in (joint_state(NAMES, stamp, [1.0] * 4, [0.0] * 4, [0.0] * 4), pose(stamp),
                     Clock(clock=ns_to_stamp(stamp))):
         assert cdr_stamp_ns(serialize_message(message)) == stamp
     with pytest.raises(ValueError, match='not a plain CDR message'):

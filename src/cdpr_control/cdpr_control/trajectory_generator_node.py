@@ -15,12 +15,11 @@ it holds the GIL for tens of ms at a time.)
 """
 from __future__ import annotations
 
-from geometry_msgs.msg import PointStamped
+from geometry_msgs.msg import PointStamped, PoseStamped
 from sensor_msgs.msg import JointState
 
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import (InvalidMessage, joint_state, point_from_message,
-                                      point_stamped, stamp_to_ns)
+from cdpr_msgs_py.conversions import InvalidMessage, joint_state, point_from_message, pose_stamped, stamp_to_ns
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 
@@ -54,7 +53,7 @@ class TrajectoryGeneratorNode(CdprNode):
         self.origin_ns: int | None = None
         self.rows_per_tick = control.integer('realtime_planning_rows_per_tick', minimum=1)
         self.reference = self.create_stream_publisher(JointState, contract.REFERENCE)
-        self.pose = self.create_stream_publisher(PointStamped, contract.REFERENCE_POSE)
+        self.pose = self.create_stream_publisher(PoseStamped, contract.REFERENCE_POSE)
         self.create_subscription(PointStamped, contract.GOAL, self.on_goal, qos.STREAM)
         self.start_when_matched(lambda: self.create_subscription(
             JointState, contract.JOINT_STATES, self.on_state, qos.STREAM))
@@ -76,7 +75,7 @@ class TrajectoryGeneratorNode(CdprNode):
             self.names, stamp, table.angle_rad[row], table.angular_velocity_rad_s[row],
             table.feedforward_nm[row]))
         # for the recorder and viewers only (contract.Topic.on_demand)
-        self.pose.publish_if_subscribed(lambda: point_stamped(stamp, table.position_m[row]))
+        self.pose.publish_if_subscribed(lambda: pose_stamped(stamp, table.position_m[row]))
         self.diagnostics.count('references')
 
     def on_goal(self, message: PointStamped) -> None:

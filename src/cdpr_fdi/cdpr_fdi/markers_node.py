@@ -8,14 +8,14 @@ priority in realtime: the loop never waits for it. The shapes are cdpr_fdi.marke
 from __future__ import annotations
 
 from builtin_interfaces.msg import Duration
-from geometry_msgs.msg import Point, PointStamped, Pose, Quaternion, Vector3
+from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion, Vector3
 from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA, Header, Int32
 from visualization_msgs.msg import Marker, MarkerArray
 
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import InvalidMessage, ns_to_stamp, point_from_message
+from cdpr_msgs_py.conversions import InvalidMessage, ns_to_stamp, pose_from_message
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import NANOSECONDS
@@ -60,7 +60,7 @@ class MarkersNode(CdprNode):
                                              qos.of_readers(contract.MARKERS))
         self.create_subscription(JointState, contract.JOINT_STATES, self.on_state,
                                  qos.of_readers(contract.JOINT_STATES))
-        self.create_subscription(PointStamped, contract.TWIN_POSE, self.on_twin_pose,
+        self.create_subscription(PoseStamped, contract.TWIN_POSE, self.on_twin_pose,
                                  qos.of_readers(contract.TWIN_POSE))
         self.create_subscription(Int32, contract.FDI_BROKEN_CABLE, self.on_broken_cable,
                                  qos.of_readers(contract.FDI_BROKEN_CABLE))
@@ -77,9 +77,9 @@ class MarkersNode(CdprNode):
         self.frame.on_state(joints.stamp_ns / NANOSECONDS, joints.position, joints.velocity,
                             joints.effort)
 
-    def on_twin_pose(self, message: PointStamped) -> None:
+    def on_twin_pose(self, message: PoseStamped) -> None:
         try:
-            self.frame.on_twin_pose(point_from_message(message))
+            self.frame.on_twin_pose(pose_from_message(message)[0])
         except InvalidMessage as err:
             self.diagnostics.reject(contract.TWIN_POSE, str(err))
 

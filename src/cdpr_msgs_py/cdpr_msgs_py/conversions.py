@@ -6,7 +6,7 @@ from math import isfinite
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PointStamped
+from geometry_msgs.msg import PointStamped, PoseStamped
 from sensor_msgs.msg import JointState
 
 from .stamps import ns_parts, stamp_to_ns
@@ -67,6 +67,37 @@ def point_stamped(stamp_ns: int, point, frame_id: str = 'world') -> PointStamped
     message.header.frame_id = frame_id
     message.point.x, message.point.y, message.point.z = (float(v) for v in point)
     return message
+
+
+# A point mass's orientation on the pose topics, (w, x, y, z): it has none to tell.
+IDENTITY_ORIENTATION = (1.0, 0.0, 0.0, 0.0)
+# A unit quaternion on a pose topic may be off unit length by this much.
+QUATERNION_NORM_TOLERANCE = 1e-6
+
+
+def pose_stamped(stamp_ns: int, position, orientation=IDENTITY_ORIENTATION, frame_id: str = 'world') -> PoseStamped:
+    """The pose topics' message: position (m) and orientation, a unit quaternion given as
+    (w, x, y, z) (ROS orders it x, y, z, w)."""
+    message = PoseStamped()
+    message.header.stamp = ns_to_stamp(stamp_ns)
+    message.header.frame_id = frame_id
+    pose = message.pose
+    pose.position.x, pose.position.y, pose.position.z = (float(v) for v in position)
+    (pose.orientation.w, pose.orientation.x, pose.orientation.y,
+     pose.orientation.z) = (float(v) for v in orientation)
+    return message
+
+
+def pose_from_message(message: PoseStamped) -> tuple[np.ndarray, np.ndarray]:
+    """(position m, orientation (w, x, y, z)); InvalidMessage for a non-finite value or an
+    orientation that is not a unit quaternion."""
+    position, orientation = message.pose.position, message.pose.orientation
+    values = (position.x, position.y, position.z, orientation.w, orientation.x, orientation.y, orientation.z)
+    if not all(map(isfinite, values)):
+        raise InvalidMessage('pose holds a non-finite value')
+    if abs(sum(v * v for v in values[3:]) - 1.0) > QUATERNION_NORM_TOLERANCE:
+        raise InvalidMessage('orientation is not a unit quaternion')
+    return np.array(values[:3]), np.array(values[3:])
 
 
 def point_from_message(message: PointStamped) -> np.ndarray:

@@ -2,14 +2,14 @@
 from __future__ import annotations
 
 import numpy as np
-from geometry_msgs.msg import PointStamped
+from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 
 from cdpr_control.controller import JointReference, PdGains
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import joint_state, point_stamped
+from cdpr_msgs_py.conversions import joint_state, pose_stamped
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 
@@ -31,7 +31,7 @@ class DigitalTwinNode(CdprNode):
         self.last_stamp_ns: int | None = None
         self.last_reference: JointReference | None = None
         self.joints = self.create_stream_publisher(JointState, contract.TWIN_JOINT_STATES)
-        self.pose = self.create_stream_publisher(PointStamped, contract.TWIN_POSE)
+        self.pose = self.create_stream_publisher(PoseStamped, contract.TWIN_POSE)
         # The twin's tick is the reference: it listens once its outputs have listeners.
         self.start_when_matched(lambda: self.create_subscription(
             JointState, contract.REFERENCE, self.on_reference, qos.STREAM))
@@ -67,7 +67,8 @@ class DigitalTwinNode(CdprNode):
         self.joints.publish(joint_state(self.names, joints.stamp_ns, output.angle_rad,
                                         output.angular_velocity_rad_s, output.torque_nm))
         # for the markers, the recorder and viewers only (contract.Topic.on_demand)
-        self.pose.publish_if_subscribed(lambda: point_stamped(joints.stamp_ns, output.position_m))
+        self.pose.publish_if_subscribed(lambda: pose_stamped(joints.stamp_ns, output.position_m,
+                                                             output.orientation))
         self.diagnostics.count('ticks')
 
 

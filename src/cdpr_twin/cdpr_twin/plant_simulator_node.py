@@ -18,14 +18,14 @@ import json
 import math
 import time
 
-from geometry_msgs.msg import PointStamped
+from geometry_msgs.msg import PoseStamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped
+from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, pose_stamped
 from cdpr_msgs_py.health import loop_problem
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
@@ -67,7 +67,7 @@ class PlantSimulatorNode(CdprNode):
         # Until the first command arrives, hold the load.
         self.command = self.plant.holding_torque_nm()
         self.state = self.create_stream_publisher(JointState, contract.JOINT_STATES)
-        self.truth_pose = self.create_stream_publisher(PointStamped, contract.GROUND_TRUTH_POSE)
+        self.truth_pose = self.create_stream_publisher(PoseStamped, contract.GROUND_TRUTH_POSE)
         self.truth_tensions = self.create_stream_publisher(JointState, contract.GROUND_TRUTH_TENSIONS)
         self.clock = self.create_stream_publisher(Clock, contract.CLOCK)
         # A mode carries no stamp, and may come before or after the command of the tick it
@@ -107,7 +107,8 @@ class PlantSimulatorNode(CdprNode):
         # recorder only (contract.Topic.on_demand).
         if self.clock_mode == 'lockstep':
             self.clock.publish_if_subscribed(lambda: Clock(clock=ns_to_stamp(stamp)))
-        self.truth_pose.publish_if_subscribed(lambda: point_stamped(stamp, self.plant.position_m))
+        self.truth_pose.publish_if_subscribed(lambda: pose_stamped(stamp, self.plant.position_m,
+                                                                   self.plant.orientation))
         self.truth_tensions.publish_if_subscribed(
             lambda: joint_state(self.names, stamp, effort=self.plant.tension_n))
         self.sent_at = time.monotonic()

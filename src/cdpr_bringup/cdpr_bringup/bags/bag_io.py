@@ -231,7 +231,7 @@ def recording_from_bag(bag: str | Path, namespace: str = '/cdpr') -> Recording:
 
     def points(key):
         messages = found[names[key]]
-        return np.array([[messages[s].point.x, messages[s].point.y, messages[s].point.z]
+        return np.array([[messages[s].pose.position.x, messages[s].pose.position.y, messages[s].pose.position.z]
                          if s in messages else [np.nan] * 3 for s in stamps])
 
     return Recording(
@@ -273,7 +273,7 @@ def write_recording(writer: BagWriter, recording: Recording,
 
     r = recording
     applied = np.vstack([np.zeros_like(r.command_nm[:1]), r.command_nm[:-1]])
-    joint_state, point_stamped = 'sensor_msgs/msg/JointState', 'geometry_msgs/msg/PointStamped'
+    joint_state, pose_stamped = 'sensor_msgs/msg/JointState', 'geometry_msgs/msg/PoseStamped'
     # topic → (type, serialised message of each tick), in the graph's order within a tick
     per_tick = {
         contract.JOINT_STATES: (joint_state, bulk_cdr.joint_states(
@@ -281,13 +281,14 @@ def write_recording(writer: BagWriter, recording: Recording,
         contract.EFFORT_COMMAND: (joint_state, bulk_cdr.joint_states(stamps, names, effort=r.command_nm)),
         contract.TWIN_JOINT_STATES: (joint_state, bulk_cdr.joint_states(
             stamps, names, r.twin_angle_rad, r.twin_angular_velocity_rad_s, r.twin_torque_nm)),
-        contract.TWIN_POSE: (point_stamped, bulk_cdr.point_stampeds(stamps, r.twin_position_m)),
+        contract.TWIN_POSE: (pose_stamped, bulk_cdr.pose_stampeds(stamps, r.twin_position_m, r.twin_orientation)),
         contract.REFERENCE: (joint_state, bulk_cdr.joint_states(stamps, names, r.reference_angle_rad)),
-        contract.REFERENCE_POSE: (point_stamped, bulk_cdr.point_stampeds(stamps, r.reference_position_m)),
+        contract.REFERENCE_POSE: (pose_stamped, bulk_cdr.pose_stampeds(stamps, r.reference_position_m,
+                                                                       r.reference_orientation)),
     }
     if r.has_ground_truth:
-        per_tick[contract.GROUND_TRUTH_POSE] = (point_stamped,
-                                                bulk_cdr.point_stampeds(stamps, r.true_position_m))
+        per_tick[contract.GROUND_TRUTH_POSE] = (pose_stamped, bulk_cdr.pose_stampeds(stamps, r.true_position_m,
+                                                                                     r.true_orientation))
         per_tick[contract.GROUND_TRUTH_TENSIONS] = (joint_state,
                                                     bulk_cdr.joint_states(stamps, names, effort=r.true_tension_n))
     if r.residual_nm is not None:

@@ -1,6 +1,6 @@
 """The CDR bytes of a run's per-tick messages, all ticks of a topic at once.
 
-A JointState of a given robot, or a PointStamped, has the same layout on every tick:
+A JointState of a given robot, or a PoseStamped, has the same layout on every tick:
 only the stamp and the numbers change. So the bytes of one message are laid out once
 (little-endian CDR as ROS 2 serialises it, alignment counted from after the 4-byte
 encapsulation header) and the ticks' values are written into a (ticks, bytes) array with
@@ -84,9 +84,13 @@ def joint_states(stamps_ns: np.ndarray, names: list[str], position=None, velocit
     return layout.messages()
 
 
-def point_stampeds(stamps_ns: np.ndarray, xyz_m: np.ndarray) -> np.ndarray:
-    """geometry_msgs/PointStamped of every tick (stamps in ns, points (ticks, 3)), frame ''."""
+def pose_stampeds(stamps_ns: np.ndarray, xyz_m: np.ndarray, wxyz: np.ndarray | None = None) -> np.ndarray:
+    """geometry_msgs/PoseStamped of every tick (stamps in ns, positions (ticks, 3), unit
+    quaternions (ticks, 4) as (w, x, y, z), the identity when None), frame ''."""
     layout = Layout()
     layout.header(stamps_ns, '')
     layout.doubles(xyz_m)
+    orientation = (np.tile([0.0, 0.0, 0.0, 1.0], (len(stamps_ns), 1)) if wxyz is None
+                   else np.asarray(wxyz, dtype=float)[:, [1, 2, 3, 0]])   # ROS orders it x, y, z, w
+    layout.doubles(orientation)
     return layout.messages()

@@ -11,13 +11,13 @@ import sys
 import time
 
 import rclpy
-from geometry_msgs.msg import PointStamped
+from geometry_msgs.msg import PoseStamped
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-TYPES = {'/clock': Clock, 'reference/pose': PointStamped, 'twin/pose': PointStamped,
-         'ground_truth/pose': PointStamped}
+TYPES = {'/clock': Clock, 'reference/pose': PoseStamped, 'twin/pose': PoseStamped,
+         'ground_truth/pose': PoseStamped}
 
 
 def main():
