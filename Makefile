@@ -13,7 +13,7 @@ PACKAGE_FILES := $(foreach p,$(PACKAGES),src/$(p)/setup.py src/$(p)/setup.cfg sr
 export AMENT_PREFIX_PATH := $(VENV_ABS)$(if $(AMENT_PREFIX_PATH),:$(AMENT_PREFIX_PATH))
 export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
 
-.PHONY: setup demo test bench clean
+.PHONY: setup demo demo-6dof test bench clean
 
 setup: $(STAMP)
 
@@ -29,6 +29,12 @@ $(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
 demo: setup
 	$(VENV)/bin/cdpr-robot --config paper_robot.yaml
 	$(VENV)/bin/cdpr-scenario --motion circle --fail-cable 4 --fail-at-fraction 0.375 --engine graph --quiet --out runs/demo
+
+# A rigid 6-DOF platform on eight cables: the model's view of it, then a failure-free
+# tilting climb through the node graph (docs/platform.md).
+demo-6dof: setup
+	$(VENV)/bin/cdpr-robot --config robots/crossed_platform_robot.yaml --motions crossed_platform_motions.yaml
+	$(VENV)/bin/cdpr-scenario --config robots/crossed_platform_robot.yaml --motions crossed_platform_motions.yaml --motion climb-tilt --engine graph --quiet --out runs/demo-6dof
 
 # Two sessions: every test that starts neither a node graph nor a Dask cluster, spread
 # over the machine's cores (pytest-xdist, a test file per worker); then those alone, one

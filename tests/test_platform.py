@@ -340,14 +340,6 @@ def test_a_free_platform_tumbles_as_an_independent_rigid_body_integrator_says(ro
     assert np.linalg.norm(difference(ours[1], orientation)) < 1e-9
 
 
-def test_a_graph_run_of_a_platform_robot_is_refused_in_one_line_until_the_nodes_move_platforms(tmp_path, capsys):
-    from cdpr_bringup.scenario import command
-    assert command.main(['--config', str(PLATFORM_ROBOT), '--motions', str(CONFIG_DIR / 'crossed_platform_motions.yaml'),
-                         '--motion', 'along', '--engine', 'graph', '--out', str(tmp_path)]) == 2
-    error = capsys.readouterr().err.strip().splitlines()
-    assert len(error) == 1 and 'carries a 6-DOF platform' in error[0] and 'Traceback' not in error[0]
-
-
 def test_cdpr_robot_shows_the_platforms_wrench_feasible_workspace_and_its_motions_tensions(capsys):
     from cdpr_bringup.reports import robot_summary
     assert robot_summary.main(['--config', str(PLATFORM_ROBOT), '--motions',

@@ -153,3 +153,12 @@ def test_the_in_process_engine_runs_a_platform_on_the_elastic_plant_without_a_fa
     assert recording.true_tension_n[1:].min() >= scenario.robot.tension_min_n
     turned = np.linalg.norm(difference(recording.true_orientation[-1], recording.true_orientation[0]))
     assert np.degrees(turned) == pytest.approx(12.0, abs=0.2)
+
+
+def test_a_goal_position_is_refused_for_a_platform_saying_why():
+    from cdpr_control.reference_schedule import GoalRejected, ReferenceSchedule
+    robot, settings, _, reference = setup('along')
+    schedule = ReferenceSchedule(robot, configured_tension_distribution(settings.section('control'), robot),
+                                 reference.period_s, 0.3, reference)
+    with pytest.raises(GoalRejected, match='needs its orientation too'):
+        schedule.add_goal(robot.home_position_m)

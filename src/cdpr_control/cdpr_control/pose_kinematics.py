@@ -153,3 +153,12 @@ def end_effector_positions(robot: Robot, angles_rad, cables=None) -> np.ndarray:
     if angles.ndim == 1:
         return forward_kinematics(robot, angles, cables)[0]
     return forward_kinematics_rows(robot, angles, cables)[0]
+
+
+def pose_of_angles(robot: Robot, angles_rad) -> tuple[np.ndarray, np.ndarray | None]:
+    """(position m, orientation) the motor angles put the end-effector at, of any robot:
+    the point mass's forward kinematics and no orientation, or a platform's pose, found
+    from home."""
+    if robot.platform is None:
+        return point_mass_forward_kinematics(robot, np.asarray(angles_rad, dtype=float)), None
+    return forward_kinematics(robot, angles_rad)

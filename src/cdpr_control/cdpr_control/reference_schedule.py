@@ -51,6 +51,8 @@ class ReferenceSchedule:
         """Queue a goal (m); raises GoalRejected for one outside the workspace (or not
         a number)."""
         goal = np.asarray(goal_m, dtype=float)
+        if self.robot.platform is not None:
+            raise GoalRejected('a platform takes no goal positions yet: a move needs its orientation too')
         if not np.all((goal >= self.robot.workspace_min_m) & (goal <= self.robot.workspace_max_m)):
             raise GoalRejected(f'goal {goal} outside the workspace')
         self.goals.append(goal)

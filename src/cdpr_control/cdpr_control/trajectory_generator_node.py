@@ -19,11 +19,13 @@ from geometry_msgs.msg import PointStamped, PoseStamped
 from sensor_msgs.msg import JointState
 
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import InvalidMessage, joint_state, point_from_message, pose_stamped, stamp_to_ns
+from cdpr_msgs_py.conversions import (IDENTITY_ORIENTATION, InvalidMessage, joint_state, point_from_message,
+                                      pose_stamped, stamp_to_ns)
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 
-from .motions import motion_from_settled, settled_motion
+from .motions import motion_from_settled, settled_motion, with_turn
+from .pose_reference import tabulate_pose_reference
 from .reference import tabulate_reference
 from .reference_schedule import GoalRejected, ReferenceSchedule
 from .settings import node_settings
@@ -45,10 +47,14 @@ class TrajectoryGeneratorNode(CdprNode):
             self.parameter('motion', 'circle', 'started without a settled motion: its name there'),
             self.parameter('reverse', False, 'started without a settled motion: run it backward')))
         self.goal_speed_m_s = motion.number('goal_peak_speed_m_s', positive=True)
+        path = motion_from_settled(motion)
         self.schedule = ReferenceSchedule(
             self.robot, self.distribution, self.period_s, self.goal_speed_m_s,
-            tabulate_reference(self.robot, self.distribution, motion_from_settled(motion).trajectory,
-                               self.period_s))
+            tabulate_reference(self.robot, self.distribution, path.trajectory, self.period_s)
+            if self.robot.platform is None else
+            tabulate_pose_reference(self.robot, self.distribution,
+                                    with_turn(path, motion, self.robot.platform.home_orientation).trajectory,
+                                    self.period_s))
         self.names = contract.joint_names(self.robot.cable_count)
         self.origin_ns: int | None = None
         self.rows_per_tick = control.integer('realtime_planning_rows_per_tick', minimum=1)
@@ -75,7 +81,9 @@ class TrajectoryGeneratorNode(CdprNode):
             self.names, stamp, table.angle_rad[row], table.angular_velocity_rad_s[row],
             table.feedforward_nm[row]))
         # for the recorder and viewers only (contract.Topic.on_demand)
-        self.pose.publish_if_subscribed(lambda: pose_stamped(stamp, table.position_m[row]))
+        self.pose.publish_if_subscribed(lambda: pose_stamped(
+            stamp, table.position_m[row], IDENTITY_ORIENTATION if self.robot.platform is None
+            else table.orientation[row]))
         self.diagnostics.count('references')
 
     def on_goal(self, message: PointStamped) -> None:

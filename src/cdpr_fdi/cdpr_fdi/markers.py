@@ -19,7 +19,8 @@ import numpy as np
 
 from cdpr_control.config import Section
 from cdpr_control.friction import FrictionModel
-from cdpr_control.kinematics import KinematicsError, forward_kinematics
+from cdpr_control.kinematics import KinematicsError
+from cdpr_control.pose_kinematics import end_effector_positions
 from cdpr_control.robot import Robot
 from cdpr_control.workspace import sew_cross_section
 
@@ -190,7 +191,7 @@ class Frame:
         if not self.broken_cables:
             return
         try:
-            position = forward_kinematics(self.robot, np.asarray(angle_rad, float), self.attached)
+            position = end_effector_positions(self.robot, np.asarray(angle_rad, float), self.attached)
         except (KinematicsError, np.linalg.LinAlgError):
             return
         if (not self.recovery_path_m
@@ -203,7 +204,7 @@ class Frame:
         if self.angle_rad is None:
             return None
         try:
-            return forward_kinematics(self.robot, self.angle_rad, self.attached)
+            return end_effector_positions(self.robot, self.angle_rad, self.attached)
         except (KinematicsError, np.linalg.LinAlgError):
             return None
 

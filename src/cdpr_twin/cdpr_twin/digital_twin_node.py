@@ -6,7 +6,7 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 
 from cdpr_control.controller import JointReference, PdGains
-from cdpr_control.kinematics import forward_kinematics
+from cdpr_control.pose_kinematics import pose_of_angles
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, pose_stamped
@@ -57,8 +57,8 @@ class DigitalTwinNode(CdprNode):
         if self.twin is None:
             # The twin starts where the reference starts, at rest.
             try:
-                start = forward_kinematics(self.robot, joints.position)
-                self.twin = DigitalTwin(self.robot, self.gains, start, self.substeps)
+                start, orientation = pose_of_angles(self.robot, joints.position)
+                self.twin = DigitalTwin(self.robot, self.gains, start, self.substeps, orientation)
             except (ValueError, np.linalg.LinAlgError) as err:
                 self.diagnostics.reject(contract.REFERENCE, f'no pose to start the twin from: {err}')
                 return

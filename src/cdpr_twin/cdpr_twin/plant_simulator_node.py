@@ -48,7 +48,9 @@ class PlantSimulatorNode(CdprNode):
         failures = zip(run.raw('failure_times_s', []), run.raw('failure_cable_indices', []))
         self.plant = PlantSimulator(self.robot, PlantConfig.from_section(plant_section),
                                     run.vector('start_position_m', 3, self.robot.home_position_m.tolist()),
-                                    failures, settled_pushes(run))
+                                    failures, settled_pushes(run),
+                                    None if self.robot.platform is None else run.vector(
+                                        'start_orientation', 4, self.robot.platform.home_orientation.tolist()))
         self.run_length = RunLength(
             run.integer('last_tick', minimum=0) if run.has('last_tick') else math.inf,
             run.integer('hold_after_ticks', minimum=0) if run.has('hold_after_ticks') else None)

@@ -202,13 +202,14 @@ def read_topics(bag: str | Path, topics: list[str]) -> dict[str, dict[int, objec
             for topic, messages in read_messages(bag, topics).items()}
 
 
-def recording_from_bag(bag: str | Path, namespace: str = '/cdpr') -> Recording:
+def recording_from_bag(bag: str | Path, namespace: str = '/cdpr', orientations: bool = False) -> Recording:
     """The Recording of a lockstep or realtime run, on the ticks that have a state, a
     command, the twin's state and pose, and the reference (a killed recorder's last tick
     may lack some).
 
     Ground truth exists only in simulation: without it the true pose and tensions are NaN;
     the residual is None without the supervisor's /fdi/residual (NaN on ticks it lacks).
+    With `orientations` (a platform's bag) the poses' orientations are read too.
     """
     names = {key: f'{namespace}/{key}' for key in (
         'joint_states', 'effort_command', 'twin/joint_states', 'twin/pose', 'reference',
@@ -234,6 +235,15 @@ def recording_from_bag(bag: str | Path, namespace: str = '/cdpr') -> Recording:
         return np.array([[messages[s].pose.position.x, messages[s].pose.position.y, messages[s].pose.position.z]
                          if s in messages else [np.nan] * 3 for s in stamps])
 
+    def quaternions(key):
+        messages = found[names[key]]
+        return np.array([[messages[s].pose.orientation.w, messages[s].pose.orientation.x,
+                          messages[s].pose.orientation.y, messages[s].pose.orientation.z]
+                         if s in messages else [np.nan] * 4 for s in stamps])
+
+    turned = ({'twin_orientation': quaternions('twin/pose'),
+               'reference_orientation': quaternions('reference/pose'),
+               'true_orientation': quaternions('ground_truth/pose')} if orientations else {})
     return Recording(
         time_s=np.array(stamps) / NANOSECONDS,
         angle_rad=joints('joint_states', 'position'),
@@ -248,6 +258,7 @@ def recording_from_bag(bag: str | Path, namespace: str = '/cdpr') -> Recording:
         true_position_m=points('ground_truth/pose'),
         true_tension_n=joints('ground_truth/tensions', 'effort'),
         residual_nm=joints('fdi/residual', 'effort') if found[names['fdi/residual']] else None,
+        **turned,
     )
 
 

@@ -175,7 +175,7 @@ def load_run(bag: str | Path, settings: RunSettings,
     """The run in `bag`, recorded with `settings`."""
     bag = Path(bag)
     robot, fdi = settings.robot, settings.fdi
-    recording = recording_from_bag(bag, namespace)
+    recording = recording_from_bag(bag, namespace, robot.platform is not None)
     if recording.angle_rad.shape[1] != robot.cable_count:
         raise ValueError(f'{bag} has {recording.angle_rad.shape[1]} motors, robot {robot.name} '
                          f'{robot.cable_count} ({settings.source}): pass the robot the bag was '

@@ -143,7 +143,7 @@ def print_platform(robot, config, distribution, motions, period_s: float) -> Non
         turn = np.degrees(abs(motion.trajectory.turn.angle_rad))
         print(f'  {name:<14} {motion.motion.move.duration_s:7.3f} {turn:7.1f} {reference.tension_n.min():7.2f} '
               f'{reference.tension_n.max():7.2f} {np.abs(reference.feedforward_nm).max():12.3f}')
-    print('a run through the graph or the in-process engine: not yet for a platform (issue 28)')
+    print('failure detection, naming and recovery on a platform: not built yet (docs/platform.md)')
 
 
 @command('cdpr-robot')

@@ -138,10 +138,6 @@ class Scenario:
         """Per node of the graph, the ROS parameters it is started with: the settled
         sections it reads (cdpr_control.settings) and, in realtime, the OS scheduling the
         `scheduling` section asks for (unless not `scheduling`: the OS's normal one)."""
-        if self.pose_motion is not None:
-            raise UsageError(f'--config {self.options.config}: {self.robot.name} carries a 6-DOF platform, '
-                             'which the in-process engine runs (--engine inprocess) but the node graph '
-                             'cannot yet: its nodes and pose topics move a point mass (docs/platform.md)')
         document = self.settings.data
         scheduling = (realtime_scheduling(self.settings.section('scheduling'))
                       if clock_mode == 'realtime' and scheduling else {})
