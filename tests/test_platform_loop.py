@@ -12,7 +12,7 @@ from cdpr_control.controller import JointController, JointReference, PdGains
 from cdpr_control.motions import motion_names, pose_motion_from_settled, settled_motion
 from cdpr_control.pose_reference import tabulate_pose_reference
 from cdpr_control.robot import load_robot
-from cdpr_control.rotation import difference, tilt_rad
+from cdpr_control.rotation import difference, rotation_matrix, tilt_rad
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_twin.plant import PlantConfig, PlantSimulator
 from cdpr_twin.rigid_platform import RigidPlatform
@@ -162,3 +162,20 @@ def test_a_goal_position_is_refused_for_a_platform_saying_why():
                                  reference.period_s, 0.3, reference)
     with pytest.raises(GoalRejected, match='needs its orientation too'):
         schedule.add_goal(robot.home_position_m)
+
+
+def test_the_markers_draw_a_platforms_cables_to_its_attachment_points():
+    """The markers' core on the platform's measured angles: each cable ends at its
+    attachment point p + R b_i of the pose forward kinematics finds, and the platform's
+    body joins its origin to them."""
+    from cdpr_fdi.markers import Frame, MarkerStyle
+    robot, settings, _, reference = setup('climb-tilt')
+    row = len(reference) - 1
+    frame = Frame(robot, None, None, MarkerStyle.from_section(settings.section('markers')))
+    frame.on_state(0.0, reference.angle_rad[row], np.zeros(8), np.zeros(8))
+    shapes = {(shape.namespace, shape.id): shape for shape in frame.shapes()}
+    attachment = (reference.position_m[row]
+                  + robot.platform.attachment_points_m @ rotation_matrix(reference.orientation[row]).T)
+    for cable in range(8):
+        np.testing.assert_allclose(shapes[('cables', cable + 1)].points_m[1], attachment[cable], atol=1e-9)
+    assert len(shapes[('platform', 0)].points_m) == 16

@@ -155,10 +155,18 @@ def end_effector_positions(robot: Robot, angles_rad, cables=None) -> np.ndarray:
     return forward_kinematics_rows(robot, angles, cables)[0]
 
 
-def pose_of_angles(robot: Robot, angles_rad) -> tuple[np.ndarray, np.ndarray | None]:
-    """(position m, orientation) the motor angles put the end-effector at, of any robot:
-    the point mass's forward kinematics and no orientation, or a platform's pose, found
-    from home."""
+def pose_of_angles(robot: Robot, angles_rad, cables=None) -> tuple[np.ndarray, np.ndarray | None]:
+    """(position m, orientation) the motor angles of `cables` (all when None) put the
+    end-effector at, of any robot: the point mass's forward kinematics and no orientation,
+    or a platform's pose, found from home."""
     if robot.platform is None:
-        return point_mass_forward_kinematics(robot, np.asarray(angles_rad, dtype=float)), None
-    return forward_kinematics(robot, angles_rad)
+        return point_mass_forward_kinematics(robot, np.asarray(angles_rad, dtype=float), cables), None
+    return forward_kinematics(robot, angles_rad, cables)
+
+
+def cable_ends_m(robot: Robot, position_m, orientation) -> np.ndarray:
+    """Where each cable ends on the end-effector (m × 3, world frame): the point mass's
+    position, or a platform's attachment points p + R b_i."""
+    if robot.platform is None:
+        return np.broadcast_to(np.asarray(position_m, dtype=float), (robot.cable_count, 3))
+    return position_m + robot.platform.attachment_points_m @ rotation_matrix(orientation).T

@@ -20,7 +20,7 @@ import numpy as np
 from cdpr_control.config import Section
 from cdpr_control.friction import FrictionModel
 from cdpr_control.kinematics import KinematicsError
-from cdpr_control.pose_kinematics import end_effector_positions
+from cdpr_control.pose_kinematics import cable_ends_m, end_effector_positions, pose_of_angles
 from cdpr_control.robot import Robot
 from cdpr_control.workspace import sew_cross_section
 
@@ -105,23 +105,24 @@ def _single(namespace: str, kind: str, points_m, colour, scale_m: float, id: int
     return Shape(namespace, id, kind, points, np.tile(colour, (len(points), 1)), scale_m)
 
 
-def cable_shapes(robot: Robot, style: MarkerStyle, position_m: np.ndarray,
+def cable_shapes(robot: Robot, style: MarkerStyle, ends_m: np.ndarray,
                  tension_n: np.ndarray, broken_cables: list[int]) -> list[Shape]:
-    """Per cable (id = its 1-based number): a line from its exit point to `position_m`
-    coloured by its tension, or, for a broken cable, a dashed grey line hanging straight
-    down from its exit point to the end-effector's height (none when the end-effector is
-    found at that height or above: a marker of no points has nothing to draw, nor a colour)."""
+    """Per cable (id = its 1-based number): a line from its exit point to where it ends on
+    the end-effector (`ends_m`, m × 3: pose_kinematics.cable_ends_m) coloured by its
+    tension, or, for a broken cable, a dashed grey line hanging straight down from its exit
+    point to its end's height (none when the end is found at that height or above: a
+    marker of no points has nothing to draw, nor a colour)."""
     colours = tension_colour(tension_n, robot.tension_min_n, robot.tension_max_n)
     shapes = []
-    for index, exit_point in enumerate(robot.exit_points_m):
+    for index, (exit_point, end) in enumerate(zip(robot.exit_points_m, ends_m)):
         cable = index + 1
         if cable in broken_cables:
-            if position_m[2] < exit_point[2]:
-                below = np.array([exit_point[0], exit_point[1], position_m[2]])
+            if end[2] < exit_point[2]:
+                below = np.array([exit_point[0], exit_point[1], end[2]])
                 shapes.append(_single('cables', LINE_LIST, dashes(exit_point, below, style.dash_length_m),
                                       BROKEN_GREY, style.broken_cable_width_m, cable))
         else:
-            shapes.append(_single('cables', LINE_LIST, [exit_point, position_m], colours[index],
+            shapes.append(_single('cables', LINE_LIST, [exit_point, end], colours[index],
                                   style.cable_width_m, cable))
     return shapes
 
@@ -198,13 +199,14 @@ class Frame:
                 or np.linalg.norm(position - self.recovery_path_m[-1]) >= self.style.path_spacing_m):
             self.recovery_path_m.append(position)
 
-    def end_effector_m(self) -> np.ndarray | None:
-        """Forward kinematics of the last measured angles over the remaining cables (m),
-        None before a state or where the lengths admit no position."""
+    def end_effector_pose(self) -> tuple[np.ndarray, np.ndarray | None] | None:
+        """Forward kinematics of the last measured angles over the remaining cables:
+        position (m) and a platform's orientation; None before a state or where the
+        lengths admit no pose."""
         if self.angle_rad is None:
             return None
         try:
-            return end_effector_positions(self.robot, self.angle_rad, self.attached)
+            return pose_of_angles(self.robot, self.angle_rad, self.attached)
         except (KinematicsError, np.linalg.LinAlgError):
             return None
 
@@ -221,11 +223,17 @@ class Frame:
         style = self.style
         tension = self.take_tension_n()
         shapes = []
-        position = self.end_effector_m()
-        if position is not None:
-            shapes += cable_shapes(self.robot, style, position, tension, self.broken_cables)
+        pose = self.end_effector_pose()
+        if pose is not None:
+            position, orientation = pose
+            ends = cable_ends_m(self.robot, position, orientation)
+            shapes += cable_shapes(self.robot, style, ends, tension, self.broken_cables)
             shapes.append(_single('end_effector', SPHERE_LIST, position, END_EFFECTOR_COLOUR,
                                   style.end_effector_diameter_m))
+            if self.robot.platform is not None:
+                # the platform's body: its origin joined to each attachment point
+                shapes.append(_single('platform', LINE_LIST, [point for end in ends for point in (position, end)],
+                                      END_EFFECTOR_COLOUR, style.cable_width_m))
         if self.twin_position_m is not None:
             shapes.append(_single('twin', SPHERE_LIST, self.twin_position_m, TWIN_COLOUR,
                                   style.end_effector_diameter_m))
