@@ -3,8 +3,9 @@ nothing else of this project (for the tests and `cdpr-bench recorder`).
 
 Usage: python -m cdpr_bringup.bench.outside_reader NAMESPACE TIMEOUT_S TOPIC… (relative to
 NAMESPACE unless absolute). Subscribes to each TOPIC reliable and keep-all, as a recorder
-of one's own would; prints one line `receiving` once every TOPIC has brought a message (so each
-writer has matched it), then reads until the timeout. Suspended (SIGSTOP, Ctrl-Z) it
+of one's own would; prints one line `receiving` once every TOPIC has brought a message (so
+each writer has matched it), then reads until the timeout; `heard TOPIC` goes to stderr
+at each TOPIC's first message. Suspended (SIGSTOP, Ctrl-Z) it
 is a reader that stops acknowledging.
 """
 import sys
@@ -26,10 +27,16 @@ def main():
     node = rclpy.create_node('outside_reader')
     keep_all = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
     heard = set()
+
+    def first(topic):
+        if topic not in heard:
+            heard.add(topic)
+            print(f'heard {topic}', file=sys.stderr, flush=True)
+
     for topic in topics:
         name = topic if topic.startswith('/') else f'{namespace}/{topic}'
         node.create_subscription(TYPES.get(topic, JointState), name,
-                                 lambda _message, t=topic: heard.add(t), keep_all)
+                                 lambda _message, t=topic: first(t), keep_all)
     deadline = time.monotonic() + timeout_s
     said = False
     while time.monotonic() < deadline:
