@@ -10,7 +10,6 @@ from mcap_ros2.decoder import DecoderFactory
 from cdpr_bringup.bags.bag_io import BagWriter, read_messages, write_recording
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
-from cdpr_control.pose_kinematics import cable_ends_m
 from cdpr_control.workspace import contains
 from cdpr_fdi.markers import (BROKEN_GREY, LINE_LIST, LINE_STRIP, SPHERE_LIST, TENSION_SCALE,
                               cable_shapes, dashes, tension_colour)
@@ -137,7 +136,7 @@ def test_a_broken_cable_is_not_drawn_where_the_end_effector_is_found_at_its_exit
     scenario = run[0]
     robot = scenario.robot
     position = np.array([0.8, 0.9, robot.exit_points_m[BROKEN - 1, 2]])
-    shapes = cable_shapes(robot, scenario.markers, cable_ends_m(robot, position, None),
+    shapes = cable_shapes(robot, scenario.markers, robot.cable_ends_m(position, None),
                           np.full(robot.cable_count, 20.0), [BROKEN])
     assert [shape.id for shape in shapes] == [cable for cable in range(1, robot.cable_count + 1)
                                               if cable != BROKEN]

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .pose_kinematics import cable_geometry, structure_of, velocity_product
+from .pose_kinematics import cable_geometry, length_accelerations, length_rates, structure_of, velocity_product
 from .robot import Robot
 from .rotation import rotation_matrix, skew
 from .tension_distribution import InfeasibleTensionError, TensionDistribution
@@ -107,10 +107,10 @@ def inverse_dynamics(robot: Robot, tension_distribution: TensionDistribution, po
             tension[attached] = tension_distribution.distribute(structure[:, attached], wrench)
     except InfeasibleTensionError as err:
         raise err.at(position_m, orientation) from None
-    twist = np.concatenate([velocity_m_s, angular_velocity_rad_s])
-    theta_dot = -(twist @ structure) / motor.drum_radius_m
-    theta_ddot = (-(accelerations @ structure)
-                  + velocity_product(u, d, r, velocity_m_s, angular_velocity_rad_s)) / motor.drum_radius_m
+    theta_dot = (length_rates(structure, np.concatenate([velocity_m_s, angular_velocity_rad_s]))
+                 / motor.drum_radius_m)
+    theta_ddot = length_accelerations(structure, velocity_product(u, d, r, velocity_m_s, angular_velocity_rad_s),
+                                      accelerations) / motor.drum_radius_m
     if attached is not None:
         theta_dot[~attached] = 0.0
         theta_ddot[~attached] = 0.0
@@ -151,8 +151,15 @@ def direct_dynamics(robot: Robot, position_m, orientation, velocity_m_s, angular
         if not taut.any() or tension[taut].min() >= 0.0:
             break
         taut[np.argmin(np.where(taut, tension, np.inf))] = False
-    theta_ddot = (-(accelerations @ structure) + kappa) / radius
+    theta_ddot = length_accelerations(structure, kappa, accelerations) / radius
     loose = ~taut
     theta_ddot[loose] = (-damping * theta_dot[loose] + torque[loose]) / inertia
     tension[loose] = 0.0
     return PlatformDirectDynamics(accelerations[:3], accelerations[3:], theta_ddot, tension, taut)
+
+
+def wrench_at_origin(force_n) -> np.ndarray | None:
+    """A force (N, world frame) applied at the platform frame's origin as a wrench
+    (force, moment about the origin); None for no force."""
+    force = np.asarray(force_n, dtype=float)
+    return None if not force.any() else np.concatenate([force, np.zeros(3)])

@@ -61,20 +61,31 @@ def inverse_kinematics(robot: Robot, position_m, orientation) -> np.ndarray:
     return (d - robot.cable_length_offset_m) / robot.motor.drum_radius_m
 
 
+def length_rates(structure: np.ndarray, twist) -> np.ndarray:
+    """ḋ = −Wᵀ (v, ω) (m/s, one per cable), `twist` the six (v, ω)."""
+    return -(twist @ structure)
+
+
+def length_accelerations(structure: np.ndarray, velocity_product_m_s2: np.ndarray, accelerations) -> np.ndarray:
+    """d̈ = −Wᵀ (a, α) + κ (m/s², one per cable), `accelerations` the six (a, α), κ
+    `velocity_product`'s."""
+    return velocity_product_m_s2 - accelerations @ structure
+
+
 def joint_velocity(robot: Robot, position_m, orientation, velocity_m_s, angular_velocity_rad_s) -> np.ndarray:
-    """θ̇ = −Wᵀ (v, ω) / ρ (rad/s)."""
+    """θ̇ = ḋ / ρ (rad/s)."""
     structure, _ = wrench_matrix(robot, position_m, orientation)
-    twist = np.concatenate([velocity_m_s, angular_velocity_rad_s])
-    return -(twist @ structure) / robot.motor.drum_radius_m
+    return (length_rates(structure, np.concatenate([velocity_m_s, angular_velocity_rad_s]))
+            / robot.motor.drum_radius_m)
 
 
 def joint_acceleration(robot: Robot, position_m, orientation, velocity_m_s, angular_velocity_rad_s,
                        acceleration_m_s2, angular_acceleration_rad_s2) -> np.ndarray:
-    """θ̈ (rad/s²) = (−Wᵀ (a, α) + κ) / ρ (velocity_product: κ)."""
+    """θ̈ = d̈ / ρ (rad/s²)."""
     u, d, r = cable_vectors(robot, position_m, orientation)
-    accelerations = np.concatenate([acceleration_m_s2, angular_acceleration_rad_s2])
-    return (-(accelerations @ structure_of(u, r))
-            + velocity_product(u, d, r, velocity_m_s, angular_velocity_rad_s)) / robot.motor.drum_radius_m
+    return length_accelerations(structure_of(u, r), velocity_product(u, d, r, velocity_m_s, angular_velocity_rad_s),
+                                np.concatenate([acceleration_m_s2, angular_acceleration_rad_s2])
+                                ) / robot.motor.drum_radius_m
 
 
 def velocity_product(u: np.ndarray, d: np.ndarray, r: np.ndarray, velocity_m_s,
@@ -147,11 +158,9 @@ def forward_kinematics_rows(robot: Robot, angles_rad, cables=None) -> tuple[np.n
 def end_effector_positions(robot: Robot, angles_rad, cables=None) -> np.ndarray:
     """Where the motor angles put the end-effector (m; a stack n × m gives n × 3), of any
     robot: the point mass's forward kinematics, or the origin of a platform's pose."""
-    if robot.platform is None:
-        return point_mass_forward_kinematics(robot, angles_rad, cables)
     angles = np.asarray(angles_rad, dtype=float)
-    if angles.ndim == 1:
-        return forward_kinematics(robot, angles, cables)[0]
+    if robot.platform is None or angles.ndim == 1:
+        return pose_of_angles(robot, angles, cables)[0]
     return forward_kinematics_rows(robot, angles, cables)[0]
 
 
@@ -162,11 +171,3 @@ def pose_of_angles(robot: Robot, angles_rad, cables=None) -> tuple[np.ndarray, n
     if robot.platform is None:
         return point_mass_forward_kinematics(robot, np.asarray(angles_rad, dtype=float), cables), None
     return forward_kinematics(robot, angles_rad, cables)
-
-
-def cable_ends_m(robot: Robot, position_m, orientation) -> np.ndarray:
-    """Where each cable ends on the end-effector (m × 3, world frame): the point mass's
-    position, or a platform's attachment points p + R b_i."""
-    if robot.platform is None:
-        return np.broadcast_to(np.asarray(position_m, dtype=float), (robot.cable_count, 3))
-    return position_m + robot.platform.attachment_points_m @ rotation_matrix(orientation).T

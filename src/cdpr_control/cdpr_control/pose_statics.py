@@ -7,7 +7,7 @@ import numpy as np
 from .pose_dynamics import rigid_body
 from .pose_kinematics import wrench_matrix
 from .robot import Robot
-from .tension_distribution import InfeasibleTensionError, TensionDistribution
+from .tension_distribution import InfeasibleTensionError, TensionDistribution, make_tension_distribution
 
 
 def holding_tensions(robot: Robot, distribution: TensionDistribution, position_m, orientation,
@@ -47,3 +47,11 @@ def wrench_feasible_share(robot: Robot, distribution: TensionDistribution, orien
     """The share of `points` where the platform, at `orientation`, can be held at rest."""
     return float(np.mean([wrench_feasible(robot, distribution, point, orientation, attached)
                           for point in points]))
+
+
+def static_tensions(robot: Robot, position_m, orientation, attached=None) -> np.ndarray:
+    """The tensions a plant holds the platform at rest with (before its first command,
+    and as the elastic cables' stretch at its start): the minimum-norm ones within the
+    cable bounds (the pseudo-inverse's wherever that is inside them)."""
+    distribution = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
+    return holding_tensions(robot, distribution, position_m, orientation, attached)

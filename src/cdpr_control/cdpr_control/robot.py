@@ -87,18 +87,19 @@ class Robot:
     cable_length_offset_m: np.ndarray = field(init=False)
 
     def __post_init__(self):
-        offset = np.linalg.norm(self.exit_points_m - self.home_attachment_points_m(), axis=1)
+        offset = np.linalg.norm(self.exit_points_m - self.cable_ends_m(
+            self.home_position_m, None if self.platform is None else self.platform.home_orientation), axis=1)
         object.__setattr__(self, 'cable_length_offset_m', offset)
         for array in (self.exit_points_m, self.gravity_m_s2, self.workspace_min_m,
                       self.workspace_max_m, self.home_position_m, offset):
             array.setflags(write=False)
 
-    def home_attachment_points_m(self) -> np.ndarray:
-        """Where the cables end at the home pose (m, world frame; m × 3)."""
+    def cable_ends_m(self, position_m, orientation) -> np.ndarray:
+        """Where each cable ends on the end-effector at the pose (m × 3, world frame): the
+        point mass's position, or a platform's attachment points p + R(q) b_i."""
         if self.platform is None:
-            return self.home_position_m
-        return (self.home_position_m
-                + self.platform.attachment_points_m @ rotation_matrix(self.platform.home_orientation).T)
+            return np.broadcast_to(np.asarray(position_m, dtype=float), (self.cable_count, 3))
+        return position_m + self.platform.attachment_points_m @ rotation_matrix(orientation).T
 
     @property
     def cable_count(self) -> int:

@@ -20,7 +20,7 @@ import numpy as np
 from cdpr_control.config import Section
 from cdpr_control.friction import FrictionModel
 from cdpr_control.kinematics import KinematicsError
-from cdpr_control.pose_kinematics import cable_ends_m, end_effector_positions, pose_of_angles
+from cdpr_control.pose_kinematics import end_effector_positions, pose_of_angles
 from cdpr_control.robot import Robot
 from cdpr_control.workspace import sew_cross_section
 
@@ -108,7 +108,7 @@ def _single(namespace: str, kind: str, points_m, colour, scale_m: float, id: int
 def cable_shapes(robot: Robot, style: MarkerStyle, ends_m: np.ndarray,
                  tension_n: np.ndarray, broken_cables: list[int]) -> list[Shape]:
     """Per cable (id = its 1-based number): a line from its exit point to where it ends on
-    the end-effector (`ends_m`, m × 3: pose_kinematics.cable_ends_m) coloured by its
+    the end-effector (`ends_m`, m × 3: Robot.cable_ends_m) coloured by its
     tension, or, for a broken cable, a dashed grey line hanging straight down from its exit
     point to its end's height (none when the end is found at that height or above: a
     marker of no points has nothing to draw, nor a colour)."""
@@ -226,7 +226,7 @@ class Frame:
         pose = self.end_effector_pose()
         if pose is not None:
             position, orientation = pose
-            ends = cable_ends_m(self.robot, position, orientation)
+            ends = self.robot.cable_ends_m(position, orientation)
             shapes += cable_shapes(self.robot, style, ends, tension, self.broken_cables)
             shapes.append(_single('end_effector', SPHERE_LIST, position, END_EFFECTOR_COLOUR,
                                   style.end_effector_diameter_m))

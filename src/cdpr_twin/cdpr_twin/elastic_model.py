@@ -23,6 +23,7 @@ import numpy as np
 
 from cdpr_control.kinematics import cable_vectors
 from cdpr_control.robot import Robot
+from cdpr_control.rotation import IDENTITY
 from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.statics import static_tensions
 
@@ -67,6 +68,9 @@ class ElasticCableRobot:
 
     A step replaces the state arrays rather than writing into them.
     """
+
+    # a point mass has no orientation to tell: the identity, as a platform's model has one
+    orientation = IDENTITY
 
     def __init__(self, robot: Robot, position_m, substeps: int, axial_stiffness_n: float,
                  damping_n_s_m: float, coulomb_friction_nm: float,

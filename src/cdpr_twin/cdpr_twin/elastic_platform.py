@@ -14,12 +14,11 @@ from __future__ import annotations
 import numpy as np
 
 from cdpr_control import pose_kinematics
-from cdpr_control.pose_dynamics import rigid_body_at
-from cdpr_control.pose_statics import holding_tensions
+from cdpr_control.pose_dynamics import rigid_body_at, wrench_at_origin
+from cdpr_control.pose_statics import static_tensions
 from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.robot import Robot
 from cdpr_control.rotation import from_rotation_vector, normalised, product, rotation_matrix
-from cdpr_control.tension_distribution import make_tension_distribution
 
 
 class ElasticPlatform:
@@ -30,18 +29,18 @@ class ElasticPlatform:
     """
 
     def __init__(self, robot: Robot, position_m, orientation, config):
-        """`config`: the plant's PlantConfig (sub-steps, the cables' EA and damping, the Coulomb
-        friction's smoothing); the Coulomb friction is the robot's motors' static friction."""
+        """At the pose (p, `orientation`: the platform's home one when None). `config`: the
+        plant's PlantConfig (sub-steps, the cables' EA and damping, the Coulomb friction's
+        smoothing); the Coulomb friction is the robot's motors' static friction."""
         self.robot = robot
         self.config = config
         self.position_m = np.array(position_m, dtype=float)
-        self.orientation = normalised(orientation)
+        self.orientation = normalised(robot.platform.home_orientation if orientation is None else orientation)
         self.velocity_m_s = np.zeros(3)
         self.platform_angular_velocity_rad_s = np.zeros(3)
         self.drums_locked = False
         self.attached = np.ones(robot.cable_count, dtype=bool)
-        distribution = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
-        tension = holding_tensions(robot, distribution, self.position_m, self.orientation)
+        tension = static_tensions(robot, self.position_m, self.orientation)
         _, d, _ = pose_kinematics.cable_vectors(robot, self.position_m, self.orientation)
         unstretched = d / (1.0 + tension / config.axial_stiffness_n)
         self.angle_rad = (unstretched - robot.cable_length_offset_m) / robot.motor.drum_radius_m
@@ -67,7 +66,7 @@ class ElasticPlatform:
         length = robot.cable_length_offset_m + radius * angle
         # the cable's stretch rate: its end on the platform moves with ḋ = −Wᵀ (v, ω), its
         # drum pays out ρ θ̇
-        rate = -(np.concatenate([velocity, omega]) @ structure) - radius * speed
+        rate = pose_kinematics.length_rates(structure, np.concatenate([velocity, omega])) - radius * speed
         pull = (self.config.axial_stiffness_n / length) * (d - length) + self.config.damping_n_s_m * rate
         tension = np.where(self.attached & (d > length) & (pull > 0.0), pull, 0.0)
         return tension, structure, rotation
@@ -75,7 +74,7 @@ class ElasticPlatform:
     def step(self, torque_nm, period_s: float, substeps: int | None = None, external_force_n=NO_FORCE) -> None:
         """Apply `torque_nm` (N·m) for `period_s` (s), in `substeps` (default: the model's),
         and `external_force_n` (N, world frame) at the platform's origin."""
-        external_wrench = None if tuple(external_force_n) == NO_FORCE else np.concatenate([external_force_n, np.zeros(3)])
+        external_wrench = wrench_at_origin(external_force_n)
         robot, motor = self.robot, self.robot.motor
         substeps = substeps or self.config.substeps
         h = period_s / substeps

@@ -20,10 +20,8 @@ import numpy as np
 from cdpr_control.config import Section
 from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.robot import Robot
-from cdpr_control.pose_statics import holding_tensions
-from cdpr_control.rotation import IDENTITY
+from cdpr_control.pose_statics import static_tensions
 from cdpr_control.statics import holding_torque_nm
-from cdpr_control.tension_distribution import make_tension_distribution
 
 from .elastic_model import DriveTrain, ElasticCableRobot
 from .elastic_platform import ElasticPlatform
@@ -190,9 +188,7 @@ class PlantSimulator:
         self.robot = robot
         self.config = config
         if robot.platform is not None:
-            self.model = platform_model(robot, config, start_position_m,
-                                        robot.platform.home_orientation if start_orientation is None
-                                        else start_orientation)
+            self.model = platform_model(robot, config, start_position_m, start_orientation)
         elif config.fidelity == 'rigid':
             self.model = RigidCableRobot(robot, start_position_m, config.substeps)
         else:
@@ -272,10 +268,8 @@ class PlantSimulator:
         attached = self.robot.cable_mask(self.broken)
         if self.robot.platform is None:
             return holding_torque_nm(self.robot, self.position_m, attached)
-        distribution = make_tension_distribution('bounded_minimum_norm', self.robot.tension_min_n,
-                                                 self.robot.tension_max_n)
-        return -self.robot.motor.drum_radius_m * holding_tensions(self.robot, distribution, self.position_m,
-                                                                  self.model.orientation, attached)
+        return -self.robot.motor.drum_radius_m * static_tensions(self.robot, self.position_m,
+                                                                 self.model.orientation, attached)
 
     def applied_torque_nm(self, command_nm) -> np.ndarray:
         """The torque (N·m) the motors apply, and the drive reports as applied, for
@@ -355,4 +349,4 @@ class PlantSimulator:
     @property
     def orientation(self) -> np.ndarray:
         """The platform's orientation (unit quaternion); the identity for a point mass."""
-        return self.model.orientation if self.robot.platform is not None else IDENTITY
+        return self.model.orientation

@@ -6,6 +6,7 @@ import numpy as np
 from cdpr_control.dynamics import NO_FORCE, RigidDirectDynamics
 from cdpr_control.kinematics import cable_directions, inverse_kinematics
 from cdpr_control.robot import Robot
+from cdpr_control.rotation import IDENTITY
 from cdpr_control.statics import static_tensions
 
 # A slack cable whose motor has wound in to within this much of the straight-line
@@ -22,6 +23,9 @@ class RigidCableRobot:
     sub-step the taut motors are put back on the kinematic constraint, so the model
     does not drift. A step replaces the state arrays rather than writing into them.
     """
+
+    # a point mass has no orientation to tell: the identity, as a platform's model has one
+    orientation = IDENTITY
 
     def __init__(self, robot: Robot, position_m, substeps: int = 1):
         self.robot = robot

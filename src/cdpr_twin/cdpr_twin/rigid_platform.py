@@ -24,11 +24,12 @@ class RigidPlatform:
     RigidCableRobot, a step replaces the state arrays rather than writing into them.
     """
 
-    def __init__(self, robot: Robot, position_m, orientation, substeps: int = 1):
+    def __init__(self, robot: Robot, position_m, orientation=None, substeps: int = 1):
+        """At rest at the pose (p, `orientation`: the platform's home one when None)."""
         self.robot = robot
         self.substeps = int(substeps)
         self.position_m = np.array(position_m, dtype=float)
-        self.orientation = normalised(orientation)
+        self.orientation = normalised(robot.platform.home_orientation if orientation is None else orientation)
         self.velocity_m_s = np.zeros(3)
         self.platform_angular_velocity_rad_s = np.zeros(3)
         self.angle_rad = pose_kinematics.inverse_kinematics(robot, self.position_m, self.orientation)
@@ -46,7 +47,6 @@ class RigidPlatform:
     def step(self, torque_nm, period_s: float, substeps: int | None = None, external_force_n=NO_FORCE) -> None:
         """Apply `torque_nm` (N·m) for `period_s` (s), in `substeps` (default: the model's),
         and `external_force_n` (N, world frame) at the platform's origin."""
-        external_wrench = None if tuple(external_force_n) == NO_FORCE else np.concatenate([external_force_n, np.zeros(3)])
         if self.drums_locked:
             self.velocity_m_s, self.platform_angular_velocity_rad_s = np.zeros(3), np.zeros(3)
             self.angular_velocity_rad_s = np.zeros(self.robot.cable_count)
@@ -56,11 +56,12 @@ class RigidPlatform:
         substeps = substeps or self.substeps
         h = period_s / substeps
         torque = np.asarray(torque_nm, dtype=float)
+        external_wrench = pose_dynamics.wrench_at_origin(external_force_n)
         position, orientation = self.position_m, self.orientation
         velocity, omega = self.velocity_m_s, self.platform_angular_velocity_rad_s
         angle, speed = self.angle_rad, self.angular_velocity_rad_s
+        _, lengths, _ = pose_kinematics.cable_vectors(robot, position, orientation)
         for _ in range(substeps):
-            _, lengths, _ = pose_kinematics.cable_vectors(robot, position, orientation)
             candidates = self.attached & (robot.cable_length_offset_m + radius * angle
                                           <= lengths + RETAUT_TOLERANCE_M)
             motion = pose_dynamics.direct_dynamics(robot, position, orientation, velocity, omega, torque, speed,
@@ -72,9 +73,12 @@ class RigidPlatform:
             taut = motion.taut
             speed = speed + h * motion.joint_acceleration_rad_s2
             angle = angle + h * speed
-            # on the kinematic constraint: l = d, θ̇ = −Wᵀ (v, ω) / ρ
-            angle[taut] = pose_kinematics.inverse_kinematics(robot, position, orientation)[taut]
-            speed[taut] = pose_kinematics.joint_velocity(robot, position, orientation, velocity, omega)[taut]
+            # on the kinematic constraint: l = d, θ̇ = ḋ / ρ (the lengths are the next
+            # sub-step's too)
+            u, lengths, r = pose_kinematics.cable_vectors(robot, position, orientation)
+            angle[taut] = ((lengths - robot.cable_length_offset_m) / radius)[taut]
+            speed[taut] = (pose_kinematics.length_rates(pose_kinematics.structure_of(u, r),
+                                                        np.concatenate([velocity, omega])) / radius)[taut]
             self.tension_n, self.taut = motion.tension_n, taut
         self.position_m, self.orientation = position, orientation
         self.velocity_m_s, self.platform_angular_velocity_rad_s = velocity, omega

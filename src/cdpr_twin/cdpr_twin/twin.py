@@ -1,13 +1,12 @@
 """The digital twin: a healthy rigid model driven by its own copy of the controller."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from cdpr_control.controller import JointController, JointReference, PdGains
 from cdpr_control.robot import Robot
-from cdpr_control.rotation import IDENTITY
 
 from .rigid_model import RigidCableRobot
 from .rigid_platform import RigidPlatform
@@ -22,7 +21,7 @@ class TwinOutput:
     angular_velocity_rad_s: np.ndarray
     torque_nm: np.ndarray
     position_m: np.ndarray
-    orientation: np.ndarray = field(default_factory=IDENTITY.copy)
+    orientation: np.ndarray
 
 
 class DigitalTwin:
@@ -32,9 +31,7 @@ class DigitalTwin:
 
     def __init__(self, robot: Robot, gains: PdGains, start_position_m, substeps: int, start_orientation=None):
         self.model = (RigidCableRobot(robot, start_position_m, substeps) if robot.platform is None
-                      else RigidPlatform(robot, start_position_m,
-                                         robot.platform.home_orientation if start_orientation is None
-                                         else start_orientation, substeps))
+                      else RigidPlatform(robot, start_position_m, start_orientation, substeps))
         self.controller = JointController(robot, gains)
 
     def step(self, reference: JointReference, period_s: float) -> TwinOutput:
@@ -43,6 +40,6 @@ class DigitalTwin:
         # No copies needed: the model's step replaces its state arrays, never writes into them.
         angle, speed, position = model.angle_rad, model.angular_velocity_rad_s, model.position_m
         torque = self.controller.command(angle, speed, reference)
-        orientation = getattr(model, 'orientation', IDENTITY)
+        orientation = model.orientation
         model.step(torque, period_s)
         return TwinOutput(angle, speed, torque, position, orientation)
