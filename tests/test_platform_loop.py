@@ -179,3 +179,17 @@ def test_the_markers_draw_a_platforms_cables_to_its_attachment_points():
     for cable in range(8):
         np.testing.assert_allclose(shapes[('cables', cable + 1)].points_m[1], attachment[cable], atol=1e-9)
     assert len(shapes[('platform', 0)].points_m) == 16
+
+
+@pytest.mark.parametrize('fidelity', ['rigid', 'elastic'])
+def test_a_push_moves_the_platform_its_way_and_only_a_push(fidelity):
+    """A force on the platform (a plant's push) at its origin: at rest under the holding
+    torques nothing moves; pushed along +x for a period it moves along +x."""
+    robot, settings, _, reference = setup('along')
+    config = PlantConfig.from_section(settings.section('plant'), fidelity=fidelity)
+    still, pushed = (PlantSimulator(robot, config, reference.position_m[0]).model for _ in range(2))
+    holding = PlantSimulator(robot, config, reference.position_m[0]).holding_torque_nm()
+    still.step(holding, reference.period_s)
+    pushed.step(holding, reference.period_s, external_force_n=(20.0, 0.0, 0.0))
+    moved = pushed.velocity_m_s - still.velocity_m_s
+    assert moved[0] > 1e-3 and abs(moved[0]) > 10 * np.abs(moved[1:]).max()
