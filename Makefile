@@ -24,6 +24,7 @@ $(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
 	sed -i '/^# cdpr environment/,$$d' $(VENV)/bin/activate
 	cat tools/venv-activate.sh >> $(VENV)/bin/activate
 	$(PY) -c 'from cdpr_twin.elastic_substeps import kernel; kernel("compiled")'
+	$(PY) -c 'from cdpr_control.platform_substeps import kernel; kernel("compiled")'
 	touch $(STAMP)
 
 demo: setup

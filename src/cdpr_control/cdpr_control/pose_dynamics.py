@@ -23,9 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import platform_substeps
 from .pose_kinematics import cable_geometry, length_accelerations, length_rates, structure_of, velocity_product
 from .robot import Robot
-from .rotation import rotation_matrix, skew
+from .rotation import rotation_matrix
 from .tension_distribution import InfeasibleTensionError, TensionDistribution
 
 
@@ -52,35 +53,21 @@ class PlatformDirectDynamics:
 
 @dataclass
 class RigidBody:
-    """The platform's mass matrix M (6 × 6), velocity terms h (6) and weight wrench w_g (6)
-    at a pose and twist, about the platform frame's origin."""
+    """The platform's mass matrix M (6 × 6) and the wrench w_g − h (6) its weight and its
+    velocity terms apply, at a pose and twist, about the platform frame's origin."""
 
     mass_matrix: np.ndarray
-    velocity_terms: np.ndarray
-    weight_wrench: np.ndarray
+    free_wrench: np.ndarray
 
 
-def rigid_body(robot: Robot, orientation, angular_velocity_rad_s) -> RigidBody:
-    return rigid_body_at(robot, rotation_matrix(orientation), angular_velocity_rad_s)
-
-
-def rigid_body_at(robot: Robot, rotation: np.ndarray, angular_velocity_rad_s) -> RigidBody:
-    """rigid_body for the platform's rotation matrix R."""
-    mass = robot.mass_kg
-    offset = rotation @ robot.platform.centre_of_mass_m
-    inertia = rotation @ robot.platform.inertia_kg_m2 @ rotation.T
-    cross = skew(offset)
-    turn = skew(angular_velocity_rad_s)
-    omega = np.asarray(angular_velocity_rad_s, dtype=float)
-    mass_matrix = np.empty((6, 6))
-    mass_matrix[:3, :3] = mass * np.eye(3)
-    mass_matrix[:3, 3:] = -mass * cross
-    mass_matrix[3:, :3] = mass * cross
-    mass_matrix[3:, 3:] = inertia - mass * cross @ cross
-    centripetal = turn @ (turn @ offset)
-    velocity_terms = np.concatenate([mass * centripetal, turn @ (inertia @ omega) + mass * cross @ centripetal])
-    weight = mass * robot.gravity_m_s2
-    return RigidBody(mass_matrix, velocity_terms, np.concatenate([weight, cross @ weight]))
+def rigid_body(robot: Robot, orientation, angular_velocity_rad_s, kernel: str = 'compiled') -> RigidBody:
+    """M and w_g − h (module docstring) at the orientation and angular velocity (rad/s),
+    by platform_substeps' `kernel`."""
+    mass_matrix, free = np.empty((6, 6)), np.empty(6)
+    platform_substeps.kernel(kernel).rigid_body(
+        platform_substeps.constants_of(robot), np.array(rotation_matrix(orientation)),
+        np.concatenate([np.zeros(3), angular_velocity_rad_s]), mass_matrix, free)
+    return RigidBody(mass_matrix, free)
 
 
 def inverse_dynamics(robot: Robot, tension_distribution: TensionDistribution, position_m, orientation,
@@ -94,9 +81,9 @@ def inverse_dynamics(robot: Robot, tension_distribution: TensionDistribution, po
     rotation = rotation_matrix(orientation)
     u, d, r = cable_geometry(robot, position_m, rotation)
     structure = structure_of(u, r)
-    body = rigid_body_at(robot, rotation, angular_velocity_rad_s)
+    body = rigid_body(robot, orientation, angular_velocity_rad_s)
     accelerations = np.concatenate([acceleration_m_s2, angular_acceleration_rad_s2])
-    wrench = body.mass_matrix @ accelerations + body.velocity_terms - body.weight_wrench
+    wrench = body.mass_matrix @ accelerations - body.free_wrench
     if external_wrench is not None:
         wrench = wrench - external_wrench
     try:
@@ -120,46 +107,26 @@ def inverse_dynamics(robot: Robot, tension_distribution: TensionDistribution, po
 
 
 def direct_dynamics(robot: Robot, position_m, orientation, velocity_m_s, angular_velocity_rad_s,
-                    torque_nm, joint_velocity_rad_s, attached=None,
-                    external_wrench=None) -> PlatformDirectDynamics:
+                    torque_nm, joint_velocity_rad_s, attached=None, external_wrench=None,
+                    kernel: str = 'compiled') -> PlatformDirectDynamics:
     """(a, α) under motor torques c with rigid cables: the attached cables that stay taut
     pull (module docstring); one whose tension comes out negative goes slack and the
     rest are solved again, the most negative first. The motor of a slack or detached
-    cable spins freely: J θ̈ = −b θ̇ + c."""
-    motor = robot.motor
-    inertia, damping, radius = motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad, motor.drum_radius_m
-    torque = np.asarray(torque_nm, dtype=float)
-    theta_dot = np.asarray(joint_velocity_rad_s, dtype=float)
-    rotation = rotation_matrix(orientation)
-    u, d, r = cable_geometry(robot, position_m, rotation)
-    structure = structure_of(u, r)
-    kappa = velocity_product(u, d, r, velocity_m_s, angular_velocity_rad_s)
-    body = rigid_body_at(robot, rotation, angular_velocity_rad_s)
-    free = body.weight_wrench - body.velocity_terms
-    if external_wrench is not None:
-        free = free + external_wrench
-    # a taut cable's tension as the motor's equation gives it, before the platform's part
-    pull = (inertia / radius ** 2) * kappa + (damping / radius) * theta_dot - torque / radius
-    taut = np.ones(robot.cable_count, dtype=bool) if attached is None else np.array(attached, dtype=bool)
-    while True:
-        taut_structure = structure[:, taut]
-        accelerations = np.linalg.solve(
-            body.mass_matrix + (inertia / radius ** 2) * taut_structure @ taut_structure.T,
-            free + taut_structure @ pull[taut])
-        tension = np.zeros(robot.cable_count)
-        tension[taut] = pull[taut] - (inertia / radius ** 2) * (taut_structure.T @ accelerations)
-        if not taut.any() or tension[taut].min() >= 0.0:
-            break
-        taut[np.argmin(np.where(taut, tension, np.inf))] = False
-    theta_ddot = length_accelerations(structure, kappa, accelerations) / radius
-    loose = ~taut
-    theta_ddot[loose] = (-damping * theta_dot[loose] + torque[loose]) / inertia
-    tension[loose] = 0.0
-    return PlatformDirectDynamics(accelerations[:3], accelerations[3:], theta_ddot, tension, taut)
+    cable spins freely: J θ̈ = −b θ̇ + c. Solved by platform_substeps' `kernel`."""
+    m = robot.cable_count
+    acceleration, joint_acceleration, tension, taut = np.empty(6), np.empty(m), np.empty(m), np.empty(m)
+    exits, attachments, _ = platform_substeps.geometry_of(robot)
+    platform_substeps.kernel(kernel).direct_dynamics(
+        platform_substeps.constants_of(robot), exits, attachments,
+        np.concatenate([position_m, orientation]), np.concatenate([velocity_m_s, angular_velocity_rad_s]),
+        np.array(torque_nm, dtype=float), np.array(joint_velocity_rad_s, dtype=float),
+        np.ones(m) if attached is None else np.array(attached, dtype=float),
+        np.zeros(6) if external_wrench is None else np.array(external_wrench, dtype=float),
+        acceleration, joint_acceleration, tension, taut)
+    return PlatformDirectDynamics(acceleration[:3], acceleration[3:], joint_acceleration, tension, taut != 0.0)
 
 
-def wrench_at_origin(force_n) -> np.ndarray | None:
+def wrench_at_origin(force_n) -> np.ndarray:
     """A force (N, world frame) applied at the platform frame's origin as a wrench
-    (force, moment about the origin); None for no force."""
-    force = np.asarray(force_n, dtype=float)
-    return None if not force.any() else np.concatenate([force, np.zeros(3)])
+    (force, moment about the origin)."""
+    return np.concatenate([np.asarray(force_n, dtype=float), np.zeros(3)])

@@ -13,10 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import platform_substeps
 from .kinematics import KinematicsError
 from .kinematics import forward_kinematics as point_mass_forward_kinematics
 from .robot import Robot
-from .rotation import cross_rows, from_rotation_vector, normalised, product, rotation_matrix, skew
+from .rotation import cross_rows, normalised, rotation_matrix
 
 # Forward kinematics: Gauss–Newton on the six pose coordinates until every cable's
 # length is met to FK_TOLERANCE_M, or the step is below FK_STEP_TOLERANCE (m, rad): the
@@ -92,13 +93,13 @@ def velocity_product(u: np.ndarray, d: np.ndarray, r: np.ndarray, velocity_m_s,
                      angular_velocity_rad_s) -> np.ndarray:
     """κ (m/s², one per cable), the part of d̈ the twist makes without any acceleration:
     κ_i = s_iᵀ (I − u_i u_iᵀ) s_i / d_i − u_iᵀ (ω × (ω × r_i)), s_i = v + ω × r_i the
-    attachment point's velocity (the derivative of ḋ_i = −u_iᵀ s_i)."""
-    turn = skew(angular_velocity_rad_s).T
-    swept = r @ turn                      # ω × r_i, row by row
-    s = swept + velocity_m_s
-    along = np.einsum('ij,ij->i', u, s)
-    return ((np.einsum('ij,ij->i', s, s) - along * along) / d
-            - np.einsum('ij,ij->i', u, swept @ turn))
+    attachment point's velocity (the derivative of ḋ_i = −u_iᵀ s_i); computed by
+    platform_substeps, whose kernels use it."""
+    kappa = np.empty(d.shape[0])
+    platform_substeps.kernel().velocity_product(np.array(u, dtype=float), np.array(d, dtype=float),
+                                                np.array(r, dtype=float),
+                                                np.concatenate([velocity_m_s, angular_velocity_rad_s]), kappa)
+    return kappa
 
 
 def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None) -> tuple[np.ndarray, np.ndarray]:
@@ -107,35 +108,27 @@ def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None) -> tup
     None): each step solves Wᵀ δ = d(x) − l in the least-squares sense for δ = (δp, δφ),
     moves p by δp and turns q by the rotation vector δφ. It stops when every length is
     met to FK_TOLERANCE_M or the step is below FK_STEP_TOLERANCE (the least-squares pose
-    of lengths with noise); KinematicsError after FK_ITERATIONS steps, or when the
-    lengths are then still off by more than FK_RESIDUAL_LIMIT_M."""
-    mask = slice(None) if cables is None else np.asarray(cables, dtype=bool)
-    used_count = robot.cable_count if cables is None else np.count_nonzero(mask)
+    of lengths with noise); KinematicsError after FK_ITERATIONS steps, when the cables
+    used lose rank on the way, or when the lengths are then still off by more than
+    FK_RESIDUAL_LIMIT_M. Solved by platform_substeps.forward_kinematics."""
+    used = np.ones(robot.cable_count) if cables is None else np.array(cables, dtype=bool).astype(float)
+    used_count = np.count_nonzero(used)
     if used_count < 6:
         raise KinematicsError(f'forward kinematics of a platform needs 6 cables, got {used_count}')
-    lengths = (robot.cable_length_offset_m + robot.motor.drum_radius_m * np.asarray(angles_rad, dtype=float))[mask]
+    lengths = robot.cable_length_offset_m + robot.motor.drum_radius_m * np.asarray(angles_rad, dtype=float)
     position, orientation = ((robot.home_position_m, robot.platform.home_orientation) if start is None
                              else start)
-    position, orientation = np.array(position, dtype=float), normalised(orientation)
-    for _ in range(FK_ITERATIONS):
-        u, d, r = cable_vectors(robot, position, orientation)
-        residual = d[mask] - lengths
-        if np.max(np.abs(residual)) < FK_TOLERANCE_M:
-            return position, orientation
-        # ∂d/∂x = −Wᵀ: the least-squares step δ of −Wᵀ δ = −residual, by its normal equations
-        used = structure_of(u, r)[:, mask]
-        try:
-            step = np.linalg.solve(used @ used.T, used @ residual)
-        except np.linalg.LinAlgError:
-            step = np.linalg.lstsq(used.T, residual, rcond=None)[0]
-        position = position + step[:3]
-        orientation = normalised(product(from_rotation_vector(step[3:]), orientation))
-        if np.max(np.abs(step)) < FK_STEP_TOLERANCE:
-            break
-    else:
+    pose = np.concatenate([position, normalised(orientation)])
+    exits, attachments, _ = platform_substeps.geometry_of(robot)
+    taken = platform_substeps.kernel().forward_kinematics(exits, attachments, lengths, used, pose, FK_ITERATIONS,
+                                                          FK_TOLERANCE_M, FK_STEP_TOLERANCE)
+    if taken == -1:
         raise KinematicsError(f'forward kinematics did not converge in {FK_ITERATIONS} Gauss–Newton steps')
+    if taken == -2:
+        raise KinematicsError('forward kinematics: the cables used have a wrench matrix of rank < 6 on the way')
+    position, orientation = pose[:3], pose[3:]
     _, d, _ = cable_vectors(robot, position, orientation)
-    worst = np.max(np.abs(d[mask] - lengths))
+    worst = np.max(np.abs(d - lengths)[used != 0.0])
     if worst > FK_RESIDUAL_LIMIT_M:
         raise KinematicsError(f'the cable lengths fit no pose: at the closest, one is off by '
                               f'{worst * 1000:.3f} mm')

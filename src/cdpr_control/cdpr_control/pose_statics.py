@@ -19,7 +19,7 @@ def holding_tensions(robot: Robot, distribution: TensionDistribution, position_m
     tension = np.zeros(robot.cable_count)
     try:
         tension[attached] = distribution.distribute(
-            structure[:, attached], -rigid_body(robot, orientation, np.zeros(3)).weight_wrench)
+            structure[:, attached], -rigid_body(robot, orientation, np.zeros(3)).free_wrench)
     except InfeasibleTensionError as err:
         raise err.at(position_m, orientation) from None
     return tension

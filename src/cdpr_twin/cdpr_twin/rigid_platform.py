@@ -4,30 +4,34 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control import pose_dynamics, pose_kinematics
+from cdpr_control import platform_substeps, pose_kinematics
 from cdpr_control.dynamics import NO_FORCE
+from cdpr_control.pose_dynamics import wrench_at_origin
 from cdpr_control.robot import Robot
-from cdpr_control.rotation import from_rotation_vector, normalised, product
+from cdpr_control.rotation import normalised
 
 from .rigid_model import RETAUT_TOLERANCE_M
-
 
 class RigidPlatform:
     """State: pose (p, q), twist (v, ω), motors θ, θ̇ (rad, rad/s); taut cables tie θ to
     the pose.
 
     Each step integrates the Newton–Euler direct dynamics (cdpr_control.pose_dynamics) by
-    semi-implicit Euler in `substeps`: twist first, then the pose with it (the orientation
-    turned by the rotation vector h ω). A cable is taut while attached, not paid out
-    beyond the straight-line length and pulling; otherwise its motor spins freely. After
-    each sub-step the taut motors are put back on the kinematic constraint. As
-    RigidCableRobot, a step replaces the state arrays rather than writing into them.
+    semi-implicit Euler in `substeps` (cdpr_control.platform_substeps.rigid_substeps, run
+    by its `kernel`): twist first, then the pose with it (the orientation turned by the
+    rotation vector h ω). A cable is taut while attached, not paid out beyond the
+    straight-line length and pulling; otherwise its motor spins freely. After each
+    sub-step the taut motors are put back on the kinematic constraint. As RigidCableRobot,
+    a step replaces the state arrays rather than writing into them.
     """
 
-    def __init__(self, robot: Robot, position_m, orientation=None, substeps: int = 1):
+    def __init__(self, robot: Robot, position_m, orientation=None, substeps: int = 1, kernel: str = 'compiled'):
         """At rest at the pose (p, `orientation`: the platform's home one when None)."""
         self.robot = robot
         self.substeps = int(substeps)
+        self.kernel = platform_substeps.kernel(kernel)
+        self.exits, self.attachments, self.offsets = platform_substeps.geometry_of(robot)
+        self.constants = platform_substeps.constants_of(robot, retaut_tolerance_m=RETAUT_TOLERANCE_M)
         self.position_m = np.array(position_m, dtype=float)
         self.orientation = normalised(robot.platform.home_orientation if orientation is None else orientation)
         self.velocity_m_s = np.zeros(3)
@@ -52,34 +56,17 @@ class RigidPlatform:
             self.angular_velocity_rad_s = np.zeros(self.robot.cable_count)
             return
         robot = self.robot
-        radius = robot.motor.drum_radius_m
         substeps = substeps or self.substeps
-        h = period_s / substeps
-        torque = np.asarray(torque_nm, dtype=float)
-        external_wrench = pose_dynamics.wrench_at_origin(external_force_n)
-        position, orientation = self.position_m, self.orientation
-        velocity, omega = self.velocity_m_s, self.platform_angular_velocity_rad_s
-        angle, speed = self.angle_rad, self.angular_velocity_rad_s
-        _, lengths, _ = pose_kinematics.cable_vectors(robot, position, orientation)
-        for _ in range(substeps):
-            candidates = self.attached & (robot.cable_length_offset_m + radius * angle
-                                          <= lengths + RETAUT_TOLERANCE_M)
-            motion = pose_dynamics.direct_dynamics(robot, position, orientation, velocity, omega, torque, speed,
-                                                   candidates, external_wrench)
-            velocity = velocity + h * motion.acceleration_m_s2
-            omega = omega + h * motion.angular_acceleration_rad_s2
-            position = position + h * velocity
-            orientation = normalised(product(from_rotation_vector(h * omega), orientation))
-            taut = motion.taut
-            speed = speed + h * motion.joint_acceleration_rad_s2
-            angle = angle + h * speed
-            # on the kinematic constraint: l = d, θ̇ = ḋ / ρ (the lengths are the next
-            # sub-step's too)
-            u, lengths, r = pose_kinematics.cable_vectors(robot, position, orientation)
-            angle[taut] = ((lengths - robot.cable_length_offset_m) / radius)[taut]
-            speed[taut] = (pose_kinematics.length_rates(pose_kinematics.structure_of(u, r),
-                                                        np.concatenate([velocity, omega])) / radius)[taut]
-            self.tension_n, self.taut = motion.tension_n, taut
-        self.position_m, self.orientation = position, orientation
-        self.velocity_m_s, self.platform_angular_velocity_rad_s = velocity, omega
+        pose = np.concatenate([self.position_m, self.orientation])
+        twist = np.concatenate([self.velocity_m_s, self.platform_angular_velocity_rad_s])
+        angle, speed = self.angle_rad.copy(), self.angular_velocity_rad_s.copy()
+        tension, taut = np.empty(robot.cable_count), np.empty(robot.cable_count)
+        self.kernel.rigid_substeps(substeps, period_s / substeps, self.constants, self.exits,
+                                   self.attachments, self.offsets,
+                                   self.attached.astype(float), np.array(torque_nm, dtype=float),
+                                   wrench_at_origin(external_force_n),
+                                   pose, twist, angle, speed, tension, taut)
+        self.position_m, self.orientation = pose[:3], pose[3:]
+        self.velocity_m_s, self.platform_angular_velocity_rad_s = twist[:3], twist[3:]
         self.angle_rad, self.angular_velocity_rad_s = angle, speed
+        self.tension_n, self.taut = tension, taut != 0.0

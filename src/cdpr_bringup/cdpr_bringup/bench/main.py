@@ -95,8 +95,7 @@ def bench_platform_model(robot) -> dict:
               product(from_axis_angle([0.0, 0.0, 1.0], 0.001), orientation))
     structure, _ = pose_kinematics.wrench_matrix(robot, position, orientation)
     body = pose_dynamics.rigid_body(robot, orientation, angular_velocity)
-    wrench = (body.mass_matrix @ np.concatenate([acceleration, angular_acceleration]) + body.velocity_terms
-              - body.weight_wrench)
+    wrench = body.mass_matrix @ np.concatenate([acceleration, angular_acceleration]) - body.free_wrench
     pseudo_inverse = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
     motion = (position, orientation, velocity, angular_velocity)
     torque = pose_dynamics.inverse_dynamics(robot, pseudo_inverse, *motion, acceleration, angular_acceleration)

@@ -1,0 +1,460 @@
+"""A platform's equations of motion, one control period in sub-steps: one source, run by
+CPython or compiled by numba (docs/platform.md, "Speed").
+
+The equations are those of pose_dynamics' docstring (Newton–Euler at the platform frame's
+origin, the motors J θ̈ = −b θ̇ + c + ρ τ) and of pose_kinematics' (l_i = A_i − p − R b_i,
+W's column [u_i ; r_i × u_i]); here they are written on floats and small arrays, element
+by element, the form numba compiles to a few µs a sub-step where numpy's per-call cost
+on 6 × 8 arrays would be ~20 times that. CPython runs the same functions as they are (the
+`python` kernel: slow, for a machine without numba and to check the compiled one
+against); both do the same operations in the same order.
+
+Arrays in, arrays updated in place, nothing else: `constants` is `constants_of(robot, …)`,
+the geometry is the exit points A (m × 3), attachment points b (m × 3, platform frame)
+and length offsets l_0 (m); a pose is (px, py, pz, qw, qx, qy, qz), a twist (v, ω) six
+floats, world frame; a mask holds 1.0 for yes and 0.0 for no.
+"""
+from __future__ import annotations
+
+from functools import cache
+from math import cos, sin, sqrt, tanh
+
+import numpy as np
+
+from .rotation import SMALL_ANGLE_RAD
+
+KERNELS = ('compiled', 'python')
+
+# the slots of `constants`
+MASS, CENTRE, INERTIA, GRAVITY = 0, 1, 4, 13
+MOTOR_INERTIA, VISCOUS, RADIUS, COULOMB, SMOOTHING, STIFFNESS, DAMPING, RETAUT = range(16, 24)
+CONSTANT_COUNT = 24
+
+
+def constants_of(robot, coulomb_friction_nm: float = 0.0, coulomb_velocity_rad_s: float = 1.0,
+                 axial_stiffness_n: float = 0.0, damping_n_s_m: float = 0.0,
+                 retaut_tolerance_m: float = 0.0) -> np.ndarray:
+    """The numbers a kernel needs of a platform robot: mass m (kg), centre of mass c (m),
+    inertia I_c (platform frame), gravity g (m/s²), the motors' J, b and ρ,
+    and for the elastic cables the Coulomb friction (N·m) and its smoothing speed (rad/s),
+    EA (N) and damping (N·s/m); for the rigid ones the re-tautening tolerance (m)."""
+    platform, motor = robot.platform, robot.motor
+    constants = np.empty(CONSTANT_COUNT)
+    constants[MASS] = robot.mass_kg
+    constants[CENTRE:CENTRE + 3] = platform.centre_of_mass_m
+    constants[INERTIA:INERTIA + 9] = platform.inertia_kg_m2.ravel()
+    constants[GRAVITY:GRAVITY + 3] = robot.gravity_m_s2
+    constants[MOTOR_INERTIA:RETAUT + 1] = (motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad,
+                                           motor.drum_radius_m, coulomb_friction_nm, coulomb_velocity_rad_s,
+                                           axial_stiffness_n, damping_n_s_m, retaut_tolerance_m)
+    return constants
+
+
+def geometry_of(robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The exit points A (m × 3), attachment points b (m × 3) and length offsets l_0 (m) of
+    a platform robot, as the compiled kernels take arrays: writable copies."""
+    return (np.array(robot.exit_points_m, dtype=float), np.array(robot.platform.attachment_points_m, dtype=float),
+            np.array(robot.cable_length_offset_m, dtype=float))
+
+
+def rotation_of(pose, rotation) -> None:
+    """R (3 × 3, into `rotation`) of the pose's unit quaternion."""
+    w, x, y, z = pose[3], pose[4], pose[5], pose[6]
+    rotation[0, 0], rotation[0, 1], rotation[0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
+    rotation[1, 0], rotation[1, 1], rotation[1, 2] = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
+    rotation[2, 0], rotation[2, 1], rotation[2, 2] = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+
+
+def cables_at(pose, rotation, exits, attachments, wrench_columns, lengths, arms) -> None:
+    """At the pose (its R in `rotation`): W's columns as rows (m × 6: u_i, r_i × u_i), the
+    lengths d (m) and the attachment points r_i = R b_i relative to p (m × 3)."""
+    for i in range(exits.shape[0]):
+        bx, by, bz = attachments[i, 0], attachments[i, 1], attachments[i, 2]
+        rx = rotation[0, 0] * bx + rotation[0, 1] * by + rotation[0, 2] * bz
+        ry = rotation[1, 0] * bx + rotation[1, 1] * by + rotation[1, 2] * bz
+        rz = rotation[2, 0] * bx + rotation[2, 1] * by + rotation[2, 2] * bz
+        lx, ly, lz = exits[i, 0] - pose[0] - rx, exits[i, 1] - pose[1] - ry, exits[i, 2] - pose[2] - rz
+        d = sqrt(lx * lx + ly * ly + lz * lz)
+        ux, uy, uz = lx / d, ly / d, lz / d
+        wrench_columns[i, 0], wrench_columns[i, 1], wrench_columns[i, 2] = ux, uy, uz
+        wrench_columns[i, 3], wrench_columns[i, 4], wrench_columns[i, 5] = (ry * uz - rz * uy, rz * ux - rx * uz,
+                                                                            rx * uy - ry * ux)
+        lengths[i] = d
+        arms[i, 0], arms[i, 1], arms[i, 2] = rx, ry, rz
+
+
+def length_rate(wrench_columns, i, twist) -> float:
+    """ḋ_i = −w_iᵀ (v, ω) (m/s)."""
+    total = 0.0
+    for k in range(6):
+        total += wrench_columns[i, k] * twist[k]
+    return -total
+
+
+def rigid_body(constants, rotation, twist, mass_matrix, free_wrench) -> None:
+    """The platform's M (6 × 6, into `mass_matrix`) and w_g − h (6, into `free_wrench`) at
+    its rotation R and twist: pose_dynamics' docstring."""
+    mass = constants[MASS]
+    cx, cy, cz = constants[CENTRE], constants[CENTRE + 1], constants[CENTRE + 2]
+    # c_w = R c, I_w = R I_c Rᵀ
+    ox = rotation[0, 0] * cx + rotation[0, 1] * cy + rotation[0, 2] * cz
+    oy = rotation[1, 0] * cx + rotation[1, 1] * cy + rotation[1, 2] * cz
+    oz = rotation[2, 0] * cx + rotation[2, 1] * cy + rotation[2, 2] * cz
+    offset = np.empty(3)
+    offset[0], offset[1], offset[2] = ox, oy, oz
+    inertia = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            total = 0.0
+            for k in range(3):
+                for n in range(3):
+                    total += rotation[a, k] * constants[INERTIA + 3 * k + n] * rotation[b, n]
+            inertia[a, b] = total
+    # M = [[m I, −m [c]×], [m [c]×, I_w − m [c]×²]], −[c]×² = |c|² I − c cᵀ
+    squared = ox * ox + oy * oy + oz * oz
+    for a in range(3):
+        for b in range(3):
+            mass_matrix[a, b] = mass if a == b else 0.0
+            mass_matrix[3 + a, 3 + b] = inertia[a, b] + mass * ((squared if a == b else 0.0) - offset[a] * offset[b])
+    mass_matrix[0, 3], mass_matrix[0, 4], mass_matrix[0, 5] = 0.0, mass * oz, -mass * oy
+    mass_matrix[1, 3], mass_matrix[1, 4], mass_matrix[1, 5] = -mass * oz, 0.0, mass * ox
+    mass_matrix[2, 3], mass_matrix[2, 4], mass_matrix[2, 5] = mass * oy, -mass * ox, 0.0
+    for a in range(3):
+        for b in range(3):
+            mass_matrix[3 + a, b] = mass_matrix[b, 3 + a]
+    wx, wy, wz = twist[3], twist[4], twist[5]
+    # e = ω × (ω × c_w), j = I_w ω
+    sx, sy, sz = wy * oz - wz * oy, wz * ox - wx * oz, wx * oy - wy * ox
+    ex, ey, ez = wy * sz - wz * sy, wz * sx - wx * sz, wx * sy - wy * sx
+    jx = inertia[0, 0] * wx + inertia[0, 1] * wy + inertia[0, 2] * wz
+    jy = inertia[1, 0] * wx + inertia[1, 1] * wy + inertia[1, 2] * wz
+    jz = inertia[2, 0] * wx + inertia[2, 1] * wy + inertia[2, 2] * wz
+    # w_g − h = [m g − m e ; c_w × m g − ω × j − m c_w × e]
+    gx, gy, gz = mass * constants[GRAVITY], mass * constants[GRAVITY + 1], mass * constants[GRAVITY + 2]
+    free_wrench[0], free_wrench[1], free_wrench[2] = gx - mass * ex, gy - mass * ey, gz - mass * ez
+    free_wrench[3] = (oy * gz - oz * gy) - (wy * jz - wz * jy) - mass * (oy * ez - oz * ey)
+    free_wrench[4] = (oz * gx - ox * gz) - (wz * jx - wx * jz) - mass * (oz * ex - ox * ez)
+    free_wrench[5] = (ox * gy - oy * gx) - (wx * jy - wy * jx) - mass * (ox * ey - oy * ex)
+
+
+def solve_symmetric(matrix, rhs, solution) -> bool:
+    """`solution` of matrix · x = rhs, `matrix` 6 × 6 symmetric positive definite (M,
+    M + (J/ρ²) W Wᵀ, W Wᵀ): by Cholesky, `matrix` overwritten with its factor. False, and
+    no solution, when a pivot is not positive: the matrix is singular (to 1e-12 of its
+    diagonal) or not positive definite."""
+    n = rhs.shape[0]
+    for j in range(n):
+        total = matrix[j, j]
+        for k in range(j):
+            total -= matrix[j, k] * matrix[j, k]
+        if not total > 1e-12 * matrix[j, j]:
+            return False
+        matrix[j, j] = sqrt(total)
+        for i in range(j + 1, n):
+            total = matrix[i, j]
+            for k in range(j):
+                total -= matrix[i, k] * matrix[j, k]
+            matrix[i, j] = total / matrix[j, j]
+    for i in range(n):
+        total = rhs[i]
+        for k in range(i):
+            total -= matrix[i, k] * solution[k]
+        solution[i] = total / matrix[i, i]
+    for i in range(n - 1, -1, -1):
+        total = solution[i]
+        for k in range(i + 1, n):
+            total -= matrix[k, i] * solution[k]
+        solution[i] = total / matrix[i, i]
+    return True
+
+
+def velocity_product(units, lengths, arms, twist, kappa) -> None:
+    """κ (m/s², into `kappa`) of pose_kinematics.velocity_product; `units` the cables'
+    unit vectors in its first three columns (W's columns as rows do)."""
+    vx, vy, vz, wx, wy, wz = twist[0], twist[1], twist[2], twist[3], twist[4], twist[5]
+    for i in range(lengths.shape[0]):
+        rx, ry, rz = arms[i, 0], arms[i, 1], arms[i, 2]
+        ux, uy, uz = units[i, 0], units[i, 1], units[i, 2]
+        swept_x, swept_y, swept_z = wy * rz - wz * ry, wz * rx - wx * rz, wx * ry - wy * rx
+        sx, sy, sz = swept_x + vx, swept_y + vy, swept_z + vz
+        along = ux * sx + uy * sy + uz * sz
+        inward = (ux * (wy * swept_z - wz * swept_y) + uy * (wz * swept_x - wx * swept_z)
+                  + uz * (wx * swept_y - wy * swept_x))
+        kappa[i] = (sx * sx + sy * sy + sz * sz - along * along) / lengths[i] - inward
+
+
+def direct_dynamics(constants, exits, attachments, pose, twist, torque, joint_velocity, candidates, external_wrench,
+                    acceleration, joint_acceleration, tension, taut) -> None:
+    """(a, α) (into `acceleration`), θ̈, the tensions and which cables are taut, under
+    motor torques c with rigid cables: pose_dynamics.direct_dynamics. The `candidates`
+    that stay taut pull; one whose tension comes out negative goes slack and the rest are
+    solved again, the most negative first; a slack motor spins freely."""
+    m = exits.shape[0]
+    inertia, viscous, radius = constants[MOTOR_INERTIA], constants[VISCOUS], constants[RADIUS]
+    coupling = inertia / (radius * radius)
+    rotation = np.empty((3, 3))
+    rotation_of(pose, rotation)
+    columns, lengths, arms = np.empty((m, 6)), np.empty(m), np.empty((m, 3))
+    cables_at(pose, rotation, exits, attachments, columns, lengths, arms)
+    kappa, pull = np.empty(m), np.empty(m)
+    velocity_product(columns, lengths, arms, twist, kappa)
+    mass_matrix, free = np.empty((6, 6)), np.empty(6)
+    rigid_body(constants, rotation, twist, mass_matrix, free)
+    for k in range(6):
+        free[k] += external_wrench[k]
+    # a taut cable's tension as the motor's equation gives it, before the platform's part
+    for i in range(m):
+        pull[i] = coupling * kappa[i] + (viscous / radius) * joint_velocity[i] - torque[i] / radius
+        taut[i] = candidates[i]
+    system, rhs = np.empty((6, 6)), np.empty(6)
+    while True:
+        any_taut = False
+        for a in range(6):
+            rhs[a] = free[a]
+            for b in range(6):
+                system[a, b] = mass_matrix[a, b]
+        for i in range(m):
+            if taut[i] != 0.0:
+                any_taut = True
+                for a in range(6):
+                    rhs[a] += columns[i, a] * pull[i]
+                    for b in range(6):
+                        system[a, b] += coupling * columns[i, a] * columns[i, b]
+        solve_symmetric(system, rhs, acceleration)
+        most_negative, worst = 0.0, -1
+        for i in range(m):
+            tension[i] = 0.0
+            if taut[i] != 0.0:
+                along = 0.0
+                for a in range(6):
+                    along += columns[i, a] * acceleration[a]
+                tension[i] = pull[i] - coupling * along
+                if tension[i] < most_negative:
+                    most_negative, worst = tension[i], i
+        if not any_taut or worst < 0:
+            break
+        taut[worst] = 0.0
+    for i in range(m):
+        if taut[i] != 0.0:
+            along = 0.0
+            for a in range(6):
+                along += columns[i, a] * acceleration[a]
+            joint_acceleration[i] = (kappa[i] - along) / radius
+        else:
+            joint_acceleration[i] = (-viscous * joint_velocity[i] + torque[i]) / inertia
+            tension[i] = 0.0
+
+
+def turn(pose, x, y, z) -> None:
+    """The pose's orientation turned by the rotation vector (x, y, z) (rad, world frame),
+    kept a unit quaternion with w ≥ 0."""
+    angle = sqrt(x * x + y * y + z * z)
+    half_sinc = 0.5 - angle * angle / 48.0 if angle < SMALL_ANGLE_RAD else sin(0.5 * angle) / angle
+    w1, x1, y1, z1 = cos(0.5 * angle), half_sinc * x, half_sinc * y, half_sinc * z
+    w2, x2, y2, z2 = pose[3], pose[4], pose[5], pose[6]
+    w = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2
+    qx = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2
+    qy = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2
+    qz = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2
+    norm = sqrt(w * w + qx * qx + qy * qy + qz * qz)
+    if w < 0.0:
+        norm = -norm
+    pose[3], pose[4], pose[5], pose[6] = w / norm, qx / norm, qy / norm, qz / norm
+
+
+def move(pose, twist, acceleration, h) -> None:
+    """Semi-implicit Euler over `h` s: the twist by the accelerations, then the pose with
+    the new twist, the orientation turned by the rotation vector h ω."""
+    for k in range(6):
+        twist[k] += h * acceleration[k]
+    for k in range(3):
+        pose[k] += h * twist[k]
+    turn(pose, h * twist[3], h * twist[4], h * twist[5])
+
+
+def forward_kinematics(exits, attachments, lengths, used, pose, iterations, tolerance, step_tolerance) -> int:
+    """Gauss–Newton from `pose` (updated in place) to the pose whose cable lengths d are
+    `lengths` (m) on the `used` cables (pose_kinematics.forward_kinematics): each step
+    solves the normal equations W Wᵀ δ = W (d − l) for δ = (δp, δφ). The steps taken when
+    every length is met to `tolerance` or the step is below `step_tolerance`; −1 when
+    `iterations` steps did not do it, −2 when W Wᵀ is singular (fewer than six
+    independent cables)."""
+    m = exits.shape[0]
+    rotation, columns, d, arms = np.empty((3, 3)), np.empty((m, 6)), np.empty(m), np.empty((m, 3))
+    normal, rhs, step = np.empty((6, 6)), np.empty(6), np.empty(6)
+    for taken in range(iterations):
+        rotation_of(pose, rotation)
+        cables_at(pose, rotation, exits, attachments, columns, d, arms)
+        worst = 0.0
+        for a in range(6):
+            rhs[a] = 0.0
+            for b in range(6):
+                normal[a, b] = 0.0
+        for i in range(m):
+            if used[i] != 0.0:
+                residual = d[i] - lengths[i]
+                worst = max(worst, abs(residual))
+                for a in range(6):
+                    rhs[a] += columns[i, a] * residual
+                    for b in range(6):
+                        normal[a, b] += columns[i, a] * columns[i, b]
+        if worst < tolerance:
+            return taken
+        if not solve_symmetric(normal, rhs, step):
+            return -2
+        largest = 0.0
+        for a in range(6):
+            largest = max(largest, abs(step[a]))
+        for k in range(3):
+            pose[k] += step[k]
+        turn(pose, step[3], step[4], step[5])
+        if largest < step_tolerance:
+            return taken + 1
+    return -1
+
+
+def rigid_substeps(substeps, h, constants, exits, attachments, offsets, attached, torque, external_wrench,
+                   pose, twist, angle, speed, tension, taut) -> None:
+    """`substeps` sub-steps of `h` s of the rigid model (cdpr_twin.rigid_platform), the
+    state updated in place: each solves the direct dynamics with the attached cables not
+    paid out beyond their straight-line length, moves, and puts the taut motors back on
+    the kinematic constraint l = d, θ̇ = ḋ / ρ."""
+    m = exits.shape[0]
+    radius, tolerance = constants[RADIUS], constants[RETAUT]
+    rotation = np.empty((3, 3))
+    columns, lengths, arms = np.empty((m, 6)), np.empty(m), np.empty((m, 3))
+    candidates, joint_acceleration, acceleration = np.empty(m), np.empty(m), np.empty(6)
+    rotation_of(pose, rotation)
+    cables_at(pose, rotation, exits, attachments, columns, lengths, arms)
+    for _ in range(substeps):
+        for i in range(m):
+            candidates[i] = 1.0 if attached[i] != 0.0 and offsets[i] + radius * angle[i] <= lengths[i] + tolerance \
+                else 0.0
+        direct_dynamics(constants, exits, attachments, pose, twist, torque, speed, candidates, external_wrench,
+                        acceleration, joint_acceleration, tension, taut)
+        move(pose, twist, acceleration, h)
+        for i in range(m):
+            speed[i] += h * joint_acceleration[i]
+            angle[i] += h * speed[i]
+        rotation_of(pose, rotation)
+        cables_at(pose, rotation, exits, attachments, columns, lengths, arms)
+        for i in range(m):
+            if taut[i] != 0.0:
+                angle[i] = (lengths[i] - offsets[i]) / radius
+                speed[i] = length_rate(columns, i, twist) / radius
+
+
+def spring_tensions(constants, exits, attachments, offsets, attached, pose, twist, angle, speed, tension,
+                    wrench) -> None:
+    """The elastic cables' tensions at a state (into `tension`): EA / l · stretch +
+    damping · stretch rate, never negative, 0 for a detached cable (l = l_0 + ρ θ, the
+    stretch rate ḋ − ρ θ̇); and the wrench W τ they apply (into `wrench`)."""
+    m = exits.shape[0]
+    radius, stiffness, damping = constants[RADIUS], constants[STIFFNESS], constants[DAMPING]
+    rotation = np.empty((3, 3))
+    columns, lengths, arms = np.empty((m, 6)), np.empty(m), np.empty((m, 3))
+    rotation_of(pose, rotation)
+    cables_at(pose, rotation, exits, attachments, columns, lengths, arms)
+    for k in range(6):
+        wrench[k] = 0.0
+    for i in range(m):
+        length = offsets[i] + radius * angle[i]
+        pull = ((stiffness / length) * (lengths[i] - length)
+                + damping * (length_rate(columns, i, twist) - radius * speed[i]))
+        tension[i] = pull if attached[i] != 0.0 and lengths[i] > length and pull > 0.0 else 0.0
+        for k in range(6):
+            wrench[k] += columns[i, k] * tension[i]
+
+
+def elastic_substeps(substeps, h, constants, exits, attachments, offsets, attached, torque, external_wrench,
+                     drums_locked, pose, twist, angle, speed, tension) -> None:
+    """`substeps` sub-steps of `h` s of the elastic model (cdpr_twin.elastic_platform), the
+    state updated in place: the twist with the tensions of the sub-step's start, then the
+    pose and the motors with the new speeds, then the tensions of the end. Motors carry
+    viscous and Coulomb friction (smoothed by tanh); locked drums neither pay out nor wind."""
+    m = exits.shape[0]
+    inertia, viscous, radius = constants[MOTOR_INERTIA], constants[VISCOUS], constants[RADIUS]
+    coulomb, smoothing = constants[COULOMB], constants[SMOOTHING]
+    rotation, mass_matrix = np.empty((3, 3)), np.empty((6, 6))
+    wrench, free, acceleration = np.empty(6), np.empty(6), np.empty(6)
+    spring_tensions(constants, exits, attachments, offsets, attached, pose, twist, angle, speed, tension, wrench)
+    for _ in range(substeps):
+        rotation_of(pose, rotation)
+        rigid_body(constants, rotation, twist, mass_matrix, free)
+        for k in range(6):
+            free[k] += wrench[k] + external_wrench[k]
+        solve_symmetric(mass_matrix, free, acceleration)
+        move(pose, twist, acceleration, h)
+        for i in range(m):
+            if drums_locked:
+                speed[i] = 0.0
+            else:
+                friction = viscous * speed[i] + coulomb * tanh(speed[i] / smoothing)
+                speed[i] += h * (torque[i] - friction + radius * tension[i]) / inertia
+                angle[i] += h * speed[i]
+        spring_tensions(constants, exits, attachments, offsets, attached, pose, twist, angle, speed, tension,
+                        wrench)
+
+
+HELPERS = (rotation_of, cables_at, length_rate, rigid_body, solve_symmetric, velocity_product, direct_dynamics,
+           turn, move, spring_tensions)
+
+
+class Kernel:
+    """How the platform's equations run: `forward_kinematics`, `velocity_product`,
+    `rigid_body`, `direct_dynamics`, `rigid_substeps` and `elastic_substeps` of this
+    module, as CPython runs them or compiled."""
+
+    def __init__(self, name: str, fk, kappa, body, direct, rigid, elastic):
+        self.name = name
+        self.forward_kinematics = fk
+        self.velocity_product = kappa
+        self.rigid_body = body
+        self.direct_dynamics = direct
+        self.rigid_substeps = rigid
+        self.elastic_substeps = elastic
+
+
+PYTHON = Kernel('python', forward_kinematics, velocity_product, rigid_body, direct_dynamics, rigid_substeps,
+                elastic_substeps)
+
+
+@cache
+def _compiled() -> Kernel | None:
+    # numba takes ~0.5 s to import: only for a platform robot
+    try:
+        import numba
+        from numba import types
+        from numba.extending import register_jitable
+    except ImportError:
+        return None
+    for helper in HELPERS:
+        # callable from the compiled kernels, compiled into each; unchanged for CPython
+        register_jitable(helper)
+    # Compiled here for writable C-contiguous float64 arrays only (a call with others is
+    # an error, not a silent compile of seconds in a realtime loop), and cached once per
+    # installation (`make setup` does it), so that a process only loads them; numba checks
+    # the cache against this file, where every function they call lives.
+    row, rows, count, flag = types.float64[::1], types.float64[:, ::1], types.intp, types.boolean
+
+    def compile_(function, *arguments):
+        return numba.njit(types.void(*arguments), cache=True)(function)
+
+    geometry = (row, rows, rows, row)    # constants, exits, attachments, offsets
+    return Kernel(
+        'compiled',
+        numba.njit(count(rows, rows, row, row, row, count, types.float64, types.float64), cache=True)(
+            forward_kinematics),
+        compile_(velocity_product, rows, row, rows, row, row),
+        compile_(rigid_body, row, rows, row, rows, row),
+        compile_(direct_dynamics, row, rows, rows, *(row,) * 10),
+        compile_(rigid_substeps, count, types.float64, *geometry, *(row,) * 9),
+        compile_(elastic_substeps, count, types.float64, *geometry, row, row, row, flag, *(row,) * 5))
+
+
+def kernel(name: str = 'compiled') -> Kernel:
+    """The kernel called `name` (KERNELS); 'compiled' is the Python one where numba is
+    not installed."""
+    if name not in KERNELS:
+        raise ValueError(f'kernel must be one of {", ".join(KERNELS)}, got {name!r}')
+    return (name == 'compiled' and _compiled()) or PYTHON
