@@ -13,6 +13,7 @@ import pytest
 import yaml
 
 from cdpr_control.robot import load_robot
+from cdpr_control.rotation import difference
 
 from cdpr_bringup.reports import plots
 from cdpr_bringup.scenario import command as scenario_cli
@@ -20,12 +21,12 @@ from cdpr_bringup.bags.bag_io import BagWriter, recording_from_bag, write_record
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.graph.launcher import graph_nodes, run_to_completion
 from cdpr_bringup.runs.metrics import metrics_json, tracking_error_m, twin_kpis
-from cdpr_bringup.reports.report import (SETTLED_RUN, main, run_of_recording, run_settings, write_report,
+from cdpr_bringup.reports.report import (SETTLED_RUN, load_run, main, run_of_recording, run_settings, write_report,
                                  write_run_report)
 from cdpr_bringup.reports.summary import bag_summary
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 
-from conftest import MOTIONS, PAPER_ROBOT
+from conftest import CONFIG_DIR, MOTIONS, PAPER_ROBOT
 
 DESIGN_KEYS = {'failure_time_s', 'detection_time_s', 'detection_delay_ms', 'identified_cables',
                'true_broken_cables', 'false_alarm', 'recovery', 'kpi', 'cycles', 'wall_time_s'}
@@ -311,3 +312,26 @@ def test_report_of_a_graph_bag(tmp_path):
     assert metrics['kpi'] == pytest.approx(twin_kpis(load_robot(PAPER_ROBOT), recording, slice(0, 751)))
     for name in ('torques', 'residuals', 'position', 'path_3d', 'path_top', 'tensions'):
         assert_figure(tmp_path / 'plots' / f'{name}.png')
+
+
+def test_a_platforms_report_plots_its_orientation_beside_its_position(tmp_path):
+    """A platform's bag without ground truth, as a real robot records it: the report finds
+    the platform's pose by forward kinematics of the angles, where the rigid plant had it,
+    and plots the orientation beside the position."""
+    platform = CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'
+    scenario = build_scenario(ScenarioOptions(config=str(platform), motion='climb-tilt', fidelity='rigid',
+                                              motions=str(CONFIG_DIR / 'crossed_platform_motions.yaml'),
+                                              duration_s=4.0))
+    recording = run_inprocess(scenario)
+    real = dataclasses.replace(recording, true_position_m=np.full_like(recording.true_position_m, np.nan),
+                               true_tension_n=np.full_like(recording.true_tension_n, np.nan))
+    bag = write_bag(real, tmp_path / 'bag')
+    assert main([str(bag), '--out', str(tmp_path / 'plots'), '--config', str(platform)]) == 0
+    run = load_run(bag, run_settings(bag, platform))
+    assert not run.has_ground_truth and run.orientation.shape == (recording.time_s.size, 4)
+    np.testing.assert_allclose(run.position_m, recording.true_position_m, atol=1e-8)
+    assert np.max(np.linalg.norm(difference(run.orientation, recording.true_orientation), axis=-1)) < 1e-8
+    assert np.degrees(np.linalg.norm(difference(run.orientation[-1], run.orientation[0]))) > 5.0
+    assert_figure(tmp_path / 'plots' / 'position.png')
+    assert matplotlib.image.imread(tmp_path / 'plots' / 'position.png').shape[1] > 1500   # two columns
+    assert 'orientation as the rotation vector' in (tmp_path / 'plots' / 'report.md').read_text()

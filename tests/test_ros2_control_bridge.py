@@ -10,11 +10,15 @@ import numpy as np
 import pytest
 
 from cdpr_control.kinematics import forward_kinematics
+from cdpr_control.pose_kinematics import inverse_kinematics
+from cdpr_control.robot import load_robot
+from cdpr_control.rotation import difference, from_axis_angle
 from cdpr_control.statics import holding_torque_nm
 from cdpr_msgs_py.contract import joint_names
 from cdpr_twin.joint_mapping import EffortBridge, JointMapping, JointMismatch, StaleWatch, TickStamps
+from cdpr_twin.rigid_platform import RigidPlatform
 
-from conftest import PAPER_ROBOT
+from conftest import CONFIG_DIR, PAPER_ROBOT
 
 MOTORS = joint_names(4)
 ROBOT_JOINTS = ['winch_a', 'winch_b', 'winch_c', 'winch_d']        # motor_1 … motor_4
@@ -124,6 +128,35 @@ def test_the_holding_torque_leaves_a_broken_cable_out(robot):
     assert held[3] == 0.0
     with pytest.raises(ValueError):
         bridge.cable_broken(4)
+
+
+def test_a_platforms_holding_torques_hold_it_at_its_measured_pose():
+    """Eight joints of a platform, its orientation tilted 10°: the bridge finds the pose
+    from the angles and sends the torques that keep it there, with every cable pulling;
+    the rigid platform under them does not move. One cable broken: the seven others hold
+    it, and with only five left no pose can be found, the last torques stay."""
+    platform = load_robot(CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml')
+    position = platform.home_position_m + np.array([0.1, -0.05, 0.1])
+    orientation = from_axis_angle([1.0, 1.0, 0.0], np.radians(10.0))
+    angles = inverse_kinematics(platform, position, orientation)
+    for broken in ([], [6]):
+        bridge = EffortBridge(platform, hold_cycles=1)
+        for cable in broken:
+            bridge.cable_broken(cable)
+        held = bridge.tick(angles)
+        assert bridge.holding and held.shape == (8,)
+        assert np.all(held[platform.cable_mask(broken)] < 0.0) and np.all(held[broken] == 0.0)
+        model = RigidPlatform(platform, position, orientation)
+        model.break_cables(broken)
+        for _ in range(50):
+            model.step(held, 0.002)
+        assert np.linalg.norm(model.position_m - position) < 1e-9
+        assert np.linalg.norm(difference(model.orientation, orientation)) < 1e-9
+    bridge.command_nm(held)
+    for cable in (0, 1):
+        bridge.cable_broken(cable)
+    bridge.tick(angles)
+    np.testing.assert_array_equal(bridge.tick(angles), held)
 
 
 def test_with_fewer_than_three_cables_the_last_torques_sent_stay(robot):

@@ -152,9 +152,19 @@ def end_effector_positions(robot: Robot, angles_rad, cables=None) -> np.ndarray:
     """Where the motor angles put the end-effector (m; a stack n × m gives n × 3), of any
     robot: the point mass's forward kinematics, or the origin of a platform's pose."""
     angles = np.asarray(angles_rad, dtype=float)
-    if robot.platform is None or angles.ndim == 1:
+    if angles.ndim == 1:
         return pose_of_angles(robot, angles, cables)[0]
-    return forward_kinematics_rows(robot, angles, cables)[0]
+    return end_effector_poses(robot, angles, cables)[0]
+
+
+def end_effector_poses(robot: Robot, angles_rad, cables=None) -> tuple[np.ndarray, np.ndarray | None]:
+    """(positions n × 3 (m), orientations n × 4, or None for a point mass) where each row
+    of a stack of motor angles (n × m) puts the end-effector, as `forward_kinematics_rows`
+    follows a platform."""
+    angles = np.asarray(angles_rad, dtype=float)
+    if robot.platform is None:
+        return point_mass_forward_kinematics(robot, angles, cables), None
+    return forward_kinematics_rows(robot, angles, cables)
 
 
 def pose_of_angles(robot: Robot, angles_rad, cables=None) -> tuple[np.ndarray, np.ndarray | None]:

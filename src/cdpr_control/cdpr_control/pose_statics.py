@@ -7,6 +7,7 @@ import numpy as np
 from .pose_dynamics import rigid_body
 from .pose_kinematics import wrench_matrix
 from .robot import Robot
+from .statics import holding_torque_nm
 from .tension_distribution import InfeasibleTensionError, TensionDistribution, make_tension_distribution
 
 
@@ -55,3 +56,14 @@ def static_tensions(robot: Robot, position_m, orientation, attached=None) -> np.
     cable bounds (the pseudo-inverse's wherever that is inside them)."""
     distribution = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
     return holding_tensions(robot, distribution, position_m, orientation, attached)
+
+
+def holding_torques_nm(robot: Robot, position_m, orientation, attached=None) -> np.ndarray:
+    """c = −ρ t (N·m), t the static tensions of the `attached` cables (all when None): the
+    motor torques that hold the end-effector still where it is, of any robot (a point
+    mass at p, statics.holding_torque_nm; a platform at the pose (p, q)). Pulling is
+    negative."""
+    if robot.platform is None:
+        return holding_torque_nm(robot, position_m,
+                                 np.ones(robot.cable_count, dtype=bool) if attached is None else attached)
+    return -robot.motor.drum_radius_m * static_tensions(robot, position_m, orientation, attached)

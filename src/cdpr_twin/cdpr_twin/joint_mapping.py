@@ -9,7 +9,8 @@ the graph speaks of motor_1 … motor_m in the order of robot.exit_points_m
 command it got until the next one, for ever. So when the commands stop, the bridge
 lets it hold the last command `plant.command_timeout_cycles` periods, as a drive would,
 and then sends the static holding torque of the end-effector's pose, measured anew
-each period (statics.holding_torque_nm) — never zero torque on a suspended load.
+each period (pose_statics.holding_torques_nm; a platform's pose, position and
+orientation, by its forward kinematics) — never zero torque on a suspended load.
 """
 from __future__ import annotations
 
@@ -17,9 +18,10 @@ from math import isfinite
 
 import numpy as np
 
-from cdpr_control.kinematics import KinematicsError, forward_kinematics
+from cdpr_control.kinematics import KinematicsError
+from cdpr_control.pose_kinematics import pose_of_angles
+from cdpr_control.pose_statics import holding_torques_nm
 from cdpr_control.robot import Robot
-from cdpr_control.statics import holding_torque_nm
 
 from .watchdog import BRAKING, CommandWatchdog
 
@@ -172,9 +174,10 @@ class EffortBridge:
             return None
         attached = self.robot.cable_mask(self.broken)
         try:
-            position = forward_kinematics(self.robot, angle_rad, attached)
+            position, orientation = pose_of_angles(self.robot, angle_rad, attached)
         except KinematicsError:
-            # fewer than three cables: no pose to hold, the last torques sent stay
+            # too few cables for a pose (3 for a point mass, 6 for a platform): none to
+            # hold, the last torques sent stay
             self.holding = self.last_sent_nm is not None
             return self.last_sent_nm
-        return self._sent(holding_torque_nm(self.robot, position, attached))
+        return self._sent(holding_torques_nm(self.robot, position, orientation, attached))

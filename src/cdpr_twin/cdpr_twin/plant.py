@@ -20,8 +20,7 @@ import numpy as np
 from cdpr_control.config import Section
 from cdpr_control.dynamics import NO_FORCE
 from cdpr_control.robot import Robot
-from cdpr_control.pose_statics import static_tensions
-from cdpr_control.statics import holding_torque_nm
+from cdpr_control.pose_statics import holding_torques_nm
 
 from .elastic_model import DriveTrain, ElasticCableRobot
 from .elastic_platform import ElasticPlatform
@@ -265,11 +264,8 @@ class PlantSimulator:
     def holding_torque_nm(self) -> np.ndarray:
         """c = −ρ t (N·m), t the static tensions of the cables still attached where the
         end-effector is: what the drive holds the load with before its first command."""
-        attached = self.robot.cable_mask(self.broken)
-        if self.robot.platform is None:
-            return holding_torque_nm(self.robot, self.position_m, attached)
-        return -self.robot.motor.drum_radius_m * static_tensions(self.robot, self.position_m,
-                                                                 self.model.orientation, attached)
+        return holding_torques_nm(self.robot, self.position_m, self.model.orientation,
+                                  self.robot.cable_mask(self.broken))
 
     def applied_torque_nm(self, command_nm) -> np.ndarray:
         """The torque (N·m) the motors apply, and the drive reports as applied, for

@@ -241,9 +241,11 @@ def recording_from_bag(bag: str | Path, namespace: str = '/cdpr', orientations: 
                           messages[s].pose.orientation.y, messages[s].pose.orientation.z]
                          if s in messages else [np.nan] * 4 for s in stamps])
 
+    # a real robot's bag has no ground truth: its orientation is then unknown, not NaN
     turned = ({'twin_orientation': quaternions('twin/pose'),
                'reference_orientation': quaternions('reference/pose'),
-               'true_orientation': quaternions('ground_truth/pose')} if orientations else {})
+               'true_orientation': quaternions('ground_truth/pose') if found[names['ground_truth/pose']] else None}
+              if orientations else {})
     return Recording(
         time_s=np.array(stamps) / NANOSECONDS,
         angle_rad=joints('joint_states', 'position'),

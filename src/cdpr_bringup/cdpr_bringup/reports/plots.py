@@ -13,6 +13,7 @@ matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 import numpy as np  # noqa: E402
 
+from cdpr_control.rotation import to_rotation_vector  # noqa: E402
 from cdpr_control.workspace import sew_cross_section  # noqa: E402
 from cdpr_msgs_py.contract import (FAULT, NOMINAL, RECOVERY_MOVE,  # noqa: E402
                                    RECOVERY_TENSION, SAFE_HOLD)
@@ -108,8 +109,9 @@ def write(figure, path) -> None:
     plt.close(figure)
 
 
-def save(figure, path, title: str, legend_axes) -> None:
-    """Title and the legend of `legend_axes` above the axes, so that neither hides a curve."""
+def save(figure, path, title: str, legend_axes, column_gap_in: float = 0.0) -> None:
+    """Title and the legend of `legend_axes` above the axes, so that neither hides a curve;
+    columns of axes `column_gap_in` apart."""
     height_in = figure.get_size_inches()[1]
     ylabel_lines = max(ax.get_ylabel().count('\n') + 1 for ax in figure.axes)
     figure.suptitle(title, y=1 - EDGE_IN / height_in, va='top')
@@ -118,7 +120,7 @@ def save(figure, path, title: str, legend_axes) -> None:
     figure.legend(handles, labels, loc='upper center', ncol=columns, fontsize=8,
                   bbox_to_anchor=(0.5, 1 - LEGEND_TOP_IN / height_in), frameon=False)
     place_axes(figure, left_in=LEFT_IN + (ylabel_lines - 1) * LABEL_LINE_IN,
-               top_in=LEGEND_TOP_IN + legend_height_in(labels, columns) + ROW_GAP_IN)
+               top_in=LEGEND_TOP_IN + legend_height_in(labels, columns) + ROW_GAP_IN, column_gap_in=column_gap_in)
     write(figure, path)
 
 
@@ -199,23 +201,33 @@ def detection(run, path) -> str | None:
 
 def position(run, path) -> str:
     """Paper Fig. 7/22: x, y, z of the end-effector vs time (measured, twin, reference),
-    with the failure, the detection and the recovery phases."""
+    with the failure, the detection and the recovery phases; beside them, for a platform,
+    its orientation as the rotation vector φ from the world's axes (deg)."""
     recording = run.recording
-    figure, axes = plt.subplots(3, 1, sharex=True, figsize=(10, 7.5))
-    for axis, ax in enumerate(axes):
-        colour = AXIS_COLOURS[axis]
-        ax.plot(run.time_s, recording.twin_position_m[:, axis], color=colour, alpha=0.45, lw=3,
-                label='digital twin')
-        ax.plot(run.time_s, recording.reference_position_m[:, axis], color='black', ls='--', lw=1,
-                label='reference')
-        ax.plot(run.time_s, run.position_m[:, axis], color=colour, lw=1.2, label=run.position_label)
-        ax.set_ylabel(f'{"xyz"[axis]} (m)')
-        ax.grid(alpha=0.3)
-    axes[-1].set_xlabel('time (s)')
-    mark_events(run, axes)
-    save(figure, path, 'End-effector coordinates', axes[0])
-    return (f'End-effector x (red), y (green), z (blue): {run.position_label} (thin), digital twin '
-            '(wide, pale), reference (dashed); failure, detection and recovery phases marked.')
+    turned = run.orientation is not None
+    figure, axes = plt.subplots(3, 2 if turned else 1, sharex=True, figsize=(15 if turned else 10, 7.5),
+                                squeeze=False)
+    series = [(recording.twin_position_m, recording.reference_position_m, run.position_m, 'm', '')]
+    if turned:
+        series.append(tuple(np.degrees(to_rotation_vector(orientation)) for orientation in (
+            recording.twin_orientation, recording.reference_orientation, run.orientation)) + ('°', 'φ'))
+    for column, (twin, reference, robot, unit, name) in enumerate(series):
+        for axis, ax in enumerate(axes[:, column]):
+            colour = AXIS_COLOURS[axis]
+            ax.plot(run.time_s, twin[:, axis], color=colour, alpha=0.45, lw=3, label='digital twin')
+            ax.plot(run.time_s, reference[:, axis], color='black', ls='--', lw=1, label='reference')
+            ax.plot(run.time_s, robot[:, axis], color=colour, lw=1.2, label=run.position_label)
+            ax.set_ylabel(f'{name}{"xyz"[axis]} ({unit})')
+            ax.grid(alpha=0.3)
+        axes[-1, column].set_xlabel('time (s)')
+        mark_events(run, axes[:, column])
+    save(figure, path, 'End-effector pose' if turned else 'End-effector coordinates', axes[0, 0],
+         column_gap_in=LEFT_IN + LABEL_LINE_IN if turned else 0.0)
+    return (f'End-effector x (red), y (green), z (blue)'
+            + (', and beside them its orientation as the rotation vector φ from the world\'s axes (deg)'
+               if turned else '')
+            + f': {run.position_label} (thin), digital twin (wide, pale), reference (dashed); failure, '
+            'detection and recovery phases marked.')
 
 
 def phase_segments(run):

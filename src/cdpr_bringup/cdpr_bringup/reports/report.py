@@ -25,7 +25,7 @@ import numpy as np
 
 from cdpr_control.config import Section, load_yaml
 from cdpr_control.friction import FrictionModel
-from cdpr_control.pose_kinematics import end_effector_positions
+from cdpr_control.pose_kinematics import end_effector_poses
 from cdpr_control.robot import Robot, load_robot, robot_from_section
 from cdpr_fdi.config import load_fdi_config, load_recovery_config, settled_fdi
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
@@ -123,20 +123,35 @@ class Run:
     def position_label(self) -> str:
         return 'true (ground truth)' if self.has_ground_truth else 'measured (forward kinematics)'
 
-    @cached_property
+    @property
     def position_m(self) -> np.ndarray:
-        """The end-effector: ground truth, else forward kinematics of the measured angles,
-        over the remaining cables once a failure was detected (m)."""
+        """The end-effector's position (m): `pose`'s."""
+        return self.pose[0]
+
+    @property
+    def orientation(self) -> np.ndarray | None:
+        """A platform's orientation (unit quaternions, a row per tick): `pose`'s; None for a
+        point mass."""
+        return self.pose[1]
+
+    @cached_property
+    def pose(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """The end-effector's positions (m) and a platform's orientations: ground truth,
+        else forward kinematics of the measured angles, over the remaining cables once a
+        failure was detected."""
         if self.has_ground_truth:
-            return self.recording.true_position_m
+            return self.recording.true_position_m, self.recording.true_orientation
         angles = self.recording.angle_rad
         after = (self.time_s >= self.detection_time_s if self.detection_time_s is not None
                  else np.zeros(self.time_s.size, dtype=bool))
         position = np.empty((angles.shape[0], 3))
-        position[~after] = end_effector_positions(self.robot, angles[~after])
-        if after.any():
-            position[after] = end_effector_positions(self.robot, angles[after], self.attached)
-        return position
+        orientation = None if self.robot.platform is None else np.empty((angles.shape[0], 4))
+        for ticks, cables in ((~after, None), (after, self.attached)):
+            if ticks.any():
+                position[ticks], turned = end_effector_poses(self.robot, angles[ticks], cables)
+                if orientation is not None:
+                    orientation[ticks] = turned
+        return position, orientation
 
     @cached_property
     def tension_estimate_n(self) -> tuple[np.ndarray, np.ndarray]:
