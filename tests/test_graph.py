@@ -36,22 +36,27 @@ def run(tmp_path, name, clock_mode='lockstep', log=QUIET, form='separate', **opt
     return bag
 
 
+# Cable 4 breaks 1 s into along-2, moving at speed: the run, which ends once the recovery
+# is over, is half as long as with the failure at the midpoint.
+FAILURE_S = 1.0
+
+
 def failure_scenario():
     return build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
-                                          motion='along-2', fail_cables=[4]))
+                                          motion='along-2', fail_cables=[4], fail_at_s=FAILURE_S))
 
 
-# The second run, for repeatability, goes through the failure (along-2's midpoint, 3.3 s)
-# and its detection into the recovery: the first run covers the rest. The first has every
-# node in its own process, the second the loop's nodes composed in one.
-REPEATED_S = 4.5
+# The second run, for repeatability, goes through the failure and its detection into the
+# recovery: the first run covers the rest. The first has every node in its own process,
+# the second the loop's nodes composed in one.
+REPEATED_S = FAILURE_S + 1.2
 
 
 @pytest.fixture(scope='module')
 def lockstep_bags(tmp_path_factory):
     folder = tmp_path_factory.mktemp('lockstep')
-    return [run(folder, 'run0', fail_cables=[4]),
-            run(folder, 'run1', form='composed', fail_cables=[4], duration_s=REPEATED_S)]
+    return [run(folder, 'run0', fail_cables=[4], fail_at_s=FAILURE_S),
+            run(folder, 'run1', form='composed', fail_cables=[4], fail_at_s=FAILURE_S, duration_s=REPEATED_S)]
 
 
 def test_lockstep_graph_equals_the_inprocess_engine(lockstep_bags):
@@ -151,8 +156,8 @@ def test_outside_tools_and_late_joiners_see_the_broken_cable():
     diagnostics and the broken cable; one that joins after the failure still gets it."""
     namespace = '/cdpr_test_listen'
     scenario = failure_scenario()
-    graph = Graph(graph_nodes(settled_parameters(motion='along-2', fail_cables=[4], fidelity='rigid',
-                                                 duration_s=scenario.duration_s + 30.0)),
+    graph = Graph(graph_nodes(settled_parameters(motion='along-2', fail_cables=[4], fail_at_s=FAILURE_S,
+                                                 fidelity='rigid', duration_s=scenario.duration_s + 30.0)),
                   namespace, completion='plant_simulator', log=QUIET)
     try:
         graph.start()
