@@ -803,6 +803,8 @@ def in_range(spec, value) -> bool:
     if kind == 'per_cable':
         values = value if isinstance(value, list) and len(value) == CABLES else [value]
         return all(is_number(number) and within(spec, number) for number in values)
+    if kind == 'angles':
+        return isinstance(value, list) and bool(value) and all(is_number(n) and within(spec, n) for n in value)
     if kind == 'safe_points':
         return isinstance(value, dict) and all(is_safe_point(*item) for item in value.items())
     raise AssertionError(f'config_keys.yaml: no kind {kind!r}')

@@ -340,7 +340,7 @@ def test_a_free_platform_tumbles_as_an_independent_rigid_body_integrator_says(ro
     assert np.linalg.norm(difference(ours[1], orientation)) < 1e-9
 
 
-def test_cdpr_robot_shows_the_platforms_wrench_feasible_workspace_and_its_motions_tensions(capsys):
+def test_cdpr_robot_shows_the_platforms_workspace_its_motions_tensions_and_safe_poses(capsys):
     from cdpr_bringup.reports import robot_summary
     assert robot_summary.main(['--config', str(PLATFORM_ROBOT), '--motions',
                                str(CONFIG_DIR / 'crossed_platform_motions.yaml')]) == 0
@@ -357,6 +357,10 @@ def test_cdpr_robot_shows_the_platforms_wrench_feasible_workspace_and_its_motion
     # one cable fewer, a smaller workspace, but one there is: where a recovery can go
     assert all(0.0 < share < shares['nominal orientation'] for key, share in shares.items()
                if key.startswith('cable'))
+    # a safe pose after each cable, at the safe height, held with tension to spare
+    safe = [line for line in lines if line.startswith('  after cable')]
+    assert len(safe) == 8 and all(', 1.200) m, turned' in line for line in safe)
+    assert all(float(line.split('margin ')[1].split()[0]) > 0.0 for line in safe)
 
 
 def test_a_failure_on_a_platform_is_refused_naming_the_option(tmp_path, capsys):

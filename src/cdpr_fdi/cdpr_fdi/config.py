@@ -166,6 +166,8 @@ class RecoveryConfig:
     reached_tolerance_m: float
     hold_after_s: float
     swing_damping_ratio: float
+    safe_pose_turns_deg: tuple[float, ...]
+    safe_pose_grid_m: float
 
     def brake_s(self, speed_m_s: float) -> float:
         """How long phase 2 takes to bring an end-effector moving at `speed_m_s` to rest."""
@@ -210,6 +212,12 @@ class RecoveryConfig:
                     or point[2] <= table_height):
                 raise overrides.error(str(cable), f'must lie inside the workspace, above table_height_m '
                                       f'({table_height:g} m), got {point.tolist()}')
+        turns = recovery.raw('safe_pose_turns_deg')
+        if not isinstance(turns, list) or not turns:
+            raise recovery.error('safe_pose_turns_deg', f'must be a list of angles (deg), got {turns!r}')
+        turns = recovery.vector('safe_pose_turns_deg', len(turns))
+        if np.any(turns <= 0.0) or np.any(turns >= 90.0):
+            raise recovery.error('safe_pose_turns_deg', f'must be angles in (0, 90) deg, got {turns.tolist()}')
         return cls(
             safe_height_m=safe_height,
             table_height_m=table_height,
@@ -230,6 +238,8 @@ class RecoveryConfig:
             reached_tolerance_m=recovery.number('reached_tolerance_m', positive=True),
             hold_after_s=recovery.number('hold_after_s', non_negative=True),
             swing_damping_ratio=recovery.number('swing_damping_ratio', non_negative=True),
+            safe_pose_turns_deg=tuple(turns.tolist()),
+            safe_pose_grid_m=recovery.number('safe_pose_grid_m', positive=True),
         )
 
 

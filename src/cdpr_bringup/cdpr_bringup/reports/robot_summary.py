@@ -16,7 +16,8 @@ from cdpr_control.robot import load_robot
 from cdpr_control.statics import closed_form_coverage
 from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
 from cdpr_control.pose_statics import workspace_grid, wrench_feasible_share
-from cdpr_control.rotation import from_axis_angle, product
+from cdpr_control.rotation import conjugate, from_axis_angle, product, to_rotation_vector
+from cdpr_control.safe_pose import safe_pose
 from cdpr_control.workspace import safe_point
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 
@@ -143,6 +144,20 @@ def print_platform(robot, config, distribution, motions, period_s: float) -> Non
         turn = np.degrees(abs(motion.trajectory.turn.angle_rad))
         print(f'  {name:<14} {motion.motion.move.duration_s:7.3f} {turn:7.1f} {reference.tension_n.min():7.2f} '
               f'{reference.tension_n.max():7.2f} {np.abs(reference.feedforward_nm).max():12.3f}')
+    recovery = load_recovery_config(config, robot)
+    print(f'safe poses at z = {recovery.safe_height_m} m (the residual workspace\'s barycentre at the orientation '
+          f'that holds it with the largest tension margin, docs/design.md §5):')
+    for i in range(robot.cable_count):
+        try:
+            pose = safe_pose(robot, robot.cable_mask([i]), recovery.safe_height_m, recovery.safe_pose_turns_deg,
+                             recovery.safe_pose_grid_m)
+        except ValueError as err:
+            print(f'  after cable {i + 1}: none ({err})')
+            continue
+        turn = np.degrees(to_rotation_vector(product(pose.orientation, conjugate(nominal))))
+        print(f'  after cable {i + 1}: p = ({pose.position_m[0]:.3f}, {pose.position_m[1]:.3f}, '
+              f'{pose.position_m[2]:.3f}) m, turned ({turn[0]:.1f}, {turn[1]:.1f}, {turn[2]:.1f})° from the '
+              f'nominal orientation, margin {pose.tension_margin_n:.2f} N')
     print('failure detection, naming and recovery on a platform: not built yet (docs/platform.md)')
 
 

@@ -1,0 +1,95 @@
+"""Where a platform goes after a cable breaks: its safe pose (docs/design.md §5, "A
+platform's safe pose").
+
+The paper's safe point for a point mass is the barycentre of the residual static
+equilibrium workspace's cross-section at the safe height. A platform's residual workspace
+depends on its orientation as well as on its position, so the criterion is taken at each
+of a few candidate orientations — the home orientation, and the home orientation turned
+by each of `turns_deg` both ways about the world's x, y and z axes — and the candidate
+that holds best is kept:
+
+1. at orientation q, the cross-section at the safe height of the residual wrench-feasible
+   workspace — the positions where the remaining cables hold the platform at rest with
+   every tension within [τ_min, τ_max] — is sampled on a grid of the workspace box
+   `spacing_m` apart, and its barycentre b(q) is the mean of the points inside it;
+2. the tension margin of a pose is the least distance of the remaining cables' holding
+   tensions (the bounded minimum-norm ones the plant and the recovery hold it with) to
+   either bound: how far the pose is from the workspace's border, in newtons;
+3. the safe pose is (b(q*), q*), q* the candidate whose barycentre has the largest
+   margin; a barycentre outside its own section (a section that is not convex) does not
+   count.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .pose_statics import static_tensions
+from .robot import Robot
+from .rotation import from_axis_angle, normalised, product
+from .tension_distribution import InfeasibleTensionError
+
+AXES = np.eye(3)
+
+
+@dataclass(frozen=True)
+class SafePose:
+    """A safe pose: position (m), orientation (unit quaternion), its tension margin (N),
+    and the points (n × 2, m) of the cross-section sampled at its orientation."""
+
+    position_m: np.ndarray
+    orientation: np.ndarray
+    tension_margin_n: float
+    section_m: np.ndarray
+
+
+def tension_margin_n(robot: Robot, position_m, orientation, attached) -> float:
+    """The least distance (N) of the `attached` cables' holding tensions to τ_min or τ_max
+    at the pose; −inf where no tensions within the bounds hold the platform there."""
+    try:
+        tension = static_tensions(robot, np.asarray(position_m, dtype=float), orientation, attached)[attached]
+    except InfeasibleTensionError:
+        return -np.inf
+    return float(min(np.min(tension - robot.tension_min_n), np.min(robot.tension_max_n - tension)))
+
+
+def candidate_orientations(home_orientation, turns_deg) -> list[np.ndarray]:
+    """The home orientation, then it turned by each of `turns_deg` (deg) both ways about
+    the world's x, y and z axes."""
+    candidates = [normalised(home_orientation)]
+    for turn in turns_deg:
+        for axis in AXES:
+            for sign in (1.0, -1.0):
+                candidates.append(normalised(product(from_axis_angle(axis, sign * np.radians(turn)),
+                                                     home_orientation)))
+    return candidates
+
+
+def residual_section(robot: Robot, attached, orientation, height_m: float, spacing_m: float) -> np.ndarray:
+    """The points (n × 2, m) of a grid `spacing_m` apart over the workspace box's x-y extent
+    where the `attached` cables hold the platform at `orientation` and `height_m`."""
+    axes = [np.linspace(low, high, max(2, int(round((high - low) / spacing_m)) + 1))
+            for low, high in zip(robot.workspace_min_m[:2], robot.workspace_max_m[:2])]
+    grid = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 2)
+    inside = [tension_margin_n(robot, (x, y, height_m), orientation, attached) >= 0.0 for x, y in grid]
+    return grid[np.array(inside, dtype=bool)]
+
+
+def safe_pose(robot: Robot, attached, height_m: float, turns_deg, spacing_m: float) -> SafePose:
+    """The safe pose of the module docstring for the `attached` cables (boolean mask) at
+    `height_m`; ValueError when no candidate orientation has a residual workspace there."""
+    attached = np.asarray(attached, dtype=bool)
+    best = None
+    for orientation in candidate_orientations(robot.platform.home_orientation, turns_deg):
+        section = residual_section(robot, attached, orientation, height_m, spacing_m)
+        if not len(section):
+            continue
+        position = np.append(section.mean(axis=0), height_m)
+        margin = tension_margin_n(robot, position, orientation, attached)
+        if margin >= 0.0 and (best is None or margin > best.tension_margin_n):
+            best = SafePose(position, orientation, margin, section)
+    if best is None:
+        raise ValueError(f'the remaining cables hold the platform nowhere at z = {height_m} m at any of '
+                         f'the {1 + 6 * len(turns_deg)} orientations tried')
+    return best

@@ -1,0 +1,66 @@
+"""A platform's safe pose after each single cable break, against a brute-force sample of
+its residual workspace: feasibility decided here by a linear program (scipy), not by the
+project's tension distributions."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+
+from cdpr_control import pose_dynamics, pose_kinematics
+from cdpr_control.robot import load_robot
+from cdpr_control.rotation import difference
+from cdpr_control.safe_pose import candidate_orientations, safe_pose, tension_margin_n
+
+from conftest import CONFIG_DIR
+
+ROBOT = CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'
+HEIGHT_M = 1.2
+TURNS_DEG = (5.0, 10.0)
+SPACING_M = 0.05
+SAMPLES = 2000
+# the sample's barycentre is off the section's by ~1 cm a coordinate (its standard error)
+BARYCENTRE_TOLERANCE_M = 0.04
+
+
+@pytest.fixture(scope='module')
+def robot():
+    return load_robot(ROBOT)
+
+
+def held(robot, attached, position, orientation) -> bool:
+    """Whether tensions within [τ_min, τ_max] of the attached cables hold the platform at
+    rest at the pose: W τ = −w_g, by linear programming."""
+    structure, _ = pose_kinematics.wrench_matrix(robot, position, orientation)
+    weight = pose_dynamics.rigid_body(robot, orientation, np.zeros(3)).free_wrench
+    result = linprog(np.zeros(np.count_nonzero(attached)), A_eq=structure[:, attached], b_eq=-weight,
+                     bounds=[(robot.tension_min_n, robot.tension_max_n)] * np.count_nonzero(attached),
+                     method='highs')
+    return result.status == 0
+
+
+# two cables of different posts, each on a different side of its post: each breaks a
+# different part of the workspace away
+@pytest.mark.parametrize('broken', [0, 5])
+def test_the_safe_pose_is_the_barycentre_of_the_sampled_residual_workspace(robot, broken):
+    attached = robot.cable_mask([broken])
+    pose = safe_pose(robot, attached, HEIGHT_M, TURNS_DEG, SPACING_M)
+    assert pose.position_m[2] == HEIGHT_M
+    assert held(robot, attached, pose.position_m, pose.orientation)
+    # the section at the chosen orientation, sampled at random points and judged by LP
+    rng = np.random.default_rng(broken)
+    low, high = robot.workspace_min_m[:2], robot.workspace_max_m[:2]
+    points = low + rng.random((SAMPLES, 2)) * (high - low)
+    inside = np.array([held(robot, attached, (x, y, HEIGHT_M), pose.orientation) for x, y in points])
+    assert 0.1 < inside.mean() < 1.0, 'a cable broken takes part of the workspace'
+    # the grid's barycentre is the sample's, to the sampling's error
+    assert np.linalg.norm(points[inside].mean(axis=0) - pose.position_m[:2]) < BARYCENTRE_TOLERANCE_M
+    # and no orientation tried holds its own barycentre with more margin
+    for orientation in candidate_orientations(robot.platform.home_orientation, TURNS_DEG):
+        if np.linalg.norm(difference(orientation, pose.orientation)) < 1e-12:
+            continue
+        some = points[:200]
+        centre = some[[held(robot, attached, (x, y, HEIGHT_M), orientation) for x, y in some]]
+        if len(centre):
+            margin = tension_margin_n(robot, np.append(centre.mean(axis=0), HEIGHT_M), orientation, attached)
+            assert margin < pose.tension_margin_n + 1.0
