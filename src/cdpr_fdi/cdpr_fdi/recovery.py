@@ -33,6 +33,7 @@ from cdpr_control.controller import JointReference
 from cdpr_control.kinematics import cable_vectors, forward_kinematics
 from cdpr_control.reference import tabulate_reference
 from cdpr_control.robot import Robot
+from cdpr_control.safe_pose import SafePose, safe_pose
 from cdpr_control.statics import static_tensions
 from cdpr_control.tension_distribution import (InfeasibleTensionError, TensionDistribution,
                                                make_tension_distribution)
@@ -53,20 +54,37 @@ class RecoveryInfeasible(RuntimeError):
 
 def safe_point_for(robot: Robot, config: RecoveryConfig, attached: np.ndarray) -> np.ndarray:
     """SP (m): the configured point of a single broken cable, else the barycentre of the
-    residual SEW cross-section at the safe height."""
+    residual SEW cross-section at the safe height; a platform's, the position of its safe
+    pose (`safe_pose_for`)."""
     broken = np.flatnonzero(~attached) + 1
     if broken.size == 1 and int(broken[0]) in config.safe_points_m:
         return config.safe_points_m[int(broken[0])].copy()
+    if robot.platform is not None:
+        return safe_pose_for(robot, config, attached).position_m
     try:
         return safe_point(robot, attached, config.safe_height_m)
     except ValueError as err:
         raise RecoveryInfeasible(f'no residual workspace at z = {config.safe_height_m} m: {err}') from None
 
 
+def safe_pose_for(robot: Robot, config: RecoveryConfig, attached: np.ndarray) -> SafePose:
+    """A platform's safe pose after its `attached` cables are left (cdpr_control.safe_pose)
+    at recovery.safe_height_m; RecoveryInfeasible where there is none."""
+    try:
+        return safe_pose(robot, attached, config.safe_height_m, config.safe_pose_turns_deg, config.safe_pose_grid_m)
+    except ValueError as err:
+        raise RecoveryInfeasible(str(err)) from None
+
+
 def check_recoverable(robot: Robot, attached: np.ndarray) -> None:
-    """RecoveryInfeasible unless at least 3 cables remain and they span 3 directions."""
-    if np.count_nonzero(attached) < 3:
-        raise RecoveryInfeasible(f'{np.count_nonzero(attached)} cables left: 3 DOF need 3')
+    """RecoveryInfeasible unless as many cables remain as the end-effector has degrees of
+    freedom, and (a platform) unless its recovery is built."""
+    freedom = robot.degrees_of_freedom
+    if np.count_nonzero(attached) < freedom:
+        raise RecoveryInfeasible(f'{np.count_nonzero(attached)} cables left: {freedom} DOF need {freedom}')
+    if robot.platform is not None:
+        raise RecoveryInfeasible('a platform\'s recovery in pose space is not built yet (issue 29): '
+                                 'the drums are held')
 
 
 def initial_tensions(robot: Robot, position_m: np.ndarray, attached: np.ndarray,

@@ -25,7 +25,7 @@ from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_po
                        initial_tensions, taut_tension_n)
 from .residual import sensorless_tension_bounds
 from .tension_collapse import TensionCollapse
-from .wrench_balance import POSITION_CABLES, WrenchBalance, overstretch_m
+from .wrench_balance import WrenchBalance, overstretch_m
 
 
 class AlarmEvidence:
@@ -279,8 +279,9 @@ class Supervisor:
                 if tick - since + 1 >= self.fdi.disturbance_window_cycles]
 
     def placed_by(self, taut: np.ndarray) -> bool:
-        """Whether the cables of the mask `taut` place the end-effector (and weigh it)."""
-        return np.count_nonzero(taut) >= POSITION_CABLES
+        """Whether the cables of the mask `taut` place the end-effector (and weigh it): as
+        many as its degrees of freedom."""
+        return np.count_nonzero(taut) >= self.robot.degrees_of_freedom
 
     def confirm(self, tick: int, found: list[int]) -> list[int]:
         """One free motor is named at once; several are watched, narrowed to those free on

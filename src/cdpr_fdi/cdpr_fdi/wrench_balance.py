@@ -9,7 +9,9 @@ tensions τ̂_j along their directions u_j, all read off the motors, leave
     F = m p̈ − Σ_j τ̂_j u_j − m g,
 
 the force nothing on the robot explains: about zero when the free cables are broken, the
-push itself when something outside pulls. p comes from the motor angles of the taut
+push itself when something outside pulls. A platform's is the force part of the wrench
+M (a, α) − (w_g − h) − Σ_j τ̂_j w_j (cdpr_control.pose_dynamics), its pose and twist
+read off the taut cables' motors the same way. p comes from the motor angles of the taut
 cables (forward kinematics), ṗ from their resolver speeds (ρ θ̇_j = −u_jᵀ ṗ, as sharp as
 the speeds, where differentiating positions would amplify their quantisation), p̈ from two
 speeds `window` periods apart, and τ̂ is averaged over the same periods, so both sides
@@ -28,11 +30,9 @@ from collections import deque
 
 import numpy as np
 
-from cdpr_control.kinematics import cable_vectors, forward_kinematics
+from cdpr_control import pose_dynamics, pose_kinematics
+from cdpr_control.kinematics import cable_vectors
 from cdpr_control.robot import Robot
-
-# The fewest taut cables that fix the end-effector's position (a point mass in space).
-POSITION_CABLES = 3
 
 
 class WrenchBalance:
@@ -57,37 +57,60 @@ class WrenchBalance:
         cable that broke within the window pulled until it broke; once free, its motor's
         estimate is noise: an unloaded drum under a lagging drive), the others placing and
         moving the end-effector and pulling as their motors say. None until `window`
-        periods are recorded, or when fewer than three cables are taut (they do not place
-        the end-effector)."""
-        taut = self.robot.cable_mask(list(free_since))
-        if len(self.ticks) <= self.window or np.count_nonzero(taut) < POSITION_CABLES:
+        periods are recorded, or when fewer cables are taut than the end-effector has
+        degrees of freedom (they do not place it). A platform's is the force part of
+        M (a, α) − (w_g − h) − W τ̂: a push has a force wherever it acts."""
+        robot = self.robot
+        taut = robot.cable_mask(list(free_since))
+        if len(self.ticks) <= self.window or np.count_nonzero(taut) < robot.degrees_of_freedom:
             return None
         (_, angle_then, speed_then, _), (_, angle_now, speed_now, _) = self.ticks[0], self.ticks[-1]
-        velocity_then, _ = self.velocity_m_s(angle_then, speed_then, taut)
-        velocity_now, position = self.velocity_m_s(angle_now, speed_now, taut)
-        acceleration = (velocity_now - velocity_then) / (self.window * self.period_s)
+        twist_then = placement(robot, angle_then, speed_then, taut)[2]
+        _, orientation, twist_now, structure = placement(robot, angle_now, speed_now, taut)
+        acceleration = (twist_now - twist_then) / (self.window * self.period_s)
         tensions = np.array([tension for _, _, _, tension in list(self.ticks)[1:]])
         ticks = np.array([tick for tick, _, _, _ in list(self.ticks)[1:]])
         for cable, since in free_since.items():
             tensions[ticks >= since, cable] = 0.0
-        directions, _ = cable_vectors(self.robot.exit_points_m, position)
-        robot = self.robot
-        return robot.mass_kg * (acceleration - robot.gravity_m_s2) - directions.T @ tensions.mean(axis=0)
+        pulled = structure @ tensions.mean(axis=0)
+        if robot.platform is None:
+            return robot.mass_kg * (acceleration - robot.gravity_m_s2) - pulled
+        body = pose_dynamics.rigid_body(robot, orientation, twist_now[3:])
+        return (body.mass_matrix @ acceleration - body.free_wrench - pulled)[:3]
 
-    def velocity_m_s(self, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray,
-                     taut: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """ṗ (m/s) from the taut cables' speeds, and p (m) from their angles."""
-        position = forward_kinematics(self.robot, angle_rad, taut)
-        directions, _ = cable_vectors(self.robot.exit_points_m[taut], position)
-        length_rate = self.robot.motor.drum_radius_m * angular_velocity_rad_s[taut]
-        velocity, *_ = np.linalg.lstsq(directions, -length_rate, rcond=None)
-        return velocity, position
+
+def wrench_matrix_at(robot: Robot, position_m, orientation) -> np.ndarray:
+    """The wrench matrix (dof × m) of any robot at its end-effector's pose: the point
+    mass's S = [u_1 … u_m] (its `orientation` None), a platform's W."""
+    if robot.platform is None:
+        directions, _ = cable_vectors(robot.exit_points_m, position_m)
+        return directions.T
+    return pose_kinematics.wrench_matrix(robot, position_m, orientation)[0]
+
+
+def placement(robot: Robot, angle_rad, angular_velocity_rad_s, taut: np.ndarray):
+    """The end-effector as the `taut` cables place and move it: (position m, orientation
+    or None for a point mass, twist — ṗ (m/s), or a platform's (v, ω) — and the wrench
+    matrix at the pose). The pose by forward kinematics of their angles, the twist from
+    their speeds, ρ θ̇_j = −w_jᵀ twist, in the least-squares sense (as sharp as the speeds,
+    where differentiating poses would amplify their quantisation)."""
+    position, orientation = pose_kinematics.pose_of_angles(robot, np.asarray(angle_rad, float), taut)
+    structure = wrench_matrix_at(robot, position, orientation)
+    twist, *_ = np.linalg.lstsq(structure[:, taut].T,
+                                -robot.motor.drum_radius_m * np.asarray(angular_velocity_rad_s, float)[taut],
+                                rcond=None)
+    return position, orientation, twist, structure
 
 
 def overstretch_m(robot: Robot, angle_rad: np.ndarray, taut: np.ndarray) -> np.ndarray:
-    """Per cable, the distance from its exit point to the end-effector (placed by the
-    `taut` cables' motor angles) less the length its motor has paid out, l_i0 + ρ θ_i (m):
-    at most the elastic stretch for an attached cable, negative for a slack one."""
-    position = forward_kinematics(robot, np.asarray(angle_rad, float), taut)
-    _, distance = cable_vectors(robot.exit_points_m, position)
-    return distance - (robot.cable_length_offset_m + robot.motor.drum_radius_m * np.asarray(angle_rad, float))
+    """Per cable, the distance from its exit point to its end on the end-effector (placed
+    by the `taut` cables' motor angles) less the length its motor has paid out,
+    l_i0 + ρ θ_i (m): at most the elastic stretch for an attached cable, negative for a
+    slack one."""
+    angle = np.asarray(angle_rad, float)
+    position, orientation = pose_kinematics.pose_of_angles(robot, angle, taut)
+    if robot.platform is None:
+        _, distance = cable_vectors(robot.exit_points_m, position)
+    else:
+        _, distance, _ = pose_kinematics.cable_vectors(robot, position, orientation)
+    return distance - (robot.cable_length_offset_m + robot.motor.drum_radius_m * angle)

@@ -288,10 +288,6 @@ def realtime_scheduling(section: Section) -> dict[str, dict]:
 def check_options(options: ScenarioOptions, robot: Robot, motion: Motion) -> None:
     """UsageError, naming the option, for a value the run cannot use: a failure must happen
     during the motion, a threshold must be a positive number."""
-    if options.fail_cables and robot.platform is not None:
-        raise UsageError(f'--fail-cable {options.fail_cables[0]}: {robot.name} carries a 6-DOF platform, whose '
-                         'failure-free runs the engine takes; naming a broken cable and recovering on a '
-                         'platform are not built yet (docs/platform.md)')
     for cable in options.fail_cables:
         if not 1 <= cable <= robot.cable_count:
             raise UsageError(f'--fail-cable {cable}: the robot has cables 1..{robot.cable_count}')
