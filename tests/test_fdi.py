@@ -314,21 +314,24 @@ def test_several_free_motors_are_narrowed_before_they_are_named(paper_robot, rec
     def supervisor():
         return Supervisor(paper_robot, fdi, recovery_config, distribution, PERIOD_S)
 
-    assert supervisor().confirm(100, [2]) == [2]
+    # the motor angles weigh only where the cables left place the end-effector: two of
+    # four never do
+    angles = np.zeros(paper_robot.cable_count)
+    assert supervisor().confirm(100, [2], angles) == [2]
     slack_diagonal = supervisor()
-    assert slack_diagonal.confirm(100, [0, 2]) == []
-    assert slack_diagonal.confirm(101, [2, 0]) == []
-    assert slack_diagonal.confirm(102, [0]) == [0]
+    assert slack_diagonal.confirm(100, [0, 2], angles) == []
+    assert slack_diagonal.confirm(101, [2, 0], angles) == []
+    assert slack_diagonal.confirm(102, [0], angles) == [0]
     # two free of four leave the end-effector unplaced: a push's slack cables, unless they
     # stay free longer than any push (a double failure)
     both_broken = supervisor()
     hold = fdi.disturbance_hold_cycles
     assert hold > fdi.identification_confirm_cycles
-    assert all(both_broken.confirm(100 + k, [2, 3]) == [] for k in range(hold - 1))
-    assert both_broken.confirm(100 + hold - 1, [3, 2]) == [2, 3]
+    assert all(both_broken.confirm(100 + k, [2, 3], angles) == [] for k in range(hold - 1))
+    assert both_broken.confirm(100 + hold - 1, [3, 2], angles) == [2, 3]
     # a set that empties starts again from what is free now
     restarted = supervisor()
-    assert restarted.confirm(100, [0, 1]) == [] and restarted.confirm(101, [3]) == [3]
+    assert restarted.confirm(100, [0, 1], angles) == [] and restarted.confirm(101, [3], angles) == [3]
 
 
 def test_phase_1_damps_the_swing_with_a_force_against_the_velocity(paper_robot, recovery_config):

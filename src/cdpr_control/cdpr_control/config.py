@@ -176,6 +176,13 @@ class Section:
     def vector(self, name: str, length: int, default: Any = ...) -> np.ndarray:
         return self._array(self.key(name), self.raw(name, default), (length,))
 
+    def numbers(self, name: str) -> np.ndarray:
+        """A non-empty list of finite numbers, of any length."""
+        value = self.raw(name)
+        if not isinstance(value, (list, tuple)) or not value:
+            raise self.error(name, f'must be a non-empty list of numbers, got {value!r}')
+        return self._array(self.key(name), value, (len(value),))
+
     def matrix(self, name: str, columns: int) -> np.ndarray:
         value = self.raw(name)
         if not isinstance(value, (list, tuple)) or not value:

@@ -29,6 +29,9 @@ KERNELS = ('compiled', 'python')
 MASS, CENTRE, INERTIA, GRAVITY = 0, 1, 4, 13
 MOTOR_INERTIA, VISCOUS, RADIUS, COULOMB, SMOOTHING, STIFFNESS, DAMPING, RETAUT = range(16, 24)
 CONSTANT_COUNT = 24
+# Forward kinematics' Levenberg–Marquardt damping where W Wᵀ is singular, a share of its
+# largest diagonal entry.
+LEVENBERG_DAMPING = 1e-6
 
 
 def constants_of(robot, coulomb_friction_nm: float = 0.0, coulomb_velocity_rad_s: float = 1.0,
@@ -275,13 +278,13 @@ def move(pose, twist, acceleration, h) -> None:
 def forward_kinematics(exits, attachments, lengths, used, pose, iterations, tolerance, step_tolerance) -> int:
     """Gauss–Newton from `pose` (updated in place) to the pose whose cable lengths d are
     `lengths` (m) on the `used` cables (pose_kinematics.forward_kinematics): each step
-    solves the normal equations W Wᵀ δ = W (d − l) for δ = (δp, δφ). The steps taken when
-    every length is met to `tolerance` or the step is below `step_tolerance`; −1 when
-    `iterations` steps did not do it, −2 when W Wᵀ is singular (fewer than six
-    independent cables)."""
+    solves the normal equations W Wᵀ δ = W (d − l) for δ = (δp, δφ), damped where W Wᵀ is
+    singular. The steps taken when every length is met to `tolerance` or the step is
+    below `step_tolerance`; −1 when `iterations` steps did not do it, −2 when not even the
+    damped equations could be solved (lengths that are not numbers)."""
     m = exits.shape[0]
     rotation, columns, d, arms = np.empty((3, 3)), np.empty((m, 6)), np.empty(m), np.empty((m, 3))
-    normal, rhs, step = np.empty((6, 6)), np.empty(6), np.empty(6)
+    normal, system, rhs, step = np.empty((6, 6)), np.empty((6, 6)), np.empty(6), np.empty(6)
     for taken in range(iterations):
         rotation_of(pose, rotation)
         cables_at(pose, rotation, exits, attachments, columns, d, arms)
@@ -300,8 +303,21 @@ def forward_kinematics(exits, attachments, lengths, used, pose, iterations, tole
                         normal[a, b] += columns[i, a] * columns[i, b]
         if worst < tolerance:
             return taken
-        if not solve_symmetric(normal, rhs, step):
-            return -2
+        for a in range(6):
+            for b in range(6):
+                system[a, b] = normal[a, b]
+        if not solve_symmetric(system, rhs, step):
+            # W Wᵀ singular here (six cables through a degenerate pose on the way): a
+            # Levenberg–Marquardt step, damped by LEVENBERG_DAMPING of its largest entry
+            largest = 0.0
+            for a in range(6):
+                largest = max(largest, normal[a, a])
+            for a in range(6):
+                for b in range(6):
+                    system[a, b] = normal[a, b]
+                system[a, a] += LEVENBERG_DAMPING * largest
+            if not solve_symmetric(system, rhs, step):
+                return -2
         largest = 0.0
         for a in range(6):
             largest = max(largest, abs(step[a]))

@@ -108,9 +108,10 @@ def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None) -> tup
     None): each step solves Wᵀ δ = d(x) − l in the least-squares sense for δ = (δp, δφ),
     moves p by δp and turns q by the rotation vector δφ. It stops when every length is
     met to FK_TOLERANCE_M or the step is below FK_STEP_TOLERANCE (the least-squares pose
-    of lengths with noise); KinematicsError after FK_ITERATIONS steps, when the cables
-    used lose rank on the way, or when the lengths are then still off by more than
-    FK_RESIDUAL_LIMIT_M. Solved by platform_substeps.forward_kinematics."""
+    of lengths with noise); KinematicsError after FK_ITERATIONS steps, or when the
+    lengths are then still off by more than FK_RESIDUAL_LIMIT_M. Where the cables used
+    lose rank on the way, the step is damped (Levenberg–Marquardt). Solved by
+    platform_substeps.forward_kinematics."""
     used = np.ones(robot.cable_count) if cables is None else np.array(cables, dtype=bool).astype(float)
     used_count = np.count_nonzero(used)
     if used_count < 6:
@@ -125,7 +126,7 @@ def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None) -> tup
     if taken == -1:
         raise KinematicsError(f'forward kinematics did not converge in {FK_ITERATIONS} Gauss–Newton steps')
     if taken == -2:
-        raise KinematicsError('forward kinematics: the cables used have a wrench matrix of rank < 6 on the way')
+        raise KinematicsError('forward kinematics: the cable lengths are not numbers')
     position, orientation = pose[:3], pose[3:]
     _, d, _ = cable_vectors(robot, position, orientation)
     worst = np.max(np.abs(d - lengths)[used != 0.0])

@@ -212,10 +212,7 @@ class RecoveryConfig:
                     or point[2] <= table_height):
                 raise overrides.error(str(cable), f'must lie inside the workspace, above table_height_m '
                                       f'({table_height:g} m), got {point.tolist()}')
-        turns = recovery.raw('safe_pose_turns_deg')
-        if not isinstance(turns, list) or not turns:
-            raise recovery.error('safe_pose_turns_deg', f'must be a list of angles (deg), got {turns!r}')
-        turns = recovery.vector('safe_pose_turns_deg', len(turns))
+        turns = recovery.numbers('safe_pose_turns_deg')
         if np.any(turns <= 0.0) or np.any(turns >= 90.0):
             raise recovery.error('safe_pose_turns_deg', f'must be angles in (0, 90) deg, got {turns.tolist()}')
         return cls(

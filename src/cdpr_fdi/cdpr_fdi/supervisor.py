@@ -177,7 +177,7 @@ class Supervisor:
                 found += [cable for cable in collapsed if cable not in found]
                 if self.disturbed(tick, found, events) or self.settling(tick):
                     found = self.overstretched(tick, found, angle_rad)
-                confirmed = self.confirm(tick, found)
+                confirmed = self.confirm(tick, found, angle_rad)
                 if confirmed:
                     events += self.on_identified(tick, confirmed, angle_rad, command_nm, reference)
             elif not alarm:
@@ -283,15 +283,21 @@ class Supervisor:
         many as its degrees of freedom."""
         return np.count_nonzero(taut) >= self.robot.degrees_of_freedom
 
-    def confirm(self, tick: int, found: list[int]) -> list[int]:
+    def confirm(self, tick: int, found: list[int], angle_rad) -> list[int]:
         """One free motor is named at once; several are watched, narrowed to those free on
-        every tick since, and named when one is left or after identification_confirm_cycles.
+        every tick since, and named when one is left or after identification_confirm_cycles:
+        those whose cables span more than their length by fdi.identification_stretch_m
+        where the others place the end-effector (wrench_balance.overstretch_m), else all.
         None is named while the motors free now leave too few cables to place the
         end-effector (a push's slack cables, disturbed()), unless they stay so for
         disturbance_hold_cycles.
 
         Right after a failure a loaded motor can look free for a while (its cable
-        unloaded); the broken cables' motors stay free.
+        unloaded); the broken cables' motors stay free. On a redundant robot an intact
+        cable can stay slack as long as the end-effector hangs off its reference on the
+        others (a platform's crossing partner of the broken cable): its end then lies
+        nearer its exit point than its motor has paid out, where a broken cable's, its
+        motor wound in, lies further.
         """
         if self.candidates:
             self.candidates = [cable for cable in self.candidates if cable in found]
@@ -302,6 +308,10 @@ class Supervisor:
         if (self.candidates and (len(self.candidates) == 1
                                  or watched >= self.fdi.identification_confirm_cycles)
                 and (placed or watched >= self.fdi.disturbance_hold_cycles)):
+            if len(self.candidates) > 1 and placed:
+                stretch = overstretch_m(self.robot, angle_rad, self.robot.cable_mask(self.candidates))
+                proven = [cable for cable in self.candidates if stretch[cable] > self.fdi.identification_stretch_m]
+                return sorted(proven or self.candidates)
             return sorted(self.candidates)
         return []
 
