@@ -1,13 +1,16 @@
 """The platform through the node graph: lockstep, the loop's nodes with eight joints and
-the pose topics with the platform's orientation, equal to the in-process engine."""
+the pose topics with the platform's orientation, equal to the in-process engine, through
+a cable's break, its detection and naming, and the FAULT that follows while the
+platform's recovery is not built."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from cdpr_bringup.bags.bag_io import recording_from_bag
+from cdpr_bringup.bags.bag_io import read_messages, recording_from_bag
 from cdpr_bringup.graph.launcher import graph_nodes, run_to_completion
 from cdpr_bringup.runs.engine import run_inprocess
+from cdpr_bringup.runs.metrics import fdi_summary_from_diagnostics
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.rotation import difference
 
@@ -15,15 +18,17 @@ from conftest import CONFIG_DIR
 
 pytestmark = pytest.mark.graph
 
-# Half a second at rest, then two seconds of the move and its 12° turn about the vertical.
+# Half a second at rest, then two seconds of the move and its 12° turn about the vertical;
+# cable 3 breaks 1.8007 s in, between two ticks.
 DURATION_S = 2.5
+FAILURE_S = 1.8007
 
 
 def test_the_lockstep_graph_turns_the_platform_as_the_in_process_engine_does(tmp_path):
     scenario = build_scenario(ScenarioOptions(
         config=str(CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'),
         motions=str(CONFIG_DIR / 'crossed_platform_motions.yaml'), motion='across-yaw', fidelity='rigid',
-        duration_s=DURATION_S))
+        duration_s=DURATION_S, fail_cables=[3], fail_at_s=FAILURE_S))
     bag = tmp_path / 'bag'
     run_to_completion(graph_nodes(scenario.node_parameters('lockstep'), str(bag)), '/cdpr_test_platform',
                       timeout_s=120.0, log=lambda line: None)
@@ -35,5 +40,10 @@ def test_the_lockstep_graph_turns_the_platform_as_the_in_process_engine_does(tmp
                  'reference_orientation'):
         np.testing.assert_allclose(getattr(graph, name), getattr(engine, name), rtol=0, atol=1e-9,
                                    err_msg=name)
-    turned = np.degrees(np.linalg.norm(difference(graph.true_orientation[-1], graph.true_orientation[0])))
-    assert 1.0 < turned < 12.0   # part of the turn, on its way
+    before = graph.time_s < FAILURE_S
+    turned = np.degrees(np.linalg.norm(difference(graph.true_orientation[before][-1], graph.true_orientation[0])))
+    assert 0.5 < turned < 12.0   # the start of the turn, on its way
+    diagnostics = read_messages(bag, ['/diagnostics'])['/diagnostics']
+    assert fdi_summary_from_diagnostics(diagnostics) == engine.fdi
+    assert engine.fdi['broken_cables'] == [3] and engine.fdi['mode'] == 'FAULT'
+    assert engine.fdi['alarm_tick'] * scenario.period_s - FAILURE_S <= 2 * scenario.period_s
