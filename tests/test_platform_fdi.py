@@ -1,7 +1,8 @@
 """A platform's broken cable detected and named from the motor torques alone (issue 29,
 item 1), in the in-process engine as cdpr-scenario runs it: every one of the eight
-cables once, at a random instant of the rotating motion, forward and backward, on the
-rigid plant; the hardest cable on the elastic plant. The recovery in pose space is not
+cables once, at a random instant of the rotating motion, forward or backward, on the
+rigid plant; the hardest cable on the elastic plant (the whole matrix: cdpr-campaign,
+docs/platform.md). The recovery in pose space is not
 built: the run ends in FAULT, saying so."""
 from __future__ import annotations
 
@@ -37,16 +38,16 @@ def delays_s(run, recording) -> tuple[float, float]:
     return tuple(recording.fdi[key] * run.period_s - at_s for key in ('alarm_tick', 'identified_tick'))
 
 
-@pytest.mark.parametrize('reverse', [False, True])
-def test_every_cable_of_the_platform_is_named_within_two_periods_on_the_rigid_plant(reverse):
-    """Detected within two periods of the real break. Cable 1 broken 1.28 s into the climb
-    (forward) leaves cable 5 slack as the platform hangs off its reference on the other
-    six: both motors look free for the confirmation window, and the overstretch test
-    names cable 1 alone (before it, both were named)."""
-    base = scenario('rigid', reverse)
-    rng = np.random.default_rng(29 + reverse)
+def test_every_cable_of_the_platform_is_named_within_two_periods_on_the_rigid_plant():
+    """Every cable once, the odd ones on the climb forward, the even ones backward, each at
+    a random instant: detected within two periods of the real break. Cable 1 broken 1.28 s
+    into the climb leaves cable 5 slack as the platform hangs off its reference on the
+    other six: both motors look free for the confirmation window, and the overstretch
+    test names cable 1 alone (before it, both were named)."""
+    bases = [scenario('rigid', False), scenario('rigid', True)]
+    rng = np.random.default_rng(29)
     for cable in range(8):
-        run = broken_at(base, cable, rng)
+        run = broken_at(bases[cable % 2], cable, rng)
         recording = run_inprocess(run)
         assert recording.fdi['broken_cables'] == [cable + 1], (cable, recording.fdi)
         detected, named = delays_s(run, recording)

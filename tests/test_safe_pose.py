@@ -59,7 +59,7 @@ def test_the_safe_pose_is_the_barycentre_of_the_sampled_residual_workspace(robot
     for orientation in candidate_orientations(robot.platform.home_orientation, TURNS_DEG):
         if np.linalg.norm(difference(orientation, pose.orientation)) < 1e-12:
             continue
-        some = points[:200]
+        some = points[:100]
         centre = some[[held(robot, attached, (x, y, HEIGHT_M), orientation) for x, y in some]]
         if len(centre):
             margin = tension_margin_n(robot, np.append(centre.mean(axis=0), HEIGHT_M), orientation, attached)
