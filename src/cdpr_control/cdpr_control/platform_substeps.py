@@ -4,8 +4,8 @@ CPython or compiled by numba (docs/platform.md, "Speed").
 The equations are those of pose_dynamics' docstring (Newton–Euler at the platform frame's
 origin, the motors J θ̈ = −b θ̇ + c + ρ τ) and of pose_kinematics' (l_i = A_i − p − R b_i,
 W's column [u_i ; r_i × u_i]); here they are written on floats and small arrays, element
-by element, the form numba compiles to a few µs a sub-step where numpy's per-call cost
-on 6 × 8 arrays would be ~20 times that. CPython runs the same functions as they are (the
+by element, the form numba compiles to a few µs a call where numpy's per-call cost
+on 6 × 8 arrays made them 9 to 40 times slower. CPython runs the same functions as they are (the
 `python` kernel: slow, for a machine without numba and to check the compiled one
 against); both do the same operations in the same order.
 
