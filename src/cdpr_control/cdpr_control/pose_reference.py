@@ -24,13 +24,14 @@ class PoseReferenceTable(ReferenceTable):
 
 
 def tabulate_pose_reference(robot: Robot, tension_distribution: TensionDistribution,
-                            trajectory: PoseTrajectory, period_s: float) -> PoseReferenceTable:
+                            trajectory: PoseTrajectory, period_s: float, attached=None) -> PoseReferenceTable:
     """Sample `trajectory` every `period_s` from its start to its end and compute IK and the
-    feed-forward; InfeasibleTensionError names the first pose no tensions hold."""
+    feed-forward with the `attached` cables (all when None; a detached one's figures 0);
+    InfeasibleTensionError names the first pose no tensions hold."""
     rows = []
     for k in range(int(round(trajectory.duration_s / period_s)) + 1):
         sample = trajectory.sample(k * period_s)
-        dynamics = pose_dynamics.inverse_dynamics(robot, tension_distribution, *sample.motion)
+        dynamics = pose_dynamics.inverse_dynamics(robot, tension_distribution, *sample.motion, attached=attached)
         rows.append((sample.position_m, sample.velocity_m_s,
                      pose_kinematics.inverse_kinematics(robot, sample.position_m, sample.orientation),
                      dynamics.joint_velocity_rad_s, dynamics.torque_nm, sample.orientation,

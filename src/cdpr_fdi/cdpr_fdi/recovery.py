@@ -78,13 +78,10 @@ def safe_pose_for(robot: Robot, config: RecoveryConfig, attached: np.ndarray) ->
 
 def check_recoverable(robot: Robot, attached: np.ndarray) -> None:
     """RecoveryInfeasible unless as many cables remain as the end-effector has degrees of
-    freedom, and (a platform) unless its recovery is built."""
+    freedom."""
     freedom = robot.degrees_of_freedom
     if np.count_nonzero(attached) < freedom:
         raise RecoveryInfeasible(f'{np.count_nonzero(attached)} cables left: {freedom} DOF need {freedom}')
-    if robot.platform is not None:
-        raise RecoveryInfeasible('a platform\'s recovery in pose space is not built yet (issue 29): '
-                                 'the drums are held')
 
 
 def initial_tensions(robot: Robot, position_m: np.ndarray, attached: np.ndarray,

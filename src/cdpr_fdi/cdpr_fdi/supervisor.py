@@ -22,10 +22,11 @@ from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector
 from .identification import identify_broken_cables
 from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point,
-                       initial_tensions, taut_tension_n)
+                       initial_tensions, safe_pose_for, taut_tension_n)
 from .residual import sensorless_tension_bounds
 from .tension_collapse import TensionCollapse
-from .wrench_balance import WrenchBalance, overstretch_m
+from .pose_recovery import PoseRecovery
+from .wrench_balance import WrenchBalance, overstretch_m, placement
 
 
 class AlarmEvidence:
@@ -179,7 +180,8 @@ class Supervisor:
                     found = self.overstretched(tick, found, angle_rad)
                 confirmed = self.confirm(tick, found, angle_rad)
                 if confirmed:
-                    events += self.on_identified(tick, confirmed, angle_rad, command_nm, reference)
+                    events += self.on_identified(tick, confirmed, angle_rad, angular_velocity_rad_s, command_nm,
+                                                 reference)
             elif not alarm:
                 self.disturbed_since = None
                 self.free_since = {}
@@ -315,7 +317,7 @@ class Supervisor:
             return sorted(self.candidates)
         return []
 
-    def on_identified(self, tick: int, cables: list[int], angle_rad, command_nm,
+    def on_identified(self, tick: int, cables: list[int], angle_rad, angular_velocity_rad_s, command_nm,
                       reference: JointReference) -> list[str]:
         self.broken = sorted(cables)
         self.identified_tick = tick
@@ -324,6 +326,9 @@ class Supervisor:
                   f'{self.alarm_tick}, identified at tick {tick}']
         try:
             check_recoverable(self.robot, attached)
+            if self.robot.platform is not None:
+                self.recovery = self.pose_recovery(tick, attached, angle_rad, angular_velocity_rad_s)
+                return events
             position = forward_kinematics(self.robot, np.asarray(angle_rad, float), attached)
             taut = taut_tension_n(self.robot, self.recovery_config, attached)
             entry = entry_point(self.robot, attached, position, taut)
@@ -339,6 +344,14 @@ class Supervisor:
             self.fault_reason = str(err)
             events.append(f'FAULT: {err}')
         return events
+
+    def pose_recovery(self, tick: int, attached: np.ndarray, angle_rad, angular_velocity_rad_s) -> PoseRecovery:
+        """A platform's recovery from its pose and velocity as the remaining cables give
+        them (pose_recovery.py); RecoveryInfeasible where it cannot start."""
+        position, orientation, twist, _ = placement(self.robot, angle_rad, angular_velocity_rad_s, attached)
+        return PoseRecovery(self.robot, self.recovery_config, self.distribution, self.period_s, attached, tick,
+                            position, orientation, twist[:3], safe_pose_for(self.robot, self.recovery_config,
+                                                                            attached))
 
     def reference_tensions(self, reference: JointReference) -> np.ndarray:
         """τ_d = (J θ̈_d + b θ̇_d − c_ID) / ρ, θ̈_d from the previous reference (N)."""

@@ -1,0 +1,111 @@
+"""A platform's recovery after a cable failure, in pose space (issue 29; docs/platform.md).
+
+Built so far: the recovery from where the remaining cables hold the platform taut at
+detection — its pose inside their wrench-feasible workspace with every static tension at
+least `taut_tension_n`: position control takes over at once (RECOVERY_MOVE), as the
+point mass's does there (recovery.py). A quintic from the platform's velocity brings its
+position to rest, its orientation held; then a straight quintic takes the position to
+the safe pose's while the orientation turns about a fixed axis to the safe pose's with
+the same law; then SAFE_HOLD. The move is tabulated per tick for the remaining cables,
+their tensions planned `plan_tension_margin_n` above τ_min; a plan whose tensions leave
+the bounds is planned again, braking sooner and moving slower, `replan_attempts` times.
+From outside that workspace the platform needs phase 1 (tension space) first, which is
+not built: RecoveryInfeasible, so the supervisor holds the drums (FAULT) and says why.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from cdpr_control.controller import JointReference
+from cdpr_control.pose_reference import tabulate_pose_reference
+from cdpr_control.pose_trajectories import PoseTrajectory, Turn
+from cdpr_control.robot import Robot
+from cdpr_control.rotation import difference
+from cdpr_control.safe_pose import SafePose, tension_margin_n
+from cdpr_control.tension_distribution import InfeasibleTensionError, TensionDistribution, make_tension_distribution
+from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence
+from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
+
+from .config import RecoveryConfig
+from .recovery import RecoveryInfeasible, taut_tension_n
+
+# The axis of a turn by no angle: any will do.
+NO_TURN_AXIS = (0.0, 0.0, 1.0)
+
+
+class PoseRecovery:
+    """Steps through a platform's recovery, one control tick at a time, as Recovery does
+    a point mass's: `setpoint(tick, angle, speed)` gives the mode and the joint reference
+    of the next tick."""
+
+    def __init__(self, robot: Robot, config: RecoveryConfig, distribution: TensionDistribution,
+                 period_s: float, attached: np.ndarray, start_tick: int, position_m, orientation,
+                 velocity_m_s, safe: SafePose):
+        """From the pose (p, q) and velocity (m/s) the remaining (`attached`) cables give at
+        detection, to `safe`; RecoveryInfeasible where they do not hold it taut there, or
+        where no move keeps their tensions within the bounds."""
+        margin = tension_margin_n(robot, position_m, orientation, attached)
+        taut = taut_tension_n(robot, config, attached)
+        if margin < taut - robot.tension_min_n:
+            raise RecoveryInfeasible(
+                f'the cables left do not hold the platform taut where it is (p = '
+                f'({", ".join(f"{value:.3f}" for value in position_m)}) m): recovery from outside '
+                f'their workspace, phase 1 in tension space, is not built for a platform yet (issue 29)')
+        self.robot = robot
+        self.config = config
+        self.period_s = period_s
+        self.attached = np.asarray(attached, dtype=bool).copy()
+        self.safe_point_m = safe.position_m
+        self.safe_orientation = safe.orientation
+        self.distribution = make_tension_distribution(
+            distribution.name, distribution.tension_min_n + config.plan_tension_margin_n, distribution.tension_max_n)
+        self.mode = RECOVERY_MOVE
+        self.start_tick = start_tick
+        self.phase_ticks = {RECOVERY_MOVE: start_tick}
+        self.timed_out = False
+        self.table = self.plan(np.asarray(position_m, dtype=float), orientation,
+                               np.asarray(velocity_m_s, dtype=float))
+
+    def plan(self, position_m, orientation, velocity_m_s):
+        """The move's joint references per tick, slower at each try whose tensions leave
+        the bounds (module docstring)."""
+        config = self.config
+        brake_s = config.brake_s(float(np.linalg.norm(velocity_m_s)))
+        error = None
+        for attempt in range(config.replan_attempts + 1):
+            slowdown = config.replan_slowdown ** attempt
+            try:
+                return tabulate_pose_reference(self.robot, self.distribution,
+                                               self.move(position_m, orientation, velocity_m_s,
+                                                         brake_s / slowdown, slowdown),
+                                               self.period_s, self.attached)
+            except InfeasibleTensionError as err:
+                error = err
+        raise RecoveryInfeasible(f'no move to the safe pose keeps the tensions within the bounds: {error}')
+
+    def move(self, position_m, orientation, velocity_m_s, brake_s: float, slowdown: float) -> PoseTrajectory:
+        """Brake over `brake_s` (to half its speed times that time ahead), then a quintic to
+        the safe pose, `slowdown` times longer than configured, then rest there."""
+        rest = position_m + 0.5 * brake_s * velocity_m_s
+        turn = difference(self.safe_orientation, orientation)
+        angle = float(np.linalg.norm(turn))
+        move_s = self.config.move_s(float(np.linalg.norm(self.safe_point_m - rest))) * slowdown
+        path = Sequence([HermiteQuintic(position_m, velocity_m_s, rest, np.zeros(3), brake_s),
+                         HermiteQuintic(rest, np.zeros(3), self.safe_point_m, np.zeros(3), move_s),
+                         Hold(self.safe_point_m, self.period_s)])
+        return PoseTrajectory(path, Turn(orientation, turn / angle if angle > 0.0 else NO_TURN_AXIS, angle,
+                                         move_s, brake_s))
+
+    def setpoint(self, tick: int, angle_rad, angular_velocity_rad_s):
+        """(mode, None, JointReference or None) for tick + 1: the move's rows, its last one
+        on the tick SAFE_HOLD starts, then nothing (the controller holds it at rest)."""
+        if self.mode == SAFE_HOLD:
+            return self.mode, None, None
+        row = tick + 1 - self.start_tick
+        if row >= len(self.table):
+            self.mode = SAFE_HOLD
+            self.phase_ticks[SAFE_HOLD] = tick + 1
+            row = len(self.table) - 1
+        table = self.table
+        return self.mode, None, JointReference(table.angle_rad[row], table.angular_velocity_rad_s[row],
+                                               table.feedforward_nm[row])
