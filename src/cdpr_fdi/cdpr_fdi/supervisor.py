@@ -21,11 +21,11 @@ from cdpr_msgs_py.contract import FAULT, NOMINAL
 from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector
 from .identification import identify_broken_cables
+from .pose_recovery import PoseRecovery
 from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point,
                        initial_tensions, safe_pose_for, taut_tension_n)
 from .residual import sensorless_tension_bounds
 from .tension_collapse import TensionCollapse
-from .pose_recovery import PoseRecovery
 from .wrench_balance import WrenchBalance, overstretch_m, placement
 
 
