@@ -65,7 +65,7 @@ def rigid_body(robot: Robot, orientation, angular_velocity_rad_s, kernel: str = 
     by platform_substeps' `kernel`."""
     mass_matrix, free = np.empty((6, 6)), np.empty(6)
     platform_substeps.kernel(kernel).rigid_body(
-        platform_substeps.constants_of(robot), np.array(rotation_matrix(orientation)),
+        platform_substeps.constants_of(robot), rotation_matrix(orientation),
         np.concatenate([np.zeros(3), angular_velocity_rad_s]), mass_matrix, free)
     return RigidBody(mass_matrix, free)
 

@@ -31,7 +31,7 @@ from collections import deque
 import numpy as np
 
 from cdpr_control import pose_dynamics, pose_kinematics
-from cdpr_control.kinematics import cable_vectors
+from cdpr_control.kinematics import structure_matrix
 from cdpr_control.robot import Robot
 
 
@@ -83,8 +83,7 @@ def wrench_matrix_at(robot: Robot, position_m, orientation) -> np.ndarray:
     """The wrench matrix (dof × m) of any robot at its end-effector's pose: the point
     mass's S = [u_1 … u_m] (its `orientation` None), a platform's W."""
     if robot.platform is None:
-        directions, _ = cable_vectors(robot.exit_points_m, position_m)
-        return directions.T
+        return structure_matrix(robot, position_m)[0]
     return pose_kinematics.wrench_matrix(robot, position_m, orientation)[0]
 
 
@@ -108,9 +107,6 @@ def overstretch_m(robot: Robot, angle_rad: np.ndarray, taut: np.ndarray) -> np.n
     l_i0 + ρ θ_i (m): at most the elastic stretch for an attached cable, negative for a
     slack one."""
     angle = np.asarray(angle_rad, float)
-    position, orientation = pose_kinematics.pose_of_angles(robot, angle, taut)
-    if robot.platform is None:
-        _, distance = cable_vectors(robot.exit_points_m, position)
-    else:
-        _, distance, _ = pose_kinematics.cable_vectors(robot, position, orientation)
+    distance = np.linalg.norm(robot.exit_points_m - robot.cable_ends_m(
+        *pose_kinematics.pose_of_angles(robot, angle, taut)), axis=1)
     return distance - (robot.cable_length_offset_m + robot.motor.drum_radius_m * angle)

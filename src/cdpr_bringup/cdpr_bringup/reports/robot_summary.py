@@ -17,9 +17,9 @@ from cdpr_control.statics import closed_form_coverage
 from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
 from cdpr_control.pose_statics import workspace_grid, wrench_feasible_share
 from cdpr_control.rotation import conjugate, from_axis_angle, product, to_rotation_vector
-from cdpr_control.safe_pose import safe_pose
 from cdpr_control.workspace import safe_point
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
+from cdpr_fdi.recovery import RecoveryInfeasible, safe_pose_for
 
 from ..cli import command
 from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
@@ -149,16 +149,16 @@ def print_platform(robot, config, distribution, motions, period_s: float) -> Non
           f'that holds it with the largest tension margin, docs/design.md §5):')
     for i in range(robot.cable_count):
         try:
-            pose = safe_pose(robot, robot.cable_mask([i]), recovery.safe_height_m, recovery.safe_pose_turns_deg,
-                             recovery.safe_pose_grid_m)
-        except ValueError as err:
+            pose = safe_pose_for(robot, recovery, robot.cable_mask([i]))
+        except RecoveryInfeasible as err:
             print(f'  after cable {i + 1}: none ({err})')
             continue
         turn = np.degrees(to_rotation_vector(product(pose.orientation, conjugate(nominal))))
         print(f'  after cable {i + 1}: p = ({pose.position_m[0]:.3f}, {pose.position_m[1]:.3f}, '
               f'{pose.position_m[2]:.3f}) m, turned ({turn[0]:.1f}, {turn[1]:.1f}, {turn[2]:.1f})° from the '
               f'nominal orientation, margin {pose.tension_margin_n:.2f} N')
-    print('failure detection, naming and recovery on a platform: not built yet (docs/platform.md)')
+    print('after a break, recovery from where the cables left do not hold the platform taut (phase 1): '
+          'not built yet for a platform (docs/platform.md)')
 
 
 @command('cdpr-robot')
