@@ -37,13 +37,14 @@ demo-6dof: setup
 	$(VENV)/bin/cdpr-robot --config robots/crossed_platform_robot.yaml --motions crossed_platform_motions.yaml
 	$(VENV)/bin/cdpr-scenario --config robots/crossed_platform_robot.yaml --motions crossed_platform_motions.yaml --motion climb-tilt --engine graph --quiet --out runs/demo-6dof
 
-# Two sessions: every test that starts neither a node graph nor a Dask cluster, spread
-# over the machine's cores (pytest-xdist, a test file per worker); then those alone, one
-# at a time: the realtime graph tests judge a 500 Hz loop on this machine, and the Dask
-# tests' timeouts assume a machine they do not share. Both always run.
+# Two sessions: every test that judges no node against the wall clock and starts no Dask
+# cluster, spread over the machine's cores (pytest-xdist, a test file per worker; a
+# lockstep graph waits for nothing but its own messages); then those alone, one at a
+# time: the realtime tests judge a 500 Hz loop on this machine, and the Dask tests'
+# timeouts assume a machine they do not share. Both always run.
 test: setup
-	$(PY) -m pytest -m 'not graph and not cluster' -n auto --dist loadfile; first=$$?; \
-	$(PY) -m pytest -m 'graph or cluster'; exit $$(( first || $$? ))
+	$(PY) -m pytest -m 'not realtime and not cluster' -n auto --dist loadfile; first=$$?; \
+	$(PY) -m pytest -m 'realtime or cluster'; exit $$(( first || $$? ))
 
 bench: setup
 	$(VENV)/bin/cdpr-bench model

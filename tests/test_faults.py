@@ -23,8 +23,8 @@ from cdpr_bringup.graph.launcher import Graph, GraphError, graph_nodes
 
 from conftest import GraphLog, settled_parameters, timing_check, wait_until_the_plant_runs
 
-pytestmark = pytest.mark.graph
-RUN_BEFORE_KILL_S = 2.0
+pytestmark = [pytest.mark.graph, pytest.mark.realtime]
+RUN_BEFORE_KILL_S = 1.0
 # From every node up to the plant's first tick: the start handshake (DDS matching).
 START_TIMEOUT_S = 30.0
 NODES = ['controller', 'supervisor', 'bag_recorder']

@@ -97,6 +97,7 @@ def test_failure_in_the_graph_frees_the_plant_motor_not_the_twin(lockstep_bags):
     assert np.all(healthy.true_tension_n[late, 3] > 1.0)
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize('form', GRAPH_FORMS)
 def test_realtime_smoke_run_answers_every_state(tmp_path, form):
     log = GraphLog()

@@ -159,6 +159,7 @@ def check_graph_unharmed_and_reader_reported(namespace: str, bag, log: GraphLog,
     return states
 
 
+@pytest.mark.realtime
 def test_a_stopped_outside_reader_neither_stops_nor_crashes_the_realtime_graph(tmp_path):
     namespace, bag, _, stalled_s, log = run_with_a_stopped_reader(tmp_path, 'realtime')
     assert stalled_s > STALL_S, f'the reader was stopped for {stalled_s:.1f} s only'

@@ -272,6 +272,7 @@ def record(tmp_path: Path, name: str, stop_signal: int, storage: str = 'mcap',
 
 
 @pytest.mark.graph
+@pytest.mark.realtime
 @pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
 def test_recorder_keeps_every_message_at_500_hz_and_closes_the_bag_on_sigint(tmp_path, storage):
     bag, published, code, output = record(tmp_path, f'sigint_{storage}', signal.SIGINT, storage)
@@ -293,6 +294,7 @@ def test_recorder_keeps_every_message_at_500_hz_and_closes_the_bag_on_sigint(tmp
 
 
 @pytest.mark.graph
+@pytest.mark.realtime
 def test_killed_recorder_leaves_a_readable_prefix(tmp_path):
     bag, published, code, output = record(tmp_path, 'sigkill', signal.SIGKILL)
     assert code == -signal.SIGKILL
@@ -316,6 +318,7 @@ def test_killed_recorder_leaves_a_readable_prefix(tmp_path):
 
 
 @pytest.mark.graph
+@pytest.mark.realtime
 def test_the_recorder_counts_and_says_the_ticks_a_topic_lacks(tmp_path):
     """Joint states of three ticks never sent, one of them the tick before the last: the
     bag's metadata and the recorder's last line say so, the other topics lack nothing."""
