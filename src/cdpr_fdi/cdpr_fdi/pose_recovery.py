@@ -1,16 +1,29 @@
 """A platform's recovery after a cable failure, in pose space (issue 29; docs/platform.md).
 
-Built so far: the recovery from where the remaining cables hold the platform taut at
-detection — its pose inside their wrench-feasible workspace with every static tension at
-least `taut_tension_n`: position control takes over at once (RECOVERY_MOVE), as the
-point mass's does there (recovery.py). A quintic from the platform's velocity brings its
-position to rest, its orientation held; then a straight quintic takes the position to
-the safe pose's while the orientation turns about a fixed axis to the safe pose's with
-the same law; then SAFE_HOLD. The move is tabulated per tick for the remaining cables,
-their tensions planned `plan_tension_margin_n` above τ_min; a plan whose tensions leave
-the bounds is planned again, braking sooner and moving slower, `replan_attempts` times.
-From outside that workspace the platform needs phase 1 (tension space) first, which is
-not built: RecoveryInfeasible, so the supervisor holds the drums (FAULT) and says why.
+Where the remaining cables can hold the platform at rest where it is at the naming —
+static tensions within [τ_min, τ_max] exist at its pose — position control takes over at
+once (RECOVERY_MOVE): a quintic
+from the platform's velocity brings its position to rest, its orientation held; then a
+straight quintic takes the position to the safe pose's while the orientation turns about
+a fixed axis to the safe pose's with the same law; then SAFE_HOLD. The move is tabulated
+per tick for the remaining cables, their tensions planned `plan_tension_margin_n` above
+τ_min; a plan whose tensions leave the bounds is planned again, braking sooner and moving
+slower, `replan_attempts` times. Where none fits — the move passes poses where the
+cables cannot pull its wrench with the margin — the slowest plan is tabulated with the
+floored least-squares tensions on those rows
+(cdpr_control.tension_distribution.FlooredLeastSquares): the wrench out of reach is
+missed by a little, every cable planned at least at the floor, and the joints' position
+control keeps the platform on its way.
+
+Where no static tensions within the bounds hold the platform at its pose, a cable goes
+slack whatever the drives do: RecoveryInfeasible, so the supervisor holds the drums
+(FAULT) and says why. Neither of the two ways tried from there is kept
+(docs/platform.md): the point mass's phase 1, tensions carried in tension space with the
+joints let go, does not hold a platform's orientation (the crossed platform turned 90°
+within 0.23 s of the naming); position control with the floored tensions brought two
+runs in three to the safe pose with a cable slack for seconds, and turned the platform
+over in the third while its motors, whose paid-out lengths matched the safe pose, could
+not tell.
 """
 from __future__ import annotations
 
@@ -22,12 +35,13 @@ from cdpr_control.pose_trajectories import PoseTrajectory, Turn
 from cdpr_control.robot import Robot
 from cdpr_control.rotation import difference
 from cdpr_control.safe_pose import SafePose, tension_margin_n
-from cdpr_control.tension_distribution import InfeasibleTensionError, TensionDistribution, make_tension_distribution
+from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError, TensionDistribution,
+                                               make_tension_distribution)
 from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
 
 from .config import RecoveryConfig
-from .recovery import RecoveryInfeasible, taut_tension_n
+from .recovery import RecoveryInfeasible
 
 # The axis of a turn by no angle: any will do.
 NO_TURN_AXIS = (0.0, 0.0, 1.0)
@@ -42,15 +56,14 @@ class PoseRecovery:
                  period_s: float, attached: np.ndarray, start_tick: int, position_m, orientation,
                  velocity_m_s, safe: SafePose):
         """From the pose (p, q) and velocity (m/s) the remaining (`attached`) cables give at
-        detection, to `safe`; RecoveryInfeasible where they do not hold it taut there, or
-        where no move keeps their tensions within the bounds."""
-        margin = tension_margin_n(robot, position_m, orientation, attached)
-        taut = taut_tension_n(robot, config, attached)
-        if margin < taut - robot.tension_min_n:
+        detection, to `safe`; RecoveryInfeasible where no static tensions within the bounds
+        hold it at that pose."""
+        if tension_margin_n(robot, position_m, orientation, attached) < 0.0:
             raise RecoveryInfeasible(
-                f'the cables left do not hold the platform taut where it is (p = '
-                f'({", ".join(f"{value:.3f}" for value in position_m)}) m): recovery from outside '
-                f'their workspace, phase 1 in tension space, is not built for a platform yet (issue 29)')
+                f'no tensions of the {np.count_nonzero(attached)} cables left within [{robot.tension_min_n:g}, '
+                f'{robot.tension_max_n:g}] N hold the platform where it is (p = '
+                f'({", ".join(f"{value:.3f}" for value in position_m)}) m): a cable goes slack whatever the drives '
+                f'do, and no recovery from there is built for a platform (docs/platform.md)')
         self.robot = robot
         self.config = config
         self.period_s = period_s
@@ -63,25 +76,27 @@ class PoseRecovery:
         self.start_tick = start_tick
         self.phase_ticks = {RECOVERY_MOVE: start_tick}
         self.timed_out = False
+        self.outside_bounds: str | None = None
         self.table = self.plan(np.asarray(position_m, dtype=float), orientation,
                                np.asarray(velocity_m_s, dtype=float))
 
     def plan(self, position_m, orientation, velocity_m_s):
         """The move's joint references per tick, slower at each try whose tensions leave
-        the bounds (module docstring)."""
+        the bounds; the slowest with the floored least-squares tensions where none fits
+        (module docstring), saying why in `outside_bounds` (None where a plan fits)."""
         config = self.config
         brake_s = config.brake_s(float(np.linalg.norm(velocity_m_s)))
-        error = None
         for attempt in range(config.replan_attempts + 1):
             slowdown = config.replan_slowdown ** attempt
+            move = self.move(position_m, orientation, velocity_m_s, brake_s / slowdown, slowdown)
             try:
-                return tabulate_pose_reference(self.robot, self.distribution,
-                                               self.move(position_m, orientation, velocity_m_s,
-                                                         brake_s / slowdown, slowdown),
-                                               self.period_s, self.attached)
+                table = tabulate_pose_reference(self.robot, self.distribution, move, self.period_s, self.attached)
             except InfeasibleTensionError as err:
-                error = err
-        raise RecoveryInfeasible(f'no move to the safe pose keeps the tensions within the bounds: {error}')
+                self.outside_bounds = str(err)
+                continue
+            return table
+        return tabulate_pose_reference(self.robot, FlooredLeastSquares(self.distribution), move, self.period_s,
+                                       self.attached)
 
     def move(self, position_m, orientation, velocity_m_s, brake_s: float, slowdown: float) -> PoseTrajectory:
         """Brake over `brake_s` (to half its speed times that time ahead), then a quintic to

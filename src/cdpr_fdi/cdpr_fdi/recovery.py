@@ -36,7 +36,7 @@ from cdpr_control.robot import Robot
 from cdpr_control.safe_pose import SafePose, safe_pose
 from cdpr_control.statics import static_tensions
 from cdpr_control.tension_distribution import (InfeasibleTensionError, TensionDistribution,
-                                               make_tension_distribution)
+                                               floored_fit, make_tension_distribution)
 from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence, quintic_profile
 from cdpr_control.workspace import safe_point
 from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
@@ -100,17 +100,8 @@ def initial_tensions(robot: Robot, position_m: np.ndarray, attached: np.ndarray,
     u_remaining, _ = cable_vectors(robot.exit_points_m[attached], position_m)
     feedback_tension = -feedback_torque_nm[attached] / robot.motor.drum_radius_m
     force = reference_tension_n @ u_reference + feedback_tension @ u_remaining
-    remaining = np.full(u_remaining.shape[0], floor_n)
-    free = np.ones(remaining.size, dtype=bool)
-    while np.any(free):
-        held_force = remaining[~free] @ u_remaining[~free]
-        fit, *_ = np.linalg.lstsq(u_remaining[free].T, force - held_force, rcond=None)
-        if np.min(fit) >= floor_n:
-            remaining[free] = fit
-            break
-        free[np.flatnonzero(free)[np.argmin(fit)]] = False
     tensions = np.zeros(robot.cable_count)
-    tensions[attached] = remaining
+    tensions[attached] = floored_fit(u_remaining.T, force, floor_n)
     return tensions
 
 

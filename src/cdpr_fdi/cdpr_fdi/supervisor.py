@@ -328,6 +328,9 @@ class Supervisor:
             check_recoverable(self.robot, attached)
             if self.robot.platform is not None:
                 self.recovery = self.pose_recovery(tick, attached, angle_rad, angular_velocity_rad_s)
+                if self.recovery.outside_bounds:
+                    events.append(f'the move to the safe pose leaves the tension bounds, planned nearest '
+                                  f'them: {self.recovery.outside_bounds}')
                 return events
             position = forward_kinematics(self.robot, np.asarray(angle_rad, float), attached)
             taut = taut_tension_n(self.robot, self.recovery_config, attached)

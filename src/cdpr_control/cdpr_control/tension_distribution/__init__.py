@@ -1,6 +1,7 @@
 """Tension distribution methods behind one interface (one module per method)."""
-from .base import InfeasibleTensionError, TensionDistribution, minimum_norm
+from .base import InfeasibleTensionError, TensionDistribution, floored_fit, minimum_norm
 from .bounded_minimum_norm import BoundedMinimumNorm
+from .floored_least_squares import FlooredLeastSquares
 from .pseudo_inverse import PseudoInverse
 
 METHODS = {method.name: method for method in (PseudoInverse, BoundedMinimumNorm)}
@@ -25,5 +26,5 @@ def configured_tension_distribution(control, robot) -> TensionDistribution:
 
 
 __all__ = ['InfeasibleTensionError', 'TensionDistribution', 'PseudoInverse',
-           'BoundedMinimumNorm', 'METHODS', 'configured_tension_distribution',
-           'make_tension_distribution', 'minimum_norm']
+           'BoundedMinimumNorm', 'FlooredLeastSquares', 'METHODS', 'configured_tension_distribution',
+           'floored_fit', 'make_tension_distribution', 'minimum_norm']

@@ -97,3 +97,21 @@ def minimum_norm(structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
     except np.linalg.LinAlgError:
         raise InfeasibleTensionError(f'the cables span less than {rows} directions') from None
     return np.einsum('...ij,...i->...j', structure, solved)
+
+
+def floored_fit(structure: np.ndarray, wrench_n: np.ndarray, floor_n: float) -> np.ndarray:
+    """Tensions (N) no lower than `floor_n` whose wrench S τ comes near `wrench_n` where
+    no tensions above the floor pull it: the least-squares fit of every cable; while one
+    falls below the floor, the lowest is held at it and the others are fitted again to
+    what is left (greedy: near the bounded least-squares optimum, not always at it). A
+    wrench the cables can pull with tension to spare gets the minimum-norm fit."""
+    tensions = np.full(structure.shape[1], floor_n)
+    free = np.ones(tensions.size, dtype=bool)
+    while np.any(free):
+        held = tensions[~free] @ structure[:, ~free].T
+        fit, *_ = np.linalg.lstsq(structure[:, free], wrench_n - held, rcond=None)
+        if np.min(fit) >= floor_n:
+            tensions[free] = fit
+            break
+        free[np.flatnonzero(free)[np.argmin(fit)]] = False
+    return tensions

@@ -1,0 +1,27 @@
+"""Another method's tensions where they exist; elsewhere the floored least-squares ones."""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import InfeasibleTensionError, TensionDistribution, floored_fit
+
+
+class FlooredLeastSquares(TensionDistribution):
+    """`within`'s tensions wherever they lie within its bounds; where none do, the
+    tensions no lower than its tension_min_n whose wrench comes nearest the one asked
+    (base.floored_fit), none above its tension_max_n. It never raises
+    InfeasibleTensionError: a wrench out of the cables' reach is missed by a little, and
+    no cable is planned slack (a platform's recovery from outside the residual workspace,
+    cdpr_fdi.pose_recovery)."""
+
+    name = 'floored_least_squares'
+
+    def __init__(self, within: TensionDistribution):
+        super().__init__(within.tension_min_n, within.tension_max_n)
+        self.within = within
+
+    def distribute(self, structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
+        try:
+            return self.within.distribute(structure, wrench_n)
+        except InfeasibleTensionError:
+            return np.minimum(floored_fit(structure, wrench_n, self.tension_min_n), self.tension_max_n)
