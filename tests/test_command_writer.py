@@ -201,7 +201,7 @@ def test_only_the_controllers_publisher_reaches_the_motors(ros, make):
 
 # ---- a second writer on a running graph ---------------------------------------------------
 
-WRITE_S = 3.0
+WRITE_S = 6.0
 # Simulated seconds of the run, which is stopped (as with Ctrl-C) AFTER_WRITE_S after the
 # writers are done: long enough for their start and WRITE_S however fast lockstep runs.
 RUN_LIMIT_S = 120.0

@@ -36,7 +36,7 @@ def realtime_parameters() -> dict[str, dict]:
 
 # How long the graph runs on without the node once the launcher has named it (s), so
 # that the bag witnesses what follows the kill, and the share of those ticks it must hold.
-RUN_AFTER_KILL_S = 1.0
+RUN_AFTER_KILL_S = 0.5
 AFTER_THE_KILL_SHARE = 0.5
 # The recorder keeps the run before the kill: at least this share of its ticks.
 BEFORE_THE_KILL_SHARE = 0.5

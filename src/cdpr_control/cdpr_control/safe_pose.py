@@ -31,6 +31,11 @@ from .rotation import from_axis_angle, normalised, product
 from .tension_distribution import InfeasibleTensionError
 
 AXES = np.eye(3)
+# Safe poses already found, by robot (held, so that its id is not reused), remaining
+# cables and settings: a run asks for its failure's when it settles its length and again
+# when the cable is named, ~0.3 s each on the shipped platform. The oldest goes first.
+KEPT_SAFE_POSES = 16
+_found: dict[tuple, tuple[Robot, 'SafePose']] = {}
 
 
 @dataclass(frozen=True)
@@ -78,8 +83,12 @@ def residual_section(robot: Robot, attached, orientation, height_m: float, spaci
 
 def safe_pose(robot: Robot, attached, height_m: float, turns_deg, spacing_m: float) -> SafePose:
     """The safe pose of the module docstring for the `attached` cables (boolean mask) at
-    `height_m`; ValueError when no candidate orientation has a residual workspace there."""
+    `height_m`; ValueError when no candidate orientation has a residual workspace there.
+    Found once per robot, cables and settings (KEPT_SAFE_POSES are kept)."""
     attached = np.asarray(attached, dtype=bool)
+    key = (id(robot), attached.tobytes(), float(height_m), tuple(map(float, turns_deg)), float(spacing_m))
+    if key in _found and _found[key][0] is robot:
+        return _found[key][1]
     best = None
     for orientation in candidate_orientations(robot.platform.home_orientation, turns_deg):
         section = residual_section(robot, attached, orientation, height_m, spacing_m)
@@ -92,4 +101,7 @@ def safe_pose(robot: Robot, attached, height_m: float, turns_deg, spacing_m: flo
     if best is None:
         raise ValueError(f'the remaining cables hold the platform nowhere at z = {height_m} m at any of '
                          f'the {1 + 6 * len(turns_deg)} orientations tried')
+    if len(_found) >= KEPT_SAFE_POSES:
+        del _found[next(iter(_found))]
+    _found[key] = (robot, best)
     return best

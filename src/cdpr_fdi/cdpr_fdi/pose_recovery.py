@@ -47,6 +47,17 @@ from .recovery import RecoveryInfeasible
 NO_TURN_AXIS = (0.0, 0.0, 1.0)
 
 
+def check_held(robot: Robot, attached: np.ndarray, position_m, orientation) -> None:
+    """RecoveryInfeasible unless static tensions of the `attached` cables within the
+    bounds hold the platform at rest at the pose (p, q)."""
+    if tension_margin_n(robot, position_m, orientation, attached) < 0.0:
+        raise RecoveryInfeasible(
+            f'no tensions of the {np.count_nonzero(attached)} cables left within [{robot.tension_min_n:g}, '
+            f'{robot.tension_max_n:g}] N hold the platform where it is (p = '
+            f'({", ".join(f"{value:.3f}" for value in position_m)}) m): a cable goes slack whatever the drives '
+            f'do, and no recovery from there is built for a platform (docs/platform.md)')
+
+
 class PoseRecovery:
     """Steps through a platform's recovery, one control tick at a time, as Recovery does
     a point mass's: `setpoint(tick, angle, speed)` gives the mode and the joint reference
@@ -58,12 +69,7 @@ class PoseRecovery:
         """From the pose (p, q) and velocity (m/s) the remaining (`attached`) cables give at
         detection, to `safe`; RecoveryInfeasible where no static tensions within the bounds
         hold it at that pose."""
-        if tension_margin_n(robot, position_m, orientation, attached) < 0.0:
-            raise RecoveryInfeasible(
-                f'no tensions of the {np.count_nonzero(attached)} cables left within [{robot.tension_min_n:g}, '
-                f'{robot.tension_max_n:g}] N hold the platform where it is (p = '
-                f'({", ".join(f"{value:.3f}" for value in position_m)}) m): a cable goes slack whatever the drives '
-                f'do, and no recovery from there is built for a platform (docs/platform.md)')
+        check_held(robot, attached, position_m, orientation)
         self.robot = robot
         self.config = config
         self.period_s = period_s

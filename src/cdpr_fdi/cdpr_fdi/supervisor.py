@@ -21,7 +21,7 @@ from cdpr_msgs_py.contract import FAULT, NOMINAL
 from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector
 from .identification import identify_broken_cables
-from .pose_recovery import PoseRecovery
+from .pose_recovery import PoseRecovery, check_held
 from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point,
                        initial_tensions, safe_pose_for, taut_tension_n)
 from .residual import sensorless_tension_bounds
@@ -352,6 +352,7 @@ class Supervisor:
         """A platform's recovery from its pose and velocity as the remaining cables give
         them (pose_recovery.py); RecoveryInfeasible where it cannot start."""
         position, orientation, twist, _ = placement(self.robot, angle_rad, angular_velocity_rad_s, attached)
+        check_held(self.robot, attached, position, orientation)   # before the safe pose's ~0.3 s
         return PoseRecovery(self.robot, self.recovery_config, self.distribution, self.period_s, attached, tick,
                             position, orientation, twist[:3], safe_pose_for(self.robot, self.recovery_config,
                                                                             attached))
