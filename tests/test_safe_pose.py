@@ -64,3 +64,14 @@ def test_the_safe_pose_is_the_barycentre_of_the_sampled_residual_workspace(robot
         if len(centre):
             margin = tension_margin_n(robot, np.append(centre.mean(axis=0), HEIGHT_M), orientation, attached)
             assert margin < pose.tension_margin_n + 1.0
+
+
+def test_a_safe_pose_is_found_once_per_robot_cables_and_settings(robot):
+    """The run's length and the naming both ask for it: the second gets the first's, a
+    robot loaded anew or other settings their own."""
+    attached = robot.cable_mask([2])
+    first = safe_pose(robot, attached, HEIGHT_M, TURNS_DEG, 0.1)
+    assert safe_pose(robot, attached.copy(), HEIGHT_M, TURNS_DEG, 0.1) is first
+    again = safe_pose(load_robot(ROBOT), attached, HEIGHT_M, TURNS_DEG, 0.1)
+    assert again is not first and np.array_equal(again.position_m, first.position_m)
+    assert safe_pose(robot, attached, HEIGHT_M - 0.1, TURNS_DEG, 0.1).position_m[2] == HEIGHT_M - 0.1
