@@ -31,11 +31,12 @@ demo: setup
 	$(VENV)/bin/cdpr-robot --config paper_robot.yaml
 	$(VENV)/bin/cdpr-scenario --motion circle --fail-cable 4 --fail-at-fraction 0.375 --engine graph --quiet --out runs/demo
 
-# A rigid 6-DOF platform on eight cables: the model's view of it, then a failure-free
-# tilting climb through the node graph (docs/platform.md).
+# A rigid 6-DOF platform on eight cables: the model's view of it, then cable 5 broken a
+# quarter into the tilting climb, named and the platform recovered to its safe pose,
+# through the node graph (docs/platform.md).
 demo-6dof: setup
 	$(VENV)/bin/cdpr-robot --config robots/crossed_platform_robot.yaml --motions crossed_platform_motions.yaml
-	$(VENV)/bin/cdpr-scenario --config robots/crossed_platform_robot.yaml --motions crossed_platform_motions.yaml --motion climb-tilt --engine graph --quiet --out runs/demo-6dof
+	$(VENV)/bin/cdpr-scenario --config robots/crossed_platform_robot.yaml --motions crossed_platform_motions.yaml --motion climb-tilt --fail-cable 5 --fail-at-fraction 0.25 --engine graph --quiet --out runs/demo-6dof
 
 # Two sessions: every test that judges no node against the wall clock and starts no Dask
 # cluster, spread over the machine's cores (pytest-xdist, a test file per worker; a
