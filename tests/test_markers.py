@@ -232,3 +232,42 @@ def test_the_node_sends_the_shapes_as_markers(run):
         assert m.header.frame_id == 'world' and m.header.stamp.nanosec == 123
         assert np.allclose([[p.x, p.y, p.z] for p in m.points], shape.points_m)
         assert np.allclose([[c.r, c.g, c.b, c.a] for c in m.colors], shape.colours, atol=1e-6)
+
+
+def test_a_platforms_safe_pose_is_drawn_as_its_body_over_the_section_it_was_found_on():
+    """Cable 5 broken a quarter into the crossed platform's tilting climb (make demo-6dof,
+    rigid plant): once named, the safe pose's body (origin to attachment points at the
+    safe orientation), its section's points at the safe height, each held by the seven
+    cables there, and the recovery path ending at the safe point."""
+    from cdpr_control.safe_pose import tension_margin_n
+    from cdpr_fdi.recovery import safe_pose_for
+    from conftest import CONFIG_DIR
+    scenario = build_scenario(ScenarioOptions(config=str(CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'),
+                                              motions=str(CONFIG_DIR / 'crossed_platform_motions.yaml'),
+                                              motion='climb-tilt', fail_cables=[5], fail_at_fraction=0.25,
+                                              fidelity='rigid'))
+    recording = run_inprocess(scenario)
+    assert recording.fdi['mode'] == 'SAFE_HOLD'
+    frame = scenario.marker_frame()
+    identified = recording.fdi['identified_tick']
+    for k, time_s in enumerate(recording.time_s):
+        if k == identified:
+            assert ('safe_pose', 0) not in {(s.namespace, s.id) for s in frame.shapes()}
+            frame.on_broken_cable(5)
+        frame.on_state(time_s, recording.angle_rad[k], recording.angular_velocity_rad_s[k], recording.command_nm[k])
+        if np.isfinite(recording.recovery_reference_angle_rad[k]).all():
+            frame.on_recovery_reference(recording.recovery_reference_angle_rad[k])
+    shapes = {(s.namespace, s.id): s for s in frame.shapes()}
+    robot, attached = scenario.robot, scenario.robot.cable_mask([4])
+    safe = safe_pose_for(robot, scenario.recovery, attached)
+    assert np.allclose(shapes['safe_point', 0].points_m, [recording.fdi['safe_point_m']])
+    body = shapes['safe_pose', 0]
+    assert body.kind == LINE_LIST
+    assert np.allclose(body.points_m[::2], safe.position_m)
+    assert np.allclose(body.points_m[1::2], robot.cable_ends_m(safe.position_m, safe.orientation))
+    section = shapes['residual_section', 0].points_m
+    assert len(section) > 10 and np.allclose(section[:, 2], scenario.recovery.safe_height_m)
+    assert all(tension_margin_n(robot, point, safe.orientation, attached) >= 0.0 for point in section[::5])
+    path = shapes['recovery_path', 0].points_m
+    assert np.linalg.norm(path[-1] - safe.position_m) < scenario.recovery.reached_tolerance_m
+    assert ('sew_outline', 0) not in shapes

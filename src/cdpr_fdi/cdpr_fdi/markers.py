@@ -6,7 +6,10 @@ tension_min_n (blue) to tension_max_n (red); a broken cable hangs from its exit 
 grey, thin and dashed. p is forward kinematics of the measured angles, over the remaining
 cables once a cable is broken, as the supervisor and the report find it. The twin's
 end-effector, the safe point, the residual SEW outline at the safe point's height and the
-path of the recovery setpoints complete the picture.
+path of the recovery setpoints complete the picture. A platform's safe pose is drawn as
+its body there (its origin joined to its attachment points at the safe orientation), and
+its residual workspace at the safe height as the points of the section it was found on
+(safe_pose.py): a platform's section need not be convex, so no outline is drawn.
 
 `Frame` gathers the messages of a run as they come and returns the shapes of one frame;
 the markers node publishes them, and bag_io writes them into an in-process run's bag.
@@ -25,7 +28,7 @@ from cdpr_control.robot import Robot
 from cdpr_control.workspace import sew_cross_section
 
 from .config import RecoveryConfig
-from .recovery import RecoveryInfeasible, safe_point_for
+from .recovery import RecoveryInfeasible, safe_point_for, safe_pose_for
 from .residual import sensorless_tensions
 
 # Every point is in the world frame of docs/design.md §4 (z up).
@@ -127,6 +130,13 @@ def cable_shapes(robot: Robot, style: MarkerStyle, ends_m: np.ndarray,
     return shapes
 
 
+def platform_body(robot: Robot, position_m, orientation) -> np.ndarray:
+    """A platform's body as line pairs (2m × 3, m): its origin joined to each attachment
+    point at the pose."""
+    ends = robot.cable_ends_m(position_m, orientation)
+    return np.array([point for end in ends for point in (position_m, end)])
+
+
 class Frame:
     """A run's markers as its messages arrive: the measured state of each tick, the
     broken cables, the twin's pose, the recovery setpoints; `shapes()` gives those of one
@@ -153,6 +163,9 @@ class Frame:
         self.recovery_path_m: list[np.ndarray] = []
         self.safe_point_m: np.ndarray | None = None
         self.sew_outline_m: np.ndarray | None = None
+        # a platform's: its body at the safe pose (pairs of points) and the section's points
+        self.safe_body_m: np.ndarray | None = None
+        self.residual_section_m: np.ndarray | None = None
 
     @property
     def attached(self) -> np.ndarray:
@@ -175,12 +188,28 @@ class Frame:
         if cable <= 0 or cable in self.broken_cables:
             return
         self.broken_cables.append(cable)
+        if self.robot.platform is not None:
+            self.on_platform_broken_cable()
+            return
         try:
             self.safe_point_m = safe_point_for(self.robot, self.recovery, self.attached)
             outline = sew_cross_section(self.robot, self.attached, self.safe_point_m[2])
             self.sew_outline_m = np.column_stack([outline, np.full(len(outline), self.safe_point_m[2])])
         except RecoveryInfeasible:
             self.safe_point_m = self.sew_outline_m = None
+
+    def on_platform_broken_cable(self) -> None:
+        """A platform's safe pose after the cables broken so far: its position, its body
+        there, and the points of its residual section; nothing where there is none."""
+        try:
+            pose = safe_pose_for(self.robot, self.recovery, self.attached)
+        except RecoveryInfeasible:
+            self.safe_point_m = self.safe_body_m = self.residual_section_m = None
+            return
+        self.safe_point_m = pose.position_m
+        self.safe_body_m = platform_body(self.robot, pose.position_m, pose.orientation)
+        self.residual_section_m = np.column_stack([pose.section_m, np.full(len(pose.section_m),
+                                                                           pose.position_m[2])])
 
     def on_twin_pose(self, position_m) -> None:
         self.twin_position_m = np.asarray(position_m, float)
@@ -231,8 +260,7 @@ class Frame:
             shapes.append(_single('end_effector', SPHERE_LIST, position, END_EFFECTOR_COLOUR,
                                   style.end_effector_diameter_m))
             if self.robot.platform is not None:
-                # the platform's body: its origin joined to each attachment point
-                shapes.append(_single('platform', LINE_LIST, [point for end in ends for point in (position, end)],
+                shapes.append(_single('platform', LINE_LIST, platform_body(self.robot, position, orientation),
                                       END_EFFECTOR_COLOUR, style.cable_width_m))
         if self.twin_position_m is not None:
             shapes.append(_single('twin', SPHERE_LIST, self.twin_position_m, TWIN_COLOUR,
@@ -240,8 +268,13 @@ class Frame:
         if self.safe_point_m is not None:
             shapes.append(_single('safe_point', SPHERE_LIST, self.safe_point_m, SAFE_POINT_COLOUR,
                                   style.safe_point_diameter_m))
+        if self.sew_outline_m is not None:
             closed = np.vstack([self.sew_outline_m, self.sew_outline_m[:1]])
             shapes.append(_single('sew_outline', LINE_STRIP, closed, SEW_COLOUR, style.line_width_m))
+        if self.safe_body_m is not None:
+            shapes.append(_single('safe_pose', LINE_LIST, self.safe_body_m, SAFE_POINT_COLOUR, style.cable_width_m))
+            shapes.append(_single('residual_section', SPHERE_LIST, self.residual_section_m, SEW_COLOUR,
+                                  style.line_width_m))
         if len(self.recovery_path_m) >= 2:
             shapes.append(_single('recovery_path', LINE_STRIP, self.recovery_path_m, PATH_COLOUR,
                                   style.line_width_m))
