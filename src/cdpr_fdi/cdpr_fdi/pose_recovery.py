@@ -2,10 +2,10 @@
 
 Where the remaining cables can hold the platform at rest where it is at the naming —
 static tensions within [τ_min, τ_max] exist at its pose — position control takes over at
-once (RECOVERY_MOVE): a quintic
-from the platform's velocity brings its position to rest, its orientation held; then a
-straight quintic takes the position to the safe pose's while the orientation turns about
-a fixed axis to the safe pose's with the same law; then SAFE_HOLD. The move is tabulated
+once (RECOVERY_MOVE): a quintic from the platform's velocity brings its position to rest,
+its orientation held; then a straight quintic takes the position to the safe pose's while
+the orientation turns about a fixed axis to the safe pose's with the same law; then
+SAFE_HOLD. The move is tabulated
 per tick for the remaining cables, their tensions planned `plan_tension_margin_n` above
 τ_min; a plan whose tensions leave the bounds is planned again, braking sooner and moving
 slower, `replan_attempts` times. Where none fits — the move passes poses where the
@@ -100,6 +100,7 @@ class PoseRecovery:
             except InfeasibleTensionError as err:
                 self.outside_bounds = str(err)
                 continue
+            self.outside_bounds = None
             return table
         return tabulate_pose_reference(self.robot, FlooredLeastSquares(self.distribution), move, self.period_s,
                                        self.attached)
