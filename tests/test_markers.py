@@ -250,13 +250,16 @@ def test_a_platforms_safe_pose_is_drawn_as_its_body_over_the_section_it_was_foun
     assert recording.fdi['mode'] == 'SAFE_HOLD'
     frame = scenario.marker_frame()
     identified = recording.fdi['identified_tick']
-    for k, time_s in enumerate(recording.time_s):
-        if k == identified:
-            assert ('safe_pose', 0) not in {(s.namespace, s.id) for s in frame.shapes()}
-            frame.on_broken_cable(5)
-        frame.on_state(time_s, recording.angle_rad[k], recording.angular_velocity_rad_s[k], recording.command_nm[k])
-        if np.isfinite(recording.recovery_reference_angle_rad[k]).all():
-            frame.on_recovery_reference(recording.recovery_reference_angle_rad[k])
+    frame.on_state(recording.time_s[identified], recording.angle_rad[identified],
+                   recording.angular_velocity_rad_s[identified], recording.command_nm[identified])
+    assert ('safe_pose', 0) not in {(s.namespace, s.id) for s in frame.shapes()}
+    frame.on_broken_cable(5)
+    for angle in recording.recovery_reference_angle_rad[identified:]:
+        if np.isfinite(angle).all():
+            frame.on_recovery_reference(angle)
+    last = recording.time_s.size - 1
+    frame.on_state(recording.time_s[last], recording.angle_rad[last], recording.angular_velocity_rad_s[last],
+                   recording.command_nm[last])
     shapes = {(s.namespace, s.id): s for s in frame.shapes()}
     robot, attached = scenario.robot, scenario.robot.cable_mask([4])
     safe = safe_pose_for(robot, scenario.recovery, attached)

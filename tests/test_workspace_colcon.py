@@ -80,11 +80,17 @@ def test_installed_executable_runs_from_the_workspace(colcon_install):
     assert str(colcon_install) in result.stdout, 'config must come from the installed share dir'
 
 
+# The slowest of the packages' tests (two thirds of their time), left out here: make test
+# runs every one of them in its own session, where a failure is reported test by test.
+HEAVY_PACKAGE_TESTS = 'not a_recovery_that_cannot_be_planned and not equilibrium_agrees_with_cross_section'
+
+
 @pytest.mark.workspace
 def test_colcon_test_runs_each_packages_tests(colcon_workspace):
+    # colcon takes an argument for pytest that looks like an option of its own with a space before it
     result = subprocess.run(
         [str(COLCON), '--log-base', 'log', 'test', '--base-paths', 'src/cdpr/src',
-         '--event-handlers', 'console_direct-'],
+         '--event-handlers', 'console_direct-', '--pytest-args', ' -k', HEAVY_PACKAGE_TESTS],
         cwd=colcon_workspace, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr
     summary = subprocess.run([str(COLCON), 'test-result', '--test-result-base', 'build', '--all', '--verbose'],
