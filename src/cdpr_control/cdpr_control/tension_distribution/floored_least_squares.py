@@ -11,8 +11,8 @@ class FlooredLeastSquares(TensionDistribution):
     tensions no lower than its tension_min_n whose wrench comes nearest the one asked
     (base.floored_fit), none above its tension_max_n. It never raises
     InfeasibleTensionError: a wrench out of the cables' reach is missed by a little, and
-    no cable is planned slack (a platform's recovery from outside the residual workspace,
-    cdpr_fdi.pose_recovery)."""
+    no cable is planned slack (a platform's recovery move through poses where the cables
+    cannot pull its wrench within the bounds, cdpr_fdi.pose_recovery)."""
 
     name = 'floored_least_squares'
 
