@@ -5,12 +5,11 @@ static tensions within [τ_min, τ_max] exist at its pose — position control t
 once (RECOVERY_MOVE): a quintic from the platform's velocity brings its position to rest,
 its orientation held; then a straight quintic takes the position to the safe pose's while
 the orientation turns about a fixed axis to the safe pose's with the same law; then
-SAFE_HOLD. The move is tabulated
-per tick for the remaining cables, their tensions planned `plan_tension_margin_n` above
-τ_min; a plan whose tensions leave the bounds is planned again, braking sooner and moving
-slower, `replan_attempts` times. Where none fits — the move passes poses where the
-cables cannot pull its wrench with the margin — the slowest plan is tabulated with the
-floored least-squares tensions on those rows
+SAFE_HOLD. The move is tabulated per tick for the remaining cables, their tensions
+planned `plan_tension_margin_n` above τ_min; a plan whose tensions leave the bounds is
+planned again, braking sooner and moving slower, `replan_attempts` times. Where none
+fits — the move passes poses where the cables cannot pull its wrench with the margin —
+the slowest plan is tabulated with the floored least-squares tensions on those rows
 (cdpr_control.tension_distribution.FlooredLeastSquares): the wrench out of reach is
 missed by a little, every cable planned at least at the floor, and the joints' position
 control keeps the platform on its way.
@@ -29,19 +28,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.controller import JointReference
 from cdpr_control.pose_reference import tabulate_pose_reference
 from cdpr_control.pose_trajectories import PoseTrajectory, Turn
 from cdpr_control.robot import Robot
 from cdpr_control.rotation import difference
-from cdpr_control.safe_pose import SafePose, tension_margin_n
+from cdpr_control.safe_pose import tension_margin_n
 from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError, TensionDistribution,
                                                make_tension_distribution)
 from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
 
 from .config import RecoveryConfig
-from .recovery import RecoveryInfeasible
+from .recovery import RecoveryInfeasible, TabulatedMove, safe_pose_for
 
 # The axis of a turn by no angle: any will do.
 NO_TURN_AXIS = (0.0, 0.0, 1.0)
@@ -58,18 +56,20 @@ def check_held(robot: Robot, attached: np.ndarray, position_m, orientation) -> N
             f'do, and no recovery from there is built for a platform (docs/platform.md)')
 
 
-class PoseRecovery:
+class PoseRecovery(TabulatedMove):
     """Steps through a platform's recovery, one control tick at a time, as Recovery does
     a point mass's: `setpoint(tick, angle, speed)` gives the mode and the joint reference
     of the next tick."""
 
     def __init__(self, robot: Robot, config: RecoveryConfig, distribution: TensionDistribution,
                  period_s: float, attached: np.ndarray, start_tick: int, position_m, orientation,
-                 velocity_m_s, safe: SafePose):
+                 velocity_m_s):
         """From the pose (p, q) and velocity (m/s) the remaining (`attached`) cables give at
-        detection, to `safe`; RecoveryInfeasible where no static tensions within the bounds
-        hold it at that pose."""
+        detection, to their safe pose (recovery.safe_pose_for); RecoveryInfeasible where no
+        static tensions within the bounds hold the platform at that pose (checked first:
+        the safe pose takes ~0.3 s), or where there is no safe pose."""
         check_held(robot, attached, position_m, orientation)
+        safe = safe_pose_for(robot, config, attached)
         self.robot = robot
         self.config = config
         self.period_s = period_s
@@ -123,11 +123,5 @@ class PoseRecovery:
         on the tick SAFE_HOLD starts, then nothing (the controller holds it at rest)."""
         if self.mode == SAFE_HOLD:
             return self.mode, None, None
-        row = tick + 1 - self.start_tick
-        if row >= len(self.table):
-            self.mode = SAFE_HOLD
-            self.phase_ticks[SAFE_HOLD] = tick + 1
-            row = len(self.table) - 1
-        table = self.table
-        return self.mode, None, JointReference(table.angle_rad[row], table.angular_velocity_rad_s[row],
-                                               table.feedforward_nm[row])
+        reference = self.move_setpoint(tick, self.start_tick, self.table)
+        return self.mode, None, reference

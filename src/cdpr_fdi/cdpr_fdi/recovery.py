@@ -145,7 +145,22 @@ def entry_point(robot: Robot, attached: np.ndarray, position_m: np.ndarray,
     return position_m + inside * (goal - position_m)
 
 
-class Recovery:
+class TabulatedMove:
+    """A recovery's move to its safe point, tabulated per tick from a start tick; the
+    recovery (its `mode` and `phase_ticks`) enters SAFE_HOLD on the tick the move ends."""
+
+    def move_setpoint(self, tick: int, start_tick: int, table) -> JointReference:
+        """The joint reference of tick + 1: the table's row, its last on the tick SAFE_HOLD
+        starts."""
+        row = tick + 1 - start_tick
+        if row >= len(table):
+            self.mode = SAFE_HOLD
+            self.phase_ticks[SAFE_HOLD] = tick + 1
+            row = len(table) - 1
+        return JointReference(table.angle_rad[row], table.angular_velocity_rad_s[row], table.feedforward_nm[row])
+
+
+class Recovery(TabulatedMove):
     """Steps through the recovery phases, one control tick at a time.
 
     `setpoint(tick, angle, speed)` returns the mode and the setpoint for the next tick:
@@ -326,12 +341,6 @@ class Recovery:
                     state = None
             return self.mode, self.damped_tension_setpoint(tick + 1, state), None
         if self.mode == RECOVERY_MOVE:
-            start, table = self.move
-            row = tick + 1 - start
-            if row >= len(table):
-                self.mode = SAFE_HOLD
-                self.phase_ticks[SAFE_HOLD] = tick + 1
-                row = len(table) - 1
-            return self.mode, None, JointReference(table.angle_rad[row], table.angular_velocity_rad_s[row],
-                                                   table.feedforward_nm[row])
+            reference = self.move_setpoint(tick, *self.move)
+            return self.mode, None, reference
         return self.mode, None, None

@@ -21,9 +21,9 @@ from cdpr_msgs_py.contract import FAULT, NOMINAL
 from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector
 from .identification import identify_broken_cables
-from .pose_recovery import PoseRecovery, check_held
+from .pose_recovery import PoseRecovery
 from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point,
-                       initial_tensions, safe_pose_for, taut_tension_n)
+                       initial_tensions, taut_tension_n)
 from .residual import sensorless_tension_bounds
 from .tension_collapse import TensionCollapse
 from .wrench_balance import WrenchBalance, overstretch_m, placement
@@ -352,10 +352,8 @@ class Supervisor:
         """A platform's recovery from its pose and velocity as the remaining cables give
         them (pose_recovery.py); RecoveryInfeasible where it cannot start."""
         position, orientation, twist, _ = placement(self.robot, angle_rad, angular_velocity_rad_s, attached)
-        check_held(self.robot, attached, position, orientation)   # before the safe pose's ~0.3 s
         return PoseRecovery(self.robot, self.recovery_config, self.distribution, self.period_s, attached, tick,
-                            position, orientation, twist[:3], safe_pose_for(self.robot, self.recovery_config,
-                                                                            attached))
+                            position, orientation, twist[:3])
 
     def reference_tensions(self, reference: JointReference) -> np.ndarray:
         """τ_d = (J θ̈_d + b θ̇_d − c_ID) / ρ, θ̈_d from the previous reference (N)."""
