@@ -14,7 +14,9 @@ from cdpr_bringup.reports import fdi_offline
 from cdpr_bringup.bags.bag_io import read_messages, recording_from_bag
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.graph.launcher import Graph, graph_nodes, node_environment, run_to_completion
-from cdpr_bringup.runs.metrics import fdi_summary_from_diagnostics
+from cdpr_bringup.reports.report import run_settings, write_report
+from cdpr_bringup.reports.summary import bag_summary
+from cdpr_bringup.runs.metrics import fdi_summary_from_diagnostics, twin_kpis
 from cdpr_bringup.runs.settle import GRAPH_FORMS, ScenarioOptions, build_scenario
 
 from cdpr_msgs_py.dds import PROFILE_VARIABLE
@@ -22,6 +24,7 @@ from cdpr_msgs_py.stamps import stamp_to_ns
 
 from conftest import (MOTIONS, PAPER_ROBOT, GraphLog, in_private_shm, private_shm_allowed,
                       settled_parameters, timing_check)
+from test_report import assert_figure
 
 pytestmark = pytest.mark.graph
 QUIET = lambda line: None  # noqa: E731
@@ -36,9 +39,9 @@ def run(tmp_path, name, clock_mode='lockstep', log=QUIET, form='separate', **opt
     return bag
 
 
-# Cable 4 breaks 1 s into along-2, moving at speed: the run, which ends once the recovery
-# is over, is half as long as with the failure at the midpoint.
-FAILURE_S = 1.0
+# Cable 4 breaks 1 s into along-2, moving at speed, between two ticks: the run, which
+# ends once the recovery is over, is half as long as with the failure at the midpoint.
+FAILURE_S = 1.001
 
 
 def failure_scenario():
@@ -47,9 +50,9 @@ def failure_scenario():
 
 
 # The second run, for repeatability, goes through the failure and its detection into the
-# recovery: the first run covers the rest. The first has every node in its own process,
-# the second the loop's nodes composed in one.
-REPEATED_S = FAILURE_S + 1.2
+# recovery (1.2 s after the failure): the first run covers the rest. The first has every
+# node in its own process, the second the loop's nodes composed in one.
+REPEATED_S = 2.2
 
 
 @pytest.fixture(scope='module')
@@ -95,6 +98,27 @@ def test_failure_in_the_graph_frees_the_plant_motor_not_the_twin(lockstep_bags):
     late = graph.time_s[:n] > graph.time_s[n - 1] - 1.0
     assert np.all(graph.true_tension_n[:n][late, 3] == 0.0)
     assert np.all(healthy.true_tension_n[late, 3] > 1.0)
+
+
+def test_the_report_of_the_graphs_own_bag(lockstep_bags, tmp_path):
+    """Without a metrics.json the failure instant is the plant's own report in the bag
+    (its /diagnostics), not the first tick without the cable; the launch files' closing
+    summary says the same."""
+    bag, namespace, scenario = lockstep_bags[0], '/cdpr_test_run0', failure_scenario()
+    metrics = write_report(bag, tmp_path / 'plots', run_settings(bag, PAPER_ROBOT), namespace)
+    recording = recording_from_bag(bag, namespace)
+    assert metrics['true_broken_cables'] == [4]
+    assert metrics['failure_time_s'] == pytest.approx(FAILURE_S, abs=1e-9)
+    summary = bag_summary(bag, scenario.settings, namespace)
+    assert summary[0].startswith(f'along-2 on the {scenario.plant.fidelity} plant, node graph, threshold detector')
+    assert f'  cable(s) [4] broke at {FAILURE_S:.4f} s' in summary
+    assert f'detected at {metrics["detection_time_s"]:.3f} s' in '\n'.join(summary)
+    assert summary[-1].startswith(f'bag: {bag} ')
+    assert bag_summary(tmp_path / 'no-bag', scenario.settings)[0].startswith('no summary of the run:')
+    before = slice(0, int(np.ceil(FAILURE_S / scenario.period_s)))
+    assert metrics['kpi'] == pytest.approx(twin_kpis(scenario.robot, recording, before))
+    for name in ('torques', 'residuals', 'position', 'path_3d', 'path_top', 'tensions'):
+        assert_figure(tmp_path / 'plots' / f'{name}.png')
 
 
 @pytest.mark.realtime

@@ -214,6 +214,25 @@ def test_a_pose_no_tensions_hold_is_named_with_its_orientation(robot, distributi
                                            *[np.zeros(3)] * 4)
 
 
+def test_a_stack_of_poses_gives_each_rows_inverse_dynamics_and_names_its_first_infeasible_pose(robot, distribution):
+    """A tabulated motion (n rows at once) is each pose's inverse dynamics, with every
+    cable and with one detached; a row no tensions hold is named by its own pose."""
+    times = (0.2, 0.9, 1.7)
+    stack = [np.array(figure) for figure in zip(*(trajectory(time_s) for time_s in times))]
+    for attached in (None, robot.cable_mask([1])):
+        rows = pose_dynamics.inverse_dynamics(robot, distribution, *stack, attached=attached)
+        for k, time_s in enumerate(times):
+            one = pose_dynamics.inverse_dynamics(robot, distribution, *trajectory(time_s), attached=attached)
+            for name in ('torque_nm', 'tension_n', 'joint_angle_rad', 'joint_velocity_rad_s',
+                         'joint_acceleration_rad_s2'):
+                np.testing.assert_allclose(getattr(rows, name)[k], getattr(one, name), rtol=1e-12, atol=1e-12)
+        assert np.allclose(rows.joint_angle_rad,
+                           [pose_kinematics.inverse_kinematics(robot, p, q) for p, q in zip(stack[0], stack[1])])
+    stack[0][1] = (1.0, 0.75, 1.95)
+    with pytest.raises(InfeasibleTensionError, match=r'p = \(1.0000, 0.7500, 1.9500\) m'):
+        pose_dynamics.inverse_dynamics(robot, distribution, *stack)
+
+
 # ---- dynamics --------------------------------------------------------------------------
 
 def test_direct_dynamics_undoes_inverse_dynamics(robot, distribution):

@@ -122,3 +122,41 @@ def test_forward_kinematics_is_the_same_with_both_kernels(robot):
         poses.append(pose)
     assert np.array_equal(*poses)
     np.testing.assert_allclose(poses[0][:3], position, atol=1e-10)
+
+
+def test_a_tabulated_motions_rows_are_the_same_with_both_kernels_and_as_numpy_gives_them(robot):
+    """motion_rows, a whole motion per call: both kernels alike to the last bit, and each
+    row's W, wrench and joint motion as pose_kinematics and the rigid body give them."""
+    rng = np.random.default_rng(3)
+    rows = 5
+    orientations = np.array([from_axis_angle(axis, angle) for axis, angle in
+                             zip(rng.normal(size=(rows, 3)), rng.uniform(-0.2, 0.2, rows))])
+    poses = np.concatenate([robot.home_position_m + rng.uniform(-0.1, 0.1, (rows, 3)), orientations], axis=1)
+    twists, accelerations = rng.normal(scale=0.3, size=(rows, 6)), rng.normal(scale=2.0, size=(rows, 6))
+    exits, attachments, _ = platform_substeps.geometry_of(robot)
+    m = robot.cable_count
+    results = []
+    for name in platform_substeps.KERNELS:
+        figures = (np.empty((rows, m, 6)), np.empty((rows, m)), np.empty((rows, 6)), np.empty((rows, m)),
+                   np.empty((rows, m)))
+        platform_substeps.kernel(name).motion_rows(platform_substeps.constants_of(robot), exits, attachments, poses,
+                                                   twists, accelerations, *figures)
+        results.append(figures)
+    for ours, theirs in zip(*results):
+        assert np.array_equal(ours, theirs)
+    columns, lengths, wrenches, joint_velocity, joint_acceleration = results[0]
+    radius = robot.motor.drum_radius_m
+    for k in range(rows):
+        position, orientation, velocity, omega = poses[k, :3], poses[k, 3:], twists[k, :3], twists[k, 3:]
+        u, d, r = pose_kinematics.cable_vectors(robot, position, orientation)
+        structure = pose_kinematics.structure_of(u, r)
+        body = pose_dynamics.rigid_body(robot, orientation, omega)
+        np.testing.assert_allclose(columns[k].T, structure, atol=1e-14)
+        np.testing.assert_allclose(lengths[k], d, atol=1e-14)
+        np.testing.assert_allclose(wrenches[k], body.mass_matrix @ accelerations[k] - body.free_wrench, atol=1e-12)
+        np.testing.assert_allclose(joint_velocity[k] * radius, pose_kinematics.length_rates(structure, twists[k]),
+                                   atol=1e-13)
+        np.testing.assert_allclose(
+            joint_acceleration[k] * radius,
+            pose_kinematics.length_accelerations(structure, pose_kinematics.velocity_product(u, d, r, velocity, omega),
+                                                 accelerations[k]), atol=1e-12)

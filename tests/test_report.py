@@ -12,18 +12,15 @@ import numpy as np
 import pytest
 import yaml
 
-from cdpr_control.robot import load_robot
 from cdpr_control.rotation import difference
 
 from cdpr_bringup.reports import plots
 from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.bags.bag_io import BagWriter, recording_from_bag, write_recording
 from cdpr_bringup.runs.engine import run_inprocess
-from cdpr_bringup.graph.launcher import graph_nodes, run_to_completion
 from cdpr_bringup.runs.metrics import metrics_json, tracking_error_m, twin_kpis
 from cdpr_bringup.reports.report import (SETTLED_RUN, load_run, main, run_of_recording, run_settings, write_report,
                                  write_run_report)
-from cdpr_bringup.reports.summary import bag_summary
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 
 from conftest import CONFIG_DIR, MOTIONS, PAPER_ROBOT
@@ -286,32 +283,6 @@ def test_report_refuses_to_overwrite_the_runs_own_metrics(failure_run):
     _, _, folder, _ = failure_run
     with pytest.raises(ValueError, match='metrics.json'):
         write_report(folder / 'bag', folder, run_settings(folder / 'bag', PAPER_ROBOT))
-
-
-@pytest.mark.graph
-def test_report_of_a_graph_bag(tmp_path):
-    """The node graph's own bag: cable 4 breaks at 1.501 s, between two ticks, and the
-    run stops at 3 s. Without a metrics.json the failure instant is the plant's own
-    report in the bag (its /diagnostics), not the first tick without the cable (1.502 s);
-    the launch files' closing summary says the same."""
-    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motion='along-4', fidelity='rigid',
-                                              fail_cables=[4], fail_at_s=1.501, duration_s=3.0))
-    bag = tmp_path / 'bag'
-    run_to_completion(graph_nodes(scenario.node_parameters('lockstep'), str(bag)), '/cdpr',
-                      timeout_s=60.0, log=lambda line: None)
-    metrics = write_report(bag, tmp_path / 'plots', run_settings(bag, PAPER_ROBOT))
-    recording = recording_from_bag(bag)
-    assert metrics['true_broken_cables'] == [4]
-    assert metrics['failure_time_s'] == pytest.approx(1.501, abs=1e-9)
-    summary = bag_summary(bag, scenario.settings)
-    assert summary[0].startswith('along-4 on the rigid plant, node graph, threshold detector')
-    assert '  cable(s) [4] broke at 1.5010 s' in summary
-    assert f'detected at {metrics["detection_time_s"]:.3f} s' in '\n'.join(summary)
-    assert summary[-1].startswith(f'bag: {bag} ')
-    assert bag_summary(tmp_path / 'no-bag', scenario.settings)[0].startswith('no summary of the run:')
-    assert metrics['kpi'] == pytest.approx(twin_kpis(load_robot(PAPER_ROBOT), recording, slice(0, 751)))
-    for name in ('torques', 'residuals', 'position', 'path_3d', 'path_top', 'tensions'):
-        assert_figure(tmp_path / 'plots' / f'{name}.png')
 
 
 def test_a_platforms_report_plots_its_orientation_beside_its_position(tmp_path):

@@ -248,6 +248,35 @@ def direct_dynamics(constants, exits, attachments, pose, twist, torque, joint_ve
             tension[i] = 0.0
 
 
+def motion_rows(constants, exits, attachments, poses, twists, accelerations, wrench_columns, lengths, wrenches,
+                joint_velocity, joint_acceleration) -> None:
+    """For each row k of a motion — pose, twist (v, ω) and its rate (a, α) — W's columns as
+    rows (into `wrench_columns[k]`, m × 6), the lengths d (m), the wrench the cables must
+    apply, M (a, α) − (w_g − h) (N, N·m), and the joint motion θ̇ = ḋ / ρ (rad/s) and
+    θ̈ = (−Wᵀ (a, α) + κ) / ρ (rad/s²): the inverse dynamics of pose_dynamics but for the
+    tension distribution, a whole tabulated motion per call."""
+    m = exits.shape[0]
+    radius = constants[RADIUS]
+    rotation, arms, kappa = np.empty((3, 3)), np.empty((m, 3)), np.empty(m)
+    mass_matrix, free = np.empty((6, 6)), np.empty(6)
+    for k in range(poses.shape[0]):
+        rotation_of(poses[k], rotation)
+        cables_at(poses[k], rotation, exits, attachments, wrench_columns[k], lengths[k], arms)
+        rigid_body(constants, rotation, twists[k], mass_matrix, free)
+        for a in range(6):
+            total = 0.0
+            for b in range(6):
+                total += mass_matrix[a, b] * accelerations[k, b]
+            wrenches[k, a] = total - free[a]
+        velocity_product(wrench_columns[k], lengths[k], arms, twists[k], kappa)
+        for i in range(m):
+            joint_velocity[k, i] = length_rate(wrench_columns[k], i, twists[k]) / radius
+            along = 0.0
+            for b in range(6):
+                along += wrench_columns[k, i, b] * accelerations[k, b]
+            joint_acceleration[k, i] = (kappa[i] - along) / radius
+
+
 def turn(pose, x, y, z) -> None:
     """The pose's orientation turned by the rotation vector (x, y, z) (rad, world frame),
     kept a unit quaternion with w ≥ 0."""
@@ -418,21 +447,22 @@ HELPERS = (rotation_of, cables_at, length_rate, rigid_body, solve_symmetric, vel
 
 class Kernel:
     """How the platform's equations run: `forward_kinematics`, `velocity_product`,
-    `rigid_body`, `direct_dynamics`, `rigid_substeps` and `elastic_substeps` of this
-    module, as CPython runs them or compiled."""
+    `rigid_body`, `direct_dynamics`, `motion_rows`, `rigid_substeps` and
+    `elastic_substeps` of this module, as CPython runs them or compiled."""
 
-    def __init__(self, name: str, fk, kappa, body, direct, rigid, elastic):
+    def __init__(self, name: str, fk, kappa, body, direct, rows, rigid, elastic):
         self.name = name
         self.forward_kinematics = fk
         self.velocity_product = kappa
         self.rigid_body = body
         self.direct_dynamics = direct
+        self.motion_rows = rows
         self.rigid_substeps = rigid
         self.elastic_substeps = elastic
 
 
-PYTHON = Kernel('python', forward_kinematics, velocity_product, rigid_body, direct_dynamics, rigid_substeps,
-                elastic_substeps)
+PYTHON = Kernel('python', forward_kinematics, velocity_product, rigid_body, direct_dynamics, motion_rows,
+                rigid_substeps, elastic_substeps)
 
 
 @cache
@@ -452,6 +482,7 @@ def _compiled() -> Kernel | None:
     # installation (`make setup` does it), so that a process only loads them; numba checks
     # the cache against this file, where every function they call lives.
     row, rows, count, flag = types.float64[::1], types.float64[:, ::1], types.intp, types.boolean
+    stack = types.float64[:, :, ::1]
 
     def compile_(function, *arguments):
         return numba.njit(types.void(*arguments), cache=True)(function)
@@ -464,6 +495,7 @@ def _compiled() -> Kernel | None:
         compile_(velocity_product, rows, row, rows, row, row),
         compile_(rigid_body, row, rows, row, rows, row),
         compile_(direct_dynamics, row, rows, rows, *(row,) * 10),
+        compile_(motion_rows, row, rows, rows, rows, rows, rows, stack, rows, rows, rows, rows),
         compile_(rigid_substeps, count, types.float64, *geometry, *(row,) * 9),
         compile_(elastic_substeps, count, types.float64, *geometry, row, row, row, flag, *(row,) * 5))
 

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import pose_dynamics, pose_kinematics
+from . import pose_dynamics
 from .pose_trajectories import PoseTrajectory
 from .reference import ReferenceTable
 from .robot import Robot
@@ -26,14 +26,10 @@ class PoseReferenceTable(ReferenceTable):
 def tabulate_pose_reference(robot: Robot, tension_distribution: TensionDistribution,
                             trajectory: PoseTrajectory, period_s: float, attached=None) -> PoseReferenceTable:
     """Sample `trajectory` every `period_s` from its start to its end and compute IK and the
-    feed-forward with the `attached` cables (all when None; a detached one's figures 0);
-    InfeasibleTensionError names the first pose no tensions hold."""
-    rows = []
-    for k in range(int(round(trajectory.duration_s / period_s)) + 1):
-        sample = trajectory.sample(k * period_s)
-        dynamics = pose_dynamics.inverse_dynamics(robot, tension_distribution, *sample.motion, attached=attached)
-        rows.append((sample.position_m, sample.velocity_m_s,
-                     pose_kinematics.inverse_kinematics(robot, sample.position_m, sample.orientation),
-                     dynamics.joint_velocity_rad_s, dynamics.torque_nm, sample.orientation,
-                     sample.angular_velocity_rad_s, dynamics.tension_n))
-    return PoseReferenceTable(period_s, *(np.array(column) for column in zip(*rows)))
+    feed-forward with the `attached` cables (all when None; a detached one's figures 0),
+    every row at once; InfeasibleTensionError names the first pose no tensions hold."""
+    sample = trajectory.sample(np.arange(int(round(trajectory.duration_s / period_s)) + 1) * period_s)
+    dynamics = pose_dynamics.inverse_dynamics(robot, tension_distribution, *sample.motion, attached=attached)
+    return PoseReferenceTable(period_s, sample.position_m, sample.velocity_m_s, dynamics.joint_angle_rad,
+                              dynamics.joint_velocity_rad_s, dynamics.torque_nm, sample.orientation,
+                              sample.angular_velocity_rad_s, dynamics.tension_n)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .pose_dynamics import rigid_body
+from .pose_dynamics import motion_terms, rigid_body
 from .pose_kinematics import wrench_matrix
 from .robot import Robot
 from .statics import holding_torque_nm
@@ -56,6 +56,19 @@ def static_tensions(robot: Robot, position_m, orientation, attached=None) -> np.
     cable bounds (the pseudo-inverse's wherever that is inside them)."""
     distribution = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
     return holding_tensions(robot, distribution, position_m, orientation, attached)
+
+
+def static_tensions_each(robot: Robot, positions_m, orientation, attached=None) -> np.ndarray:
+    """`static_tensions` at each of the positions (n × 3, m) at one orientation, every row
+    at once; a row of NaN where no tensions within the bounds hold the platform."""
+    attached = np.ones(robot.cable_count, dtype=bool) if attached is None else np.asarray(attached, dtype=bool)
+    rows = len(positions_m)
+    terms = motion_terms(robot, np.concatenate([positions_m, np.broadcast_to(orientation, (rows, 4))], axis=1),
+                         np.zeros((rows, 6)), np.zeros((rows, 6)))
+    distribution = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
+    tension = np.zeros((rows, robot.cable_count))
+    tension[:, attached] = distribution.distribute_each(terms.structure[:, :, attached], terms.wrench_n)
+    return tension
 
 
 def holding_torques_nm(robot: Robot, position_m, orientation, attached=None) -> np.ndarray:

@@ -48,11 +48,11 @@ class Turn:
         self.duration_s = float(duration_s)
         self.delay_s = float(delay_s)
 
-    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(q, ω, α) at time t (s) of the motion."""
-        s, s_dot, s_ddot = quintic_profile(t - self.delay_s, self.duration_s)
-        turned = normalised(product(from_rotation_vector(self.axis * (self.angle_rad * float(s))), self.start))
-        return turned, self.axis * (self.angle_rad * float(s_dot)), self.axis * (self.angle_rad * float(s_ddot))
+    def sample(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, ω, α) at time t (s) of the motion; of each time of an array t (n × 4, n × 3)."""
+        s, s_dot, s_ddot = (np.multiply.outer(self.angle_rad * np.asarray(value), self.axis)
+                            for value in quintic_profile(t - self.delay_s, self.duration_s))
+        return normalised(product(from_rotation_vector(s), self.start)), s_dot, s_ddot
 
     def reversed(self, total_s: float) -> 'Turn':
         """The turn run backward within a motion of `total_s`."""

@@ -25,10 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .pose_statics import static_tensions
+from .pose_statics import static_tensions_each
 from .robot import Robot
 from .rotation import from_axis_angle, normalised, product
-from .tension_distribution import InfeasibleTensionError
 
 AXES = np.eye(3)
 # Safe poses already found, by robot (held, so that its id is not reused), remaining
@@ -52,11 +51,16 @@ class SafePose:
 def tension_margin_n(robot: Robot, position_m, orientation, attached) -> float:
     """The least distance (N) of the `attached` cables' holding tensions to τ_min or τ_max
     at the pose; −inf where no tensions within the bounds hold the platform there."""
-    try:
-        tension = static_tensions(robot, np.asarray(position_m, dtype=float), orientation, attached)[attached]
-    except InfeasibleTensionError:
-        return -np.inf
-    return float(min(np.min(tension - robot.tension_min_n), np.min(robot.tension_max_n - tension)))
+    return float(tension_margins_n(robot, np.atleast_2d(position_m), orientation, attached)[0])
+
+
+def tension_margins_n(robot: Robot, positions_m, orientation, attached) -> np.ndarray:
+    """`tension_margin_n` at each of the positions (n × 3, m) at one orientation."""
+    tension = static_tensions_each(robot, np.asarray(positions_m, dtype=float), orientation, attached)[:, attached]
+    margins = np.minimum(np.min(tension - robot.tension_min_n, axis=1), np.min(robot.tension_max_n - tension, axis=1))
+    # where the distribution puts a cable on a bound, rounding leaves it ~1e-16 N either
+    # side: such a pose is held, with no margin (not left out of the workspace by the sign)
+    return np.where(np.isnan(margins), -np.inf, np.maximum(margins, 0.0))
 
 
 def candidate_orientations(home_orientation, turns_deg) -> list[np.ndarray]:
@@ -77,8 +81,8 @@ def residual_section(robot: Robot, attached, orientation, height_m: float, spaci
     axes = [np.linspace(low, high, max(2, int(round((high - low) / spacing_m)) + 1))
             for low, high in zip(robot.workspace_min_m[:2], robot.workspace_max_m[:2])]
     grid = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 2)
-    inside = [tension_margin_n(robot, (x, y, height_m), orientation, attached) >= 0.0 for x, y in grid]
-    return grid[np.array(inside, dtype=bool)]
+    positions = np.column_stack([grid, np.full(len(grid), height_m)])
+    return grid[tension_margins_n(robot, positions, orientation, attached) >= 0.0]
 
 
 def safe_pose(robot: Robot, attached, height_m: float, turns_deg, spacing_m: float) -> SafePose:

@@ -75,7 +75,7 @@ class ElasticCableRobot:
     def __init__(self, robot: Robot, position_m, substeps: int, axial_stiffness_n: float,
                  damping_n_s_m: float, coulomb_friction_nm: float,
                  coulomb_velocity_rad_s: float, drive: DriveTrain = DriveTrain(),
-                 kernel: str = 'python'):
+                 kernel: str = 'compiled'):
         self.robot = robot
         self.kernel = substep_kernel(kernel)
         self.drive = drive

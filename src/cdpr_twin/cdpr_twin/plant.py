@@ -74,7 +74,7 @@ class PlantConfig:
     velocity_noise_rad_s: float
     counts_per_revolution: int
     seed: int
-    kernel: str = 'python'    # of the elastic sub-steps: elastic_substeps.KERNELS
+    kernel: str = 'compiled'    # of the elastic sub-steps: elastic_substeps.KERNELS
     # The field fidelity's drive train and rig (no effect on the others).
     drive: DriveTrain = DriveTrain()
     command_delay_s: float = 0.0

@@ -12,6 +12,8 @@ from ..linalg3 import solve3
 # diagonal entry: the cables do not span the six directions of force and moment
 # (solve3's determinant test does it for 3 × 3).
 SINGULAR_PIVOT_RATIO = 1e-12
+# Tensions this far (N) beyond a bound still count as within it: rounding.
+BOUND_TOLERANCE_N = 1e-9
 
 
 class InfeasibleTensionError(ValueError):
@@ -58,20 +60,39 @@ class TensionDistribution(ABC):
         """Tensions τ within [tension_min_n, tension_max_n]; InfeasibleTensionError if none."""
 
     def distribute_rows(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
-        """`distribute` of every row of a stack: S (n × 3 × k) and w (n × 3) give τ (n × k).
-        The first infeasible row raises its error, with `row` set to its index."""
-        tensions = np.empty(structures.shape[:-2] + structures.shape[-1:])
-        for row, (structure, wrench) in enumerate(zip(structures, wrenches_n)):
+        """`distribute` of every row of a stack: S (n × 3 × k, or n × 6 × k) and w (n × 3, or
+        n × 6) give τ (n × k). The first infeasible row raises its error, with `row` set to
+        its index."""
+        tensions = self.distribute_each(structures, wrenches_n)
+        missing = np.flatnonzero(np.isnan(tensions).any(axis=-1))
+        if missing.size:
+            row = int(missing[0])
             try:
-                tensions[row] = self.distribute(structure, wrench)
+                self.distribute(structures[row], wrenches_n[row])
             except InfeasibleTensionError as err:
                 raise err.in_row(row) from None
         return tensions
 
+    def distribute_each(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+        """`distribute` of every row of a stack, NaN for each row no tensions within the
+        bounds pull (a workspace sampled at once)."""
+        tensions = np.full(structures.shape[:-2] + structures.shape[-1:], np.nan)
+        for row, (structure, wrench) in enumerate(zip(structures, wrenches_n)):
+            try:
+                tensions[row] = self.distribute(structure, wrench)
+            except InfeasibleTensionError:
+                pass
+        return tensions
+
+    def _outside_bounds(self, tensions: np.ndarray) -> np.ndarray:
+        """Per row of a stack of tensions (n × k), whether one leaves [τ_min, τ_max]."""
+        return ((tensions.min(axis=-1) < self.tension_min_n - BOUND_TOLERANCE_N)
+                | (tensions.max(axis=-1) > self.tension_max_n + BOUND_TOLERANCE_N))
+
     def _check_bounds(self, tensions: np.ndarray) -> np.ndarray:
         low = np.min(tensions)
         high = np.max(tensions)
-        if low < self.tension_min_n - 1e-9 or high > self.tension_max_n + 1e-9:
+        if low < self.tension_min_n - BOUND_TOLERANCE_N or high > self.tension_max_n + BOUND_TOLERANCE_N:
             raise InfeasibleTensionError(
                 f'{self.name} gives tensions in [{low:.3f}, {high:.3f}] N, outside '
                 f'[{self.tension_min_n}, {self.tension_max_n}] N')

@@ -12,9 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import InfeasibleTensionError, TensionDistribution, minimum_norm
+from .base import BOUND_TOLERANCE_N, InfeasibleTensionError, TensionDistribution, minimum_norm
 
-BOUND_TOLERANCE_N = 1e-9
 DIRECTION_TOLERANCE = 1e-12
 
 
@@ -30,28 +29,26 @@ class BoundedMinimumNorm(TensionDistribution):
         count = structure.shape[1]
         reference = np.full(count, self.reference_tension_n)
         tensions = reference + minimum_norm(structure, wrench_n - structure @ reference)
-        if (np.min(tensions) >= self.tension_min_n - BOUND_TOLERANCE_N
-                and np.max(tensions) <= self.tension_max_n + BOUND_TOLERANCE_N):
+        if not self._outside_bounds(tensions):
             return tensions
         return self._projection(structure, wrench_n, reference)
 
-    def distribute_rows(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
-        """`distribute` of every row, the closed form for the whole stack at once: only the
-        rows it leaves outside the bounds are projected, one by one."""
+    def distribute_each(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+        """`distribute` of every row (NaN where none), the closed form for the whole stack at
+        once: only the rows it leaves outside the bounds are projected, one by one."""
         reference = np.full(structures.shape[:-2] + structures.shape[-1:], self.reference_tension_n)
         try:
             tensions = reference + minimum_norm(
                 structures, wrenches_n - np.einsum('...ij,...j->...i', structures, reference))
         except InfeasibleTensionError:
-            # row by row, to name the first row that has no tensions
-            return super().distribute_rows(structures, wrenches_n)
-        outside = ((tensions.min(axis=-1) < self.tension_min_n - BOUND_TOLERANCE_N)
-                   | (tensions.max(axis=-1) > self.tension_max_n + BOUND_TOLERANCE_N))
+            # a row whose cables span too little: the others are still answered
+            return super().distribute_each(structures, wrenches_n)
+        outside = self._outside_bounds(tensions)
         for row in np.flatnonzero(outside):
             try:
                 tensions[row] = self._projection(structures[row], wrenches_n[row], reference[row])
-            except InfeasibleTensionError as err:
-                raise err.in_row(int(row)) from None
+            except InfeasibleTensionError:
+                tensions[row] = np.nan
         return tensions
 
     def _projection(self, structure, wrench_n, reference):

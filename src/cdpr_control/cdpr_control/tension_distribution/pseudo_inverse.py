@@ -14,9 +14,12 @@ class PseudoInverse(TensionDistribution):
     def distribute(self, structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
         return self._check_bounds(minimum_norm(structure, wrench_n))
 
-    def distribute_rows(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+    def distribute_each(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
         try:
-            return self._check_bounds(minimum_norm(structures, wrenches_n))
+            tensions = minimum_norm(structures, wrenches_n)
         except InfeasibleTensionError:
-            # row by row, to name the first row that has no tensions
-            return super().distribute_rows(structures, wrenches_n)
+            # a row whose cables span too little: the others are still answered
+            return super().distribute_each(structures, wrenches_n)
+        outside = self._outside_bounds(tensions)
+        tensions[outside] = np.nan
+        return tensions
