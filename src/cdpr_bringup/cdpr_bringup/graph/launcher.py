@@ -42,6 +42,8 @@ STACK_DUMP_S = 0.5
 UP_TIMEOUT_S = INITIALISATION_LIMIT_S + 10.0
 TEMP_PREFIX = 'cdpr-graph-'
 LAST_LINES = 5
+# How long to wait for the rest of an exited node's output (s): it ends when the node does.
+READER_JOIN_S = 1.0
 
 class GraphError(RuntimeError):
     """A node died or did not come up; the message names it."""
@@ -154,7 +156,7 @@ class Graph:
         self.completion = completion
         self.log = log
         self.processes: dict[str, subprocess.Popen] = {}
-        self.threads: list[threading.Thread] = []
+        self.readers: dict[str, threading.Thread] = {}   # of each node's output, by node
         self.ready: set[str] = set()
         self.last_lines: dict[str, list[str]] = {}
         remove_abandoned_folders()
@@ -172,9 +174,8 @@ class Graph:
                                        env=node_environment())
             self.processes[spec.name] = process
             self.log(f'[cdpr-graph] started {spec.name} (pid {process.pid})')
-            thread = threading.Thread(target=self._stream, args=(spec, process), daemon=True)
-            thread.start()
-            self.threads.append(thread)
+            self.readers[spec.name] = threading.Thread(target=self._stream, args=(spec, process), daemon=True)
+            self.readers[spec.name].start()
 
     def _stream(self, spec: NodeSpec, process: subprocess.Popen) -> None:
         lines = self.last_lines.setdefault(spec.name, [])
@@ -207,8 +208,8 @@ class Graph:
                 continue
             if self.completion in self.specs[name].node_names and code == 0:
                 return True
-            for thread in self.threads:
-                thread.join(timeout=0.2)
+            # its last words: its output ends with it (the others' reader threads go on)
+            self.readers[name].join(timeout=READER_JOIN_S)
             last = self.last_lines.get(name)
             raise GraphError(f'node {", ".join(self.specs[name].node_names)} died (exit code {code})'
                              + (f': {last[-1]}' if last else '') + '; stopping the graph')
@@ -239,8 +240,8 @@ class Graph:
                 time.sleep(STACK_DUMP_S)
                 os.killpg(process.pid, signal.SIGKILL)
                 process.wait(timeout=STOP_GRACE_S)
-        for thread in self.threads:
-            thread.join(timeout=1.0)
+        for reader in self.readers.values():
+            reader.join(timeout=READER_JOIN_S)
         shutil.rmtree(self.folder, ignore_errors=True)
         return {name: process.returncode for name, process in self.processes.items()}
 
