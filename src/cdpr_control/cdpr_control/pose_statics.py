@@ -4,11 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from .pose_dynamics import motion_terms, rigid_body
-from .pose_kinematics import wrench_matrix
+from .pose_dynamics import motion_terms
 from .robot import Robot
 from .statics import holding_torque_nm
 from .tension_distribution import InfeasibleTensionError, TensionDistribution, make_tension_distribution
+
+
+def holding_terms(robot: Robot, positions_m, orientation) -> tuple[np.ndarray, np.ndarray]:
+    """At each of the positions (n × 3, m) at one orientation: W (n × 6 × m) and the wrench
+    −w_g (N, N·m) the cables must apply to hold the platform there at rest."""
+    rows = len(positions_m)
+    poses = np.concatenate([np.asarray(positions_m, dtype=float), np.broadcast_to(orientation, (rows, 4))], axis=1)
+    terms = motion_terms(robot, poses, np.zeros((rows, 6)), np.zeros((rows, 6)))
+    return terms.structure, terms.wrench_n
 
 
 def holding_tensions(robot: Robot, distribution: TensionDistribution, position_m, orientation,
@@ -16,11 +24,10 @@ def holding_tensions(robot: Robot, distribution: TensionDistribution, position_m
     """τ (N, 0 for a detached cable) with W τ + w_g = 0 within the bounds;
     InfeasibleTensionError naming the pose where there are none."""
     attached = np.ones(robot.cable_count, dtype=bool) if attached is None else np.asarray(attached, dtype=bool)
-    structure, _ = wrench_matrix(robot, position_m, orientation)
+    (structure,), (wrench,) = holding_terms(robot, np.atleast_2d(position_m), orientation)
     tension = np.zeros(robot.cable_count)
     try:
-        tension[attached] = distribution.distribute(
-            structure[:, attached], -rigid_body(robot, orientation, np.zeros(3)).free_wrench)
+        tension[attached] = distribution.distribute(structure[:, attached], wrench)
     except InfeasibleTensionError as err:
         raise err.at(position_m, orientation) from None
     return tension
@@ -54,20 +61,22 @@ def static_tensions(robot: Robot, position_m, orientation, attached=None) -> np.
     """The tensions a plant holds the platform at rest with (before its first command,
     and as the elastic cables' stretch at its start): the minimum-norm ones within the
     cable bounds (the pseudo-inverse's wherever that is inside them)."""
-    distribution = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
-    return holding_tensions(robot, distribution, position_m, orientation, attached)
+    return holding_tensions(robot, static_distribution(robot), position_m, orientation, attached)
+
+
+def static_distribution(robot: Robot) -> TensionDistribution:
+    """How a plant shares a platform's weight at rest: the minimum-norm tensions within
+    the cable bounds."""
+    return make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
 
 
 def static_tensions_each(robot: Robot, positions_m, orientation, attached=None) -> np.ndarray:
     """`static_tensions` at each of the positions (n × 3, m) at one orientation, every row
     at once; a row of NaN where no tensions within the bounds hold the platform."""
     attached = np.ones(robot.cable_count, dtype=bool) if attached is None else np.asarray(attached, dtype=bool)
-    rows = len(positions_m)
-    terms = motion_terms(robot, np.concatenate([positions_m, np.broadcast_to(orientation, (rows, 4))], axis=1),
-                         np.zeros((rows, 6)), np.zeros((rows, 6)))
-    distribution = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
-    tension = np.zeros((rows, robot.cable_count))
-    tension[:, attached] = distribution.distribute_each(terms.structure[:, :, attached], terms.wrench_n)
+    structures, wrenches = holding_terms(robot, positions_m, orientation)
+    tension = np.zeros((len(wrenches), robot.cable_count))
+    tension[:, attached] = static_distribution(robot).distribute_each(structures[:, :, attached], wrenches)
     return tension
 
 

@@ -50,9 +50,10 @@ class Turn:
 
     def sample(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(q, ω, α) at time t (s) of the motion; of each time of an array t (n × 4, n × 3)."""
-        s, s_dot, s_ddot = (np.multiply.outer(self.angle_rad * np.asarray(value), self.axis)
-                            for value in quintic_profile(t - self.delay_s, self.duration_s))
-        return normalised(product(from_rotation_vector(s), self.start)), s_dot, s_ddot
+        turned, angular_velocity, angular_acceleration = (
+            np.multiply.outer(self.angle_rad * np.asarray(value), self.axis)
+            for value in quintic_profile(t - self.delay_s, self.duration_s))
+        return normalised(product(from_rotation_vector(turned), self.start)), angular_velocity, angular_acceleration
 
     def reversed(self, total_s: float) -> 'Turn':
         """The turn run backward within a motion of `total_s`."""

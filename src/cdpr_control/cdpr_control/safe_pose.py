@@ -32,7 +32,7 @@ from .rotation import from_axis_angle, normalised, product
 AXES = np.eye(3)
 # Safe poses already found, by robot (held, so that its id is not reused), remaining
 # cables and settings: a run asks for its failure's when it settles its length and again
-# when the cable is named, ~0.3 s each on the shipped platform. The oldest goes first.
+# when the cable is named, ~0.2 s each on the shipped platform. The oldest goes first.
 KEPT_SAFE_POSES = 16
 _found: dict[tuple, tuple[Robot, 'SafePose']] = {}
 
