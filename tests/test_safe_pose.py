@@ -3,14 +3,21 @@ its residual workspace: feasibility decided here by a linear program (scipy), no
 project's tension distributions."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.optimize import linprog
 
 from cdpr_control import pose_dynamics, pose_kinematics
+from cdpr_control import safe_pose as safe_pose_module
 from cdpr_control.robot import load_robot
 from cdpr_control.rotation import difference
 from cdpr_control.safe_pose import candidate_orientations, safe_pose, tension_margin_n
+from cdpr_control.tension_distribution import PseudoInverse
+from cdpr_fdi.config import load_fdi_config, load_recovery_config
+from cdpr_fdi.recovery import safe_pose_for
+from cdpr_fdi.supervisor import Supervisor
 
 from conftest import CONFIG_DIR
 
@@ -67,11 +74,28 @@ def test_the_safe_pose_is_the_barycentre_of_the_sampled_residual_workspace(robot
 
 
 def test_a_safe_pose_is_found_once_per_robot_cables_and_settings(robot):
-    """The run's length and the naming both ask for it: the second gets the first's, a
-    robot loaded anew or other settings their own."""
+    """A supervisor finds every single break's when it starts, a run's length and the
+    naming ask again: they get the first's, and so does the same robot loaded anew (each
+    run of a campaign loads its own); another robot, or other settings, their own."""
     attached = robot.cable_mask([2])
     first = safe_pose(robot, attached, HEIGHT_M, TURNS_DEG, 0.1)
     assert safe_pose(robot, attached.copy(), HEIGHT_M, TURNS_DEG, 0.1) is first
-    again = safe_pose(load_robot(ROBOT), attached, HEIGHT_M, TURNS_DEG, 0.1)
-    assert again is not first and np.array_equal(again.position_m, first.position_m)
+    assert safe_pose(load_robot(ROBOT), attached, HEIGHT_M, TURNS_DEG, 0.1) is first
+    heavier = dataclasses.replace(robot, mass_kg=robot.mass_kg * 1.5)
+    other = safe_pose(heavier, attached, HEIGHT_M, TURNS_DEG, 0.1)
+    assert other is not first and other.tension_margin_n != first.tension_margin_n
     assert safe_pose(robot, attached, HEIGHT_M - 0.1, TURNS_DEG, 0.1).position_m[2] == HEIGHT_M - 0.1
+
+
+def test_a_platforms_supervisor_has_every_single_breaks_safe_pose_before_a_cable_is_named(robot):
+    """Naming a cable then takes no search (~0.2 s a cable: ticks a realtime supervisor
+    does not have)."""
+    recovery = load_recovery_config(ROBOT, robot)
+    safe_pose_module._found.clear()
+    Supervisor(robot, load_fdi_config(ROBOT, robot), recovery, PseudoInverse(robot.tension_min_n, robot.tension_max_n),
+               0.002)
+    found = dict(safe_pose_module._found)
+    assert len(found) == robot.cable_count
+    for cable in range(robot.cable_count):
+        assert any(safe_pose_for(robot, recovery, robot.cable_mask([cable])) is pose for pose in found.values())
+    assert safe_pose_module._found == found, 'no search when a cable is named'

@@ -21,6 +21,8 @@ that holds best is kept:
 """
 from __future__ import annotations
 
+import hashlib
+import pickle
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,11 +32,13 @@ from .robot import Robot
 from .rotation import from_axis_angle, normalised, product
 
 AXES = np.eye(3)
-# Safe poses already found, by robot (held, so that its id is not reused), remaining
-# cables and settings: a run asks for its failure's when it settles its length and again
-# when the cable is named, ~0.2 s each on the shipped platform. The oldest goes first.
-KEPT_SAFE_POSES = 16
-_found: dict[tuple, tuple[Robot, 'SafePose']] = {}
+# Safe poses already found (~0.2 s each on the shipped platform), or why there is none:
+# by what the robot is (the digest of its pickled form, so that a robot loaded anew for
+# each run of a campaign is found again), the remaining cables and the settings. A
+# supervisor finds every single break's when it starts (cdpr_fdi.recovery.find_safe_poses),
+# a run's length and the naming ask again. The oldest goes first.
+KEPT_SAFE_POSES = 64
+_found: dict[tuple, 'SafePose | str'] = {}
 
 
 @dataclass(frozen=True)
@@ -90,9 +94,20 @@ def safe_pose(robot: Robot, attached, height_m: float, turns_deg, spacing_m: flo
     `height_m`; ValueError when no candidate orientation has a residual workspace there.
     Found once per robot, cables and settings (KEPT_SAFE_POSES are kept)."""
     attached = np.asarray(attached, dtype=bool)
-    key = (id(robot), attached.tobytes(), float(height_m), tuple(map(float, turns_deg)), float(spacing_m))
-    if key in _found and _found[key][0] is robot:
-        return _found[key][1]
+    key = (hashlib.sha256(pickle.dumps(robot)).digest(), attached.tobytes(), float(height_m),
+           tuple(map(float, turns_deg)), float(spacing_m))
+    if key not in _found:
+        if len(_found) >= KEPT_SAFE_POSES:
+            del _found[next(iter(_found))]
+        _found[key] = _search(robot, attached, height_m, turns_deg, spacing_m)
+    found = _found[key]
+    if isinstance(found, str):
+        raise ValueError(found)
+    return found
+
+
+def _search(robot: Robot, attached: np.ndarray, height_m: float, turns_deg, spacing_m: float) -> 'SafePose | str':
+    """`safe_pose`'s search, or why it found none."""
     best = None
     for orientation in candidate_orientations(robot.platform.home_orientation, turns_deg):
         section = residual_section(robot, attached, orientation, height_m, spacing_m)
@@ -103,9 +118,6 @@ def safe_pose(robot: Robot, attached, height_m: float, turns_deg, spacing_m: flo
         if margin >= 0.0 and (best is None or margin > best.tension_margin_n):
             best = SafePose(position, orientation, margin, section)
     if best is None:
-        raise ValueError(f'the remaining cables hold the platform nowhere at z = {height_m} m at any of '
-                         f'the {1 + 6 * len(turns_deg)} orientations tried')
-    if len(_found) >= KEPT_SAFE_POSES:
-        del _found[next(iter(_found))]
-    _found[key] = (robot, best)
+        return (f'the remaining cables hold the platform nowhere at z = {height_m} m at any of '
+                f'the {1 + 6 * len(turns_deg)} orientations tried')
     return best

@@ -76,6 +76,20 @@ def safe_pose_for(robot: Robot, config: RecoveryConfig, attached: np.ndarray) ->
         raise RecoveryInfeasible(str(err)) from None
 
 
+def find_safe_poses(robot: Robot, config: RecoveryConfig) -> None:
+    """A platform's safe pose after each single break, found now (cdpr_control.safe_pose
+    keeps them, or why there is none), so that naming a cable does not search: ~0.2 s a
+    cable on the shipped platform, which a realtime supervisor cannot spend between two
+    ticks. Nothing for a point mass, whose safe points take no search worth keeping."""
+    if robot.platform is None:
+        return
+    for cable in range(robot.cable_count):
+        try:
+            safe_pose_for(robot, config, robot.cable_mask([cable]))
+        except RecoveryInfeasible:
+            pass     # said when that cable is named
+
+
 def check_recoverable(robot: Robot, attached: np.ndarray) -> None:
     """RecoveryInfeasible unless as many cables remain as the end-effector has degrees of
     freedom."""

@@ -22,7 +22,7 @@ from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector
 from .identification import identify_broken_cables
 from .pose_recovery import PoseRecovery
-from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point,
+from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point, find_safe_poses,
                        initial_tensions, taut_tension_n)
 from .residual import sensorless_tension_bounds
 from .tension_collapse import TensionCollapse
@@ -131,6 +131,7 @@ class Supervisor:
         self.overstretched_since: dict[int, int] = {}
         self.disturbance_reported = False
         self.disturbances = 0
+        find_safe_poses(robot, recovery)
 
     def update(self, tick: int, angle_rad, angular_velocity_rad_s, applied_torque_nm,
                command_nm, twin_torque_nm, twin_angular_velocity_rad_s,
