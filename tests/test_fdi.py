@@ -10,13 +10,14 @@ from cdpr_control.config import ConfigError
 from cdpr_control.controller import JointReference
 from cdpr_control.friction import FrictionModel
 from cdpr_control.kinematics import cable_vectors, inverse_kinematics
+from cdpr_control.reference import ReferenceTable
 from cdpr_control.statics import static_tensions
 from cdpr_control.tension_distribution import make_tension_distribution
 from cdpr_control.workspace import polygon_centroid, safe_point, sew_cross_section
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.detectors import CusumDetector, ThresholdDetector
 from cdpr_fdi.identification import identify_broken_cables
-from cdpr_fdi.recovery import (Recovery, RecoveryInfeasible, entry_point, initial_tensions,
+from cdpr_fdi.recovery import (Recovery, RecoveryInfeasible, TabulatedMove, entry_point, initial_tensions,
                                least_static_tension_n, safe_point_for, taut_tension_n)
 from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
 from cdpr_fdi.supervisor import Supervisor
@@ -369,3 +370,31 @@ def test_phase_1_damps_the_swing_with_a_force_against_the_velocity(paper_robot, 
     np.testing.assert_array_equal(
         undamped.damped_tension_setpoint(10, undamped.end_effector_state(angles, speeds)),
         undamped.tension_setpoint(10))
+
+
+def test_a_moves_references_sent_ahead_are_those_its_later_ticks_get():
+    """A tabulated move gives, besides the next tick's reference, those of the ticks after
+    it as far as its table goes (the supervisor node sends them ahead): each the one that
+    tick later gets, none past the table, none once SAFE_HOLD has begun."""
+    rows = 6
+    table = ReferenceTable(PERIOD_S, np.zeros((rows, 3)), np.zeros((rows, 3)), np.arange(rows * 4.0).reshape(rows, 4),
+                           -np.arange(rows * 4.0).reshape(rows, 4), np.ones((rows, 4)))
+
+    class Move(TabulatedMove):
+        def __init__(self):
+            self.mode, self.phase_ticks = RECOVERY_MOVE, {RECOVERY_MOVE: 100}
+
+        def tabulated(self):
+            return 100, table
+
+    sent, move = {}, Move()
+    for tick in range(99, 108):
+        for later, reference in move.planned_references(tick, 3):
+            assert tick + 2 <= later <= tick + 4 and later - 100 < rows
+            sent[later] = reference
+        if move.mode == RECOVERY_MOVE:
+            reference = move.move_setpoint(tick)
+            if tick + 1 in sent and move.mode == RECOVERY_MOVE:
+                np.testing.assert_array_equal(sent[tick + 1].angle_rad, reference.angle_rad)
+    assert move.mode == SAFE_HOLD and move.planned_references(107, 3) == []
+    assert sorted(sent) == list(range(101, 106))

@@ -118,10 +118,13 @@ class PoseRecovery(TabulatedMove):
         return PoseTrajectory(path, Turn(orientation, turn / angle if angle > 0.0 else NO_TURN_AXIS, angle,
                                          move_s, brake_s))
 
+    def tabulated(self) -> tuple[int, object]:
+        return self.start_tick, self.table
+
     def setpoint(self, tick: int, angle_rad, angular_velocity_rad_s):
         """(mode, None, JointReference or None) for tick + 1: the move's rows, its last one
         on the tick SAFE_HOLD starts, then nothing (the controller holds it at rest)."""
         if self.mode == SAFE_HOLD:
             return self.mode, None, None
-        reference = self.move_setpoint(tick, self.start_tick, self.table)
+        reference = self.move_setpoint(tick)
         return self.mode, None, reference

@@ -159,19 +159,40 @@ def entry_point(robot: Robot, attached: np.ndarray, position_m: np.ndarray,
     return position_m + inside * (goal - position_m)
 
 
+def table_reference(table, row: int) -> JointReference:
+    """The joint reference of a tabulated move's `row`."""
+    return JointReference(table.angle_rad[row], table.angular_velocity_rad_s[row], table.feedforward_nm[row])
+
+
 class TabulatedMove:
     """A recovery's move to its safe point, tabulated per tick from a start tick; the
-    recovery (its `mode` and `phase_ticks`) enters SAFE_HOLD on the tick the move ends."""
+    recovery (its `mode` and `phase_ticks`) enters SAFE_HOLD on the tick the move ends.
+    A subclass says which table it follows (`tabulated`)."""
 
-    def move_setpoint(self, tick: int, start_tick: int, table) -> JointReference:
+    def tabulated(self) -> tuple[int, object]:
+        """(start tick, table) of the move under way."""
+        raise NotImplementedError
+
+    def move_setpoint(self, tick: int) -> JointReference:
         """The joint reference of tick + 1: the table's row, its last on the tick SAFE_HOLD
         starts."""
+        start_tick, table = self.tabulated()
         row = tick + 1 - start_tick
         if row >= len(table):
             self.mode = SAFE_HOLD
             self.phase_ticks[SAFE_HOLD] = tick + 1
             row = len(table) - 1
-        return JointReference(table.angle_rad[row], table.angular_velocity_rad_s[row], table.feedforward_nm[row])
+        return table_reference(table, row)
+
+    def planned_references(self, tick: int, count: int) -> list[tuple[int, JointReference]]:
+        """(tick, joint reference) of the `count` ticks after tick + 1 that the move under
+        way already fixes, as far as its table goes; none outside RECOVERY_MOVE."""
+        if self.mode != RECOVERY_MOVE:
+            return []
+        start_tick, table = self.tabulated()
+        first = tick + 2 - start_tick
+        return [(start_tick + row, table_reference(table, row))
+                for row in range(max(first, 0), min(first + count, len(table)))]
 
 
 class Recovery(TabulatedMove):
@@ -326,6 +347,9 @@ class Recovery(TabulatedMove):
                                          acceleration_m_s2)
         return Sequence(segments + [Hold(self.safe_point_m, self.period_s)])
 
+    def tabulated(self) -> tuple[int, object]:
+        return self.move
+
     def setpoint(self, tick: int, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray):
         """(mode, tensions or None, JointReference or None) for tick + 1."""
         state = None
@@ -355,6 +379,6 @@ class Recovery(TabulatedMove):
                     state = None
             return self.mode, self.damped_tension_setpoint(tick + 1, state), None
         if self.mode == RECOVERY_MOVE:
-            reference = self.move_setpoint(tick, *self.move)
+            reference = self.move_setpoint(tick)
             return self.mode, None, reference
         return self.mode, None, None

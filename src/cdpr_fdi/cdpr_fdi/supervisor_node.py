@@ -2,7 +2,9 @@
 
 Per tick it pairs /cdpr/joint_states, /cdpr/effort_command, /cdpr/twin/joint_states and
 /cdpr/reference by stamp, runs the Supervisor core, and publishes, in this order: the
-recovery setpoint for the next tick, /cdpr/fdi/broken_cable and /cdpr/mode when they
+recovery setpoint for the next tick (in a tabulated move, also those of the ticks up to
+`reference_lead_cycles` after the controller's, once each: a realtime controller running
+ahead of this node finds its own tick's), /cdpr/fdi/broken_cable and /cdpr/mode when they
 change (latched), then /cdpr/fdi/residual of the tick — the controller, in lockstep,
 answers the next state only after that residual, so every verdict applies on the same
 tick as in the in-process engine. It reads the commands of the graph's controller only
@@ -11,6 +13,7 @@ tick as in the in-process engine. It reads the commands of the graph's controlle
 from __future__ import annotations
 
 import json
+import time
 
 from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
@@ -43,6 +46,10 @@ class SupervisorNode(CdprNode):
         self.robot, self.period_s, self.period_ns = settings.robot, settings.period_s, settings.period_ns
         control = settings.section('control')
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
+        # a recovery's move goes out as far ahead as the trajectory's references do
+        self.lead = control.integer('reference_lead_cycles', minimum=1)
+        self.reference_sent_ns = -1
+        self.origin_wall_ns = 0    # when the first tick was judged (monotonic ns)
         fdi, recovery = settled_fdi(settings, self.robot)
         distribution = configured_tension_distribution(control, self.robot)
         self.supervisor = Supervisor(self.robot, fdi, recovery, distribution, self.period_s)
@@ -113,7 +120,7 @@ class SupervisorNode(CdprNode):
 
     def judge(self, stamp: int, state, command, twin, reference) -> None:
         if self.origin_ns is None:
-            self.origin_ns = stamp
+            self.origin_ns, self.origin_wall_ns = stamp, time.monotonic_ns()
         self.last_tick_ns = stamp
         lag = max(self.inputs['state'], default=stamp) - stamp
         self.max_lag_ns = max(self.max_lag_ns, lag)
@@ -126,9 +133,19 @@ class SupervisorNode(CdprNode):
         if verdict.tension_setpoint_n is not None:
             self.tensions.publish(joint_state(self.names, following, effort=verdict.tension_setpoint_n))
         if verdict.reference is not None:
-            self.recovery_reference.publish(joint_state(
-                self.names, following, verdict.reference.angle_rad,
-                verdict.reference.angular_velocity_rad_s, verdict.reference.feedforward_nm))
+            # ahead of the controller's tick, not of the one judged, which may trail it: in
+            # realtime the plant's clock's, beyond the states this node has had (a stall
+            # at the naming leaves them queued)
+            behind = (max(lag, self.origin_ns + time.monotonic_ns() - self.origin_wall_ns - stamp)
+                      if self.clock_mode == 'realtime' else lag)
+            ahead = [(self.origin_ns + later * self.period_ns, reference) for later, reference
+                     in self.supervisor.planned_references(tick, self.lead + behind // self.period_ns)]
+            for at_ns, reference in [(following, verdict.reference)] + ahead:
+                if at_ns > self.reference_sent_ns:
+                    self.recovery_reference.publish(joint_state(
+                        self.names, at_ns, reference.angle_rad, reference.angular_velocity_rad_s,
+                        reference.feedforward_nm))
+                    self.reference_sent_ns = at_ns
         # Lockstep: a verdict change is acknowledged by every reader before the residual
         # goes out, so the controller handles it before the residual that releases its next
         # tick (separate topics keep no order between them). Realtime: nothing waits on the
