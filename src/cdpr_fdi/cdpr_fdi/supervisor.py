@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from cdpr_control.controller import JointReference
-from cdpr_control.kinematics import forward_kinematics
+from cdpr_control.kinematics import KinematicsError, forward_kinematics
 from cdpr_control.robot import Robot
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_msgs_py.contract import FAULT, NOMINAL
@@ -228,12 +228,16 @@ class Supervisor:
         # a motor free on average over the evidence's ticks pulled nothing over them
         since = tick - self.evidence.ticks + 1
         self.free_since = {cable: self.free_since.get(cable, since) for cable in found}
-        weighable = self.placed_by(self.robot.cable_mask(found))
+        weighable, force = self.placed_by(self.robot.cable_mask(found)), None
+        if weighable:
+            try:
+                force = self.balance.unexplained_force_n(self.free_since)
+            except KinematicsError:
+                weighable = False   # their lengths fit no pose: one taken taut is slack too
         if weighable:
             self.unplaced_since = None
         elif self.unplaced_since is None:
             self.unplaced_since = tick
-        force = self.balance.unexplained_force_n(self.free_since) if weighable else None
         magnitude = None if force is None else float(np.linalg.norm(force))
         # Right after a failure a loaded cable can slacken too, for less than
         # identification_confirm_cycles (confirm() narrows them): too few to weigh is a
@@ -269,10 +273,9 @@ class Supervisor:
         above fdi.identification_stretch_m for disturbance_window_cycles), the others taken
         taut; all while those are too few to place the end-effector (confirm() then holds
         them for disturbance_hold_cycles). Called on the ticks a disturbance is judged."""
-        taut = self.robot.cable_mask(found)
-        if not self.placed_by(taut):
+        stretch = self.stretch_where_placed(self.robot.cable_mask(found), angle_rad)
+        if stretch is None:
             return found   # confirm() holds them
-        stretch = overstretch_m(self.robot, angle_rad, taut)
         # for disturbance_window_cycles on end: a slack cable snapping taut again can
         # overshoot for a period, a broken one only draws further away
         self.overstretched_since = {
@@ -280,6 +283,17 @@ class Supervisor:
             if stretch[cable] > self.fdi.identification_stretch_m}
         return [cable for cable, since in self.overstretched_since.items()
                 if tick - since + 1 >= self.fdi.disturbance_window_cycles]
+
+    def stretch_where_placed(self, taut: np.ndarray, angle_rad) -> np.ndarray | None:
+        """wrench_balance.overstretch_m with the `taut` cables placing the end-effector (m,
+        per cable); None where they do not: too few, or their lengths fit no pose (one of
+        them is slack too)."""
+        if not self.placed_by(taut):
+            return None
+        try:
+            return overstretch_m(self.robot, angle_rad, taut)
+        except KinematicsError:
+            return None
 
     def placed_by(self, taut: np.ndarray) -> bool:
         """Whether the cables of the mask `taut` place the end-effector (and weigh it): as
@@ -311,11 +325,11 @@ class Supervisor:
         if (self.candidates and (len(self.candidates) == 1
                                  or watched >= self.fdi.identification_confirm_cycles)
                 and (placed or watched >= self.fdi.disturbance_hold_cycles)):
-            if len(self.candidates) > 1 and placed:
-                stretch = overstretch_m(self.robot, angle_rad, self.robot.cable_mask(self.candidates))
-                proven = [cable for cable in self.candidates if stretch[cable] > self.fdi.identification_stretch_m]
-                return sorted(proven or self.candidates)
-            return sorted(self.candidates)
+            stretch = (self.stretch_where_placed(self.robot.cable_mask(self.candidates), angle_rad)
+                       if len(self.candidates) > 1 and placed else None)
+            proven = [] if stretch is None else [cable for cable in self.candidates
+                                                 if stretch[cable] > self.fdi.identification_stretch_m]
+            return sorted(proven or self.candidates)
         return []
 
     def on_identified(self, tick: int, cables: list[int], angle_rad, angular_velocity_rad_s, command_nm,
