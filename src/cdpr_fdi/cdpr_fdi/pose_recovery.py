@@ -66,8 +66,9 @@ class PoseRecovery(TabulatedMove):
                  velocity_m_s):
         """From the pose (p, q) and velocity (m/s) the remaining (`attached`) cables give at
         detection, to their safe pose (recovery.safe_pose_for); RecoveryInfeasible where no
-        static tensions within the bounds hold the platform at that pose (checked first:
-        the safe pose takes ~0.3 s), or where there is no safe pose."""
+        static tensions within the bounds hold the platform at that pose (checked first: a
+        safe pose the supervisor's start did not find, after several cables, takes ~0.2 s),
+        or where there is no safe pose."""
         check_held(robot, attached, position_m, orientation)
         safe = safe_pose_for(robot, config, attached)
         self.robot = robot
