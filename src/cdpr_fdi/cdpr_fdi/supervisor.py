@@ -41,7 +41,8 @@ class AlarmEvidence:
     the alarm, which comes after the break: no tick of the intact cable enters it, and
     the alarm's first tick is judged on its own, as the paper does. It goes on through
     ticks without an alarm, and ends after `window` of them in a row: the freed motor's
-    swinging command takes the residual back under the threshold for a tick or two.
+    swinging command takes the residual back under the threshold for a tick or two. The
+    supervisor judges every tick the evidence holds, alarm or not.
     """
 
     def __init__(self, window: int):
@@ -171,7 +172,12 @@ class Supervisor:
                 self.alarm_tick = tick
             if self.previous_speed is not None:
                 self.evidence.add(self.tension_bounds_n[0], residual, alarm)
-            if alarm and self.previous_speed is not None:
+            # An alarm's episode lasts as long as its evidence, lapses included: judged on
+            # the lapsed ticks too, a freed motor whose average comes near zero while its
+            # swing takes the residual under the threshold is named then, before a cable the
+            # break unloads goes slack and leaves two motors free (a push's signature).
+            episode = alarm or self.evidence.ticks > 0
+            if episode and self.previous_speed is not None:
                 found = identify_broken_cables(self.evidence.tension_low_n(),
                                                self.evidence.residual_nm(),
                                                self.robot.motor.drum_radius_m, self.fdi.delta_nm)
@@ -183,10 +189,10 @@ class Supervisor:
                 if confirmed:
                     events += self.on_identified(tick, confirmed, angle_rad, angular_velocity_rad_s, command_nm,
                                                  reference)
-            elif not alarm:
+            elif not episode:
                 self.disturbed_since = None
                 self.free_since = {}
-            if not alarm and self.alarm_tick is not None:
+            if not episode and self.alarm_tick is not None:
                 # counted, not an event: under load such alarms come by the hundred
                 self.unidentified_alarms += 1
                 self.alarm_tick = None
