@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from cdpr_control.config import ConfigError, load_section
-from cdpr_control.controller import JointController, JointReference, PdGains
+from cdpr_control.controller import JointController, JointReference, PdGains, command_lead_periods
 from cdpr_control.friction import FrictionModel
 from cdpr_msgs_py.contract import FAULT, NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
 
@@ -103,6 +103,32 @@ def test_recovery_tension_compensates_friction_and_damps_only_paying_out(paper_r
     damping = 0.02 * np.maximum(speed, 0.0) / motor.drum_radius_m
     np.testing.assert_allclose(cable_tension, tensions + damping)
     assert cable_tension[1] == pytest.approx(tensions[1])   # winding in: no tension lost
+
+
+def test_recovery_tension_compensates_friction_for_when_the_command_acts(paper_robot):
+    """A drum slowing through zero under a drive 1.5 ms late: the command of this tick acts
+    1.25 periods on (command_lead_periods), when the drum already turns the other way,
+    and the Coulomb term is the one of the speed extrapolated there; a motor at constant
+    speed gets the friction of its speed."""
+    gains = PdGains.from_bandwidth(paper_robot, 12.0, 0.7)
+    friction = FrictionModel(0.2, 0.1)
+    lead = command_lead_periods(0.0015, 0.002)
+    assert lead == pytest.approx(1.25)
+    controller = JointController(paper_robot, gains, friction, lead)
+    m = paper_robot.cable_count
+    tensions = np.full(m, 5.0)
+    controller.set_tension_setpoint(tensions)
+    controller.set_mode(RECOVERY_TENSION)
+    before, now = np.array([0.3, -0.3, 2.0, 0.0]), np.array([0.1, -0.1, 2.0, 0.0])
+    controller.command(np.zeros(m), before, reference(m))
+    torque = controller.command(np.zeros(m), now, reference(m))
+    ahead = np.array([-0.15, 0.15, 2.0, 0.0])
+    motor = paper_robot.motor
+    np.testing.assert_allclose(torque, -motor.drum_radius_m * tensions + friction.torque_nm(ahead)
+                               + motor.viscous_friction_nm_s_rad * now)
+    # the reversing drums are compensated for their coming direction
+    coulomb = torque + motor.drum_radius_m * tensions - motor.viscous_friction_nm_s_rad * now
+    assert coulomb[0] < 0.0 < coulomb[1]
 
 
 def test_safe_hold_after_a_recovery_move_holds_the_recovery_reference(controller, paper_robot):

@@ -118,13 +118,24 @@ class JointReference:
                               self.feedforward_nm.copy())
 
 
+def command_lead_periods(drive_delay_s: float, period_s: float) -> float:
+    """How far after its tick (control periods) a command acts, on average over the period
+    it is held: the drives' delay (fdi.drive_delay_s), then half a period."""
+    return drive_delay_s / period_s + 0.5
+
+
 class JointController:
     """c = c_ID + K_p (θ_d − θ) + K_d (θ̇_d − θ̇), within the torque limit, per mode.
 
     NOMINAL and RECOVERY_MOVE track a joint reference (the trajectory's, or the
     recovery's); RECOVERY_TENSION applies tension setpoints t as
-    c = −ρ t + b θ̇ + f_c tanh(θ̇ / v) − D max(θ̇, 0) (friction compensated, damping D
-    against paying out);
+    c = −ρ t + b θ̇ + f_c tanh(θ̂ / v) − D max(θ̇, 0) (friction compensated, damping D
+    against paying out), θ̂ the speed extrapolated `command_lead_periods` ahead from the
+    last two measured: the Coulomb term, a step of 2 f_c where a drum reverses, is meant
+    for the period the command acts over, which a drive's delay puts after the tick. Given
+    the old direction's compensation until then, a drum reversing under a drive 1–4 ms
+    late took up to 2 f_c / ρ (5.4 N on the paper robot) off its cable's tension, and a
+    lightly loaded cable went slack for a few periods (docs/recovery-tensions.md);
     SAFE_HOLD holds the last tracked reference at rest (the recovery's end). FAULT, and
     SAFE_HOLD entered from tension control, hold the drums where they are at that instant,
     with the torque last applied (within the cables' tension bounds) as feed-forward: no
@@ -134,10 +145,13 @@ class JointController:
     loaded gains.
     """
 
-    def __init__(self, robot: Robot, gains: PdGains, friction: FrictionModel | None = None):
+    def __init__(self, robot: Robot, gains: PdGains, friction: FrictionModel | None = None,
+                 command_lead_periods: float = 0.0):
         self.robot = robot
         self.gains = gains
         self.friction = friction or FrictionModel(0.0, 1.0)
+        self.command_lead_periods = command_lead_periods
+        self.previous_speed: np.ndarray | None = None
         self.torque_limit_nm = robot.motor.torque_limit_nm
         self.mode = NOMINAL
         self.broken = np.zeros(robot.cable_count, dtype=bool)
@@ -175,12 +189,15 @@ class JointController:
 
     def command(self, angle_rad, angular_velocity_rad_s, reference: JointReference | None) -> np.ndarray:
         """Motor torques c (N·m) for the measured θ, θ̇ in the current mode."""
+        speed = np.array(angular_velocity_rad_s, dtype=float)
+        previous = speed if self.previous_speed is None else self.previous_speed
+        self.previous_speed = speed
         if self.mode == RECOVERY_TENSION and self.tension_setpoint_n is not None:
             motor = self.robot.motor
-            speed = np.asarray(angular_velocity_rad_s, dtype=float)
+            ahead = speed + self.command_lead_periods * (speed - previous)
             # Damping only resists paying out: on a cable winding in it would lower the
             # tension, and a cable that loses its tension goes slack.
-            torque = (-motor.drum_radius_m * self.tension_setpoint_n + self.friction.torque_nm(speed)
+            torque = (-motor.drum_radius_m * self.tension_setpoint_n + self.friction.torque_nm(ahead)
                       + motor.viscous_friction_nm_s_rad * speed
                       - self.gains.tension_damping_nm_s_rad * np.maximum(speed, 0.0))
             self.tracked = self.hold = None

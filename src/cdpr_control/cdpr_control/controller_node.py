@@ -21,7 +21,7 @@ from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import NANOSECONDS
 
-from .controller import JointController, JointReference, PdGains
+from .controller import JointController, JointReference, PdGains, command_lead_periods
 from .friction import FrictionModel
 from .settings import node_settings
 from .setpoints import Setpoints
@@ -35,8 +35,10 @@ class ControllerNode(CdprNode):
         control = settings.section('control')
         self.stale_ns = control.integer('stale_cycles', minimum=1) * self.period_ns
         self.last_state_at: float | None = None
-        self.controller = JointController(self.robot, PdGains.from_section(self.robot, control),
-                                          FrictionModel.of_robot(self.robot, control))
+        self.controller = JointController(
+            self.robot, PdGains.from_section(self.robot, control), FrictionModel.of_robot(self.robot, control),
+            command_lead_periods(control.number('drive_delay_s', 0.0, non_negative=True),
+                                 control.number('period_s', positive=True)))
         self.setpoints = Setpoints(self.controller, exact=self.clock_mode == 'lockstep',
                                    stale_ns=self.stale_ns)
         self.wait_for_supervisor = self.parameter(

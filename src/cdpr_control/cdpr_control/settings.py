@@ -25,10 +25,11 @@ from .robot import Robot, robot_from_section
 
 ROBOT_DESCRIPTION = 'robot_description'
 # Settled keys the defaults cannot list: a run's own, a motion's by its type, a safe point
-# per cable, and the Coulomb friction settled from the robot, the plant and the
-# calibration. Any other name a node is given that its defaults lack is a misspelling,
-# which the node reports as ignored.
-OPEN_KEYS = ('run.', 'motion.', 'recovery.safe_points_m.', 'control.coulomb_friction_nm')
+# per cable, the Coulomb friction settled from the robot, the plant and the calibration,
+# and the drives' delay settled from fdi.drive_delay_s. Any other name a node is given
+# that its defaults lack is a misspelling, which the node reports as ignored.
+OPEN_KEYS = ('run.', 'motion.', 'recovery.safe_points_m.', 'control.coulomb_friction_nm',
+             'control.drive_delay_s')
 
 
 def flatten(mapping: Mapping, prefix: str = '') -> dict[str, Any]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.controller import JointController, JointReference
+from cdpr_control.controller import JointController, JointReference, command_lead_periods
 from cdpr_control.setpoints import Setpoints
 from cdpr_fdi.monitor import Monitor
 from cdpr_fdi.supervisor import Supervisor, Verdict
@@ -49,7 +49,8 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     plant = PlantSimulator(robot, scenario.plant, start, scenario.failures, scenario.pushes,
                            scenario.start_orientation)
     twin = DigitalTwin(robot, scenario.gains, start, scenario.twin_substeps, scenario.start_orientation)
-    controller = JointController(robot, scenario.gains, scenario.fdi.friction)
+    controller = JointController(robot, scenario.gains, scenario.fdi.friction,
+                                 command_lead_periods(scenario.fdi.drive_delay_s, scenario.period_s))
     setpoints = Setpoints(controller, exact=True)
     supervisor = (Supervisor(robot, scenario.fdi, scenario.recovery, scenario.distribution,
                              scenario.period_s) if supervised else None)

@@ -166,8 +166,9 @@ def settle(options: ScenarioOptions) -> SettledRun:
     """The run `options` describe, settled once, each file read once: the robot file's
     sections with the paper's settings for what it leaves out; the plant's fidelity and
     seed; the thresholds of the calibration for that plant, the detector and ε given; the
-    Coulomb friction the controller and the FDI assume (control.coulomb_friction_nm); the
-    motion; when and which cables fail (absolute s, 0-based), the start and the scheduled
+    Coulomb friction the controller and the FDI assume (control.coulomb_friction_nm) and
+    the drives' delay (fdi.drive_delay_s, handed to the controller as control.drive_delay_s);
+    the motion; when and which cables fail (absolute s, 0-based), the start and the scheduled
     length (`run`). Also the calibration file used, if any."""
     config_path = config_file(options.config)
     loaded = load_config(config_path)
@@ -192,6 +193,7 @@ def settle(options: ScenarioOptions) -> SettledRun:
     friction = fdi.pop('coulomb_friction_nm', robot.motor.static_friction_nm)
     # The rigid plant is the twin's model, without Coulomb friction: the stack must know.
     document['control']['coulomb_friction_nm'] = 0.0 if plant.fidelity == 'rigid' else friction
+    document['control']['drive_delay_s'] = fdi['drive_delay_s']
     if options.detector is not None:
         fdi['detector'] = options.detector
     if options.epsilon_nm is not None:
