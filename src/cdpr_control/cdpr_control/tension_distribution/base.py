@@ -90,11 +90,10 @@ class TensionDistribution(ABC):
                 | (tensions.max(axis=-1) > self.tension_max_n + BOUND_TOLERANCE_N))
 
     def _check_bounds(self, tensions: np.ndarray) -> np.ndarray:
-        low = np.min(tensions)
-        high = np.max(tensions)
-        if low < self.tension_min_n - BOUND_TOLERANCE_N or high > self.tension_max_n + BOUND_TOLERANCE_N:
+        """`tensions` (k) if within the bounds, else InfeasibleTensionError saying where."""
+        if self._outside_bounds(tensions):
             raise InfeasibleTensionError(
-                f'{self.name} gives tensions in [{low:.3f}, {high:.3f}] N, outside '
+                f'{self.name} gives tensions in [{np.min(tensions):.3f}, {np.max(tensions):.3f}] N, outside '
                 f'[{self.tension_min_n}, {self.tension_max_n}] N')
         return tensions
 
