@@ -118,10 +118,10 @@ def run_with_a_stopped_reader(tmp_path, clock_mode: str):
     return namespace, bag, stopped_ns, stalled_s, log
 
 
-def check_graph_unharmed_and_reader_reported(namespace: str, bag, log: GraphLog, every_tick: bool) -> list:
-    """No false alarm, the ticks in the bag in order, no writer of a topic the reader did
-    not read reported lagging, nothing failed to publish; if `every_tick`, every tick in
-    the bag and every writer the reader read reported it (WARN). The joint states."""
+def check_graph_unharmed_and_reader_reported(namespace: str, bag, log: GraphLog, reported_by_all: bool) -> list:
+    """No false alarm, every tick in the bag and in order, no writer of a topic the reader
+    did not read reported lagging, nothing failed to publish; if `reported_by_all`, every
+    writer the reader read reported it (WARN). The joint states."""
     topics = [f'{namespace}/fdi/broken_cable', f'{namespace}/joint_states', '/diagnostics']
     found = read_messages(bag, topics)
     assert all(message.data == 0 for _, message in found[topics[0]]), 'a false failure alarm'
@@ -139,8 +139,7 @@ def check_graph_unharmed_and_reader_reported(namespace: str, bag, log: GraphLog,
     # the last line says HOLES when any per-tick topic lacks a tick (not only joint_states)
     said = [line for line in log if line.startswith('[bag_recorder]') and 'bag closed' in line]
     assert said and ('HOLES' in said[-1]) == any(counted.values()), (said, counted)
-    if every_tick:
-        assert lacking == 0, f'the recorder lost {lacking} ticks'
+    assert lacking == 0, f'the recorder lost {lacking} ticks'
     statuses = [status for _, message in found['/diagnostics'] for status in message.status]
     assert statuses, 'no /diagnostics in the bag'
     assert not [value.key for status in statuses for value in status.values
@@ -149,11 +148,11 @@ def check_graph_unharmed_and_reader_reported(namespace: str, bag, log: GraphLog,
     for node, read in READ.items():
         reports = [status.message for status in statuses if status.name == f'{namespace}/{node}'
                    and status.level >= WARN]
-        for topic in read if every_tick else ():
+        for topic in read if reported_by_all else ():
             assert any(f'a reader of {namespace}/{topic} lags' in report for report in reports), \
                 f'{node} did not report the stopped reader of {topic}'
             reported += 1
-    assert reported == (sum(map(len, READ.values())) if every_tick else 0)
+    assert reported == (sum(map(len, READ.values())) if reported_by_all else 0)
     for topic in UNREAD:
         assert not any(f'a reader of {namespace}/{topic} lags' in status.message for status in statuses)
     return states
@@ -163,16 +162,16 @@ def check_graph_unharmed_and_reader_reported(namespace: str, bag, log: GraphLog,
 def test_a_stopped_outside_reader_neither_stops_nor_crashes_the_realtime_graph(tmp_path):
     namespace, bag, _, stalled_s, log = run_with_a_stopped_reader(tmp_path, 'realtime')
     assert stalled_s > STALL_S, f'the reader was stopped for {stalled_s:.1f} s only'
-    # In realtime the niced recorder, below six SCHED_FIFO-scheduled nodes on two cores,
-    # can fall more than streams.history_s behind and lose ticks (12 % in one run, none
-    # in others), and in one fresh-clone CI run the plant's report of the stopped reader
-    # did not come: both noted in docs/ros2-conditions.md; the lockstep test checks them.
-    check_graph_unharmed_and_reader_reported(namespace, bag, log, every_tick=False)
+    # Every tick in realtime too since the writers piggyback no heartbeat on their
+    # samples (docs/recording.md). In one fresh-clone CI run the plant's report of the
+    # stopped reader did not come (docs/ros2-conditions.md): the lockstep test checks
+    # the reports.
+    check_graph_unharmed_and_reader_reported(namespace, bag, log, reported_by_all=False)
 
 
 def test_a_stopped_outside_reader_neither_stops_nor_crashes_the_lockstep_graph(tmp_path):
     namespace, bag, stopped_ns, stalled_s, log = run_with_a_stopped_reader(tmp_path, 'lockstep')
     assert stalled_s > STALL_S, f'the reader was stopped for {stalled_s:.1f} s only'
-    states = check_graph_unharmed_and_reader_reported(namespace, bag, log, every_tick=True)
+    states = check_graph_unharmed_and_reader_reported(namespace, bag, log, reported_by_all=True)
     after = sum(1 for at, _ in states if at > stopped_ns)
     assert after > HISTORY_TICKS, f'only {after} ticks after the reader stopped'
