@@ -25,6 +25,7 @@ $(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
 	cat tools/venv-activate.sh >> $(VENV)/bin/activate
 	$(PY) -c 'from cdpr_twin.elastic_substeps import kernel; kernel("compiled")'
 	$(PY) -c 'from cdpr_control.platform_substeps import kernel; kernel("compiled")'
+	$(PY) -c 'from cdpr_control.point_mass_substeps import kernel; kernel("compiled")'
 	touch $(STAMP)
 
 demo: setup

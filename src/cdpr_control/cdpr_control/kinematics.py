@@ -10,8 +10,6 @@ nearly all its time in numpy's per-call overhead.
 """
 from __future__ import annotations
 
-from math import sqrt
-
 import numpy as np
 
 from .linalg3 import solve3
@@ -30,22 +28,6 @@ def cable_vectors(exit_points_m: np.ndarray, position_m: np.ndarray):
     r = exit_points_m - np.asarray(position_m)[..., None, :]
     d = np.sqrt(np.einsum('...ij,...ij->...i', r, r))
     return r / d[..., None], d
-
-
-def cable_directions(exit_points_m, position_m) -> list[tuple[float, float, float, float]]:
-    """cable_vectors on plain floats: (u_x, u_y, u_z, d_i) per cable, in m.
-
-    `exit_points_m` holds one (x, y, z) per cable, `position_m` is (x, y, z). For the
-    simulation loops: on a handful of cables, float arithmetic is several times faster
-    than numpy, whose per-call overhead exceeds the work.
-    """
-    px, py, pz = position_m
-    directions = []
-    for ax, ay, az in exit_points_m:
-        rx, ry, rz = ax - px, ay - py, az - pz
-        d = sqrt(rx * rx + ry * ry + rz * rz)
-        directions.append((rx / d, ry / d, rz / d, d))
-    return directions
 
 
 def structure_matrix(robot: Robot, position_m: np.ndarray):

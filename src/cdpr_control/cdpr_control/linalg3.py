@@ -16,17 +16,6 @@ def solve3(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return (np.array(adjugate) @ rhs) / det
 
 
-def solve3_floats(matrix, rhs) -> tuple[float, float, float]:
-    """solve3 on plain floats: `matrix` is three rows of three numbers, `rhs` three numbers.
-
-    For the simulation loops, where building a 3 × 3 array costs more than the solve.
-    """
-    ((a, b, c), (d, e, f), (g, h, i)), det = _adjugate_and_determinant(matrix)
-    x, y, z = rhs
-    return ((a * x + b * y + c * z) / det, (d * x + e * y + f * z) / det,
-            (g * x + h * y + i * z) / det)
-
-
 # A determinant this small against the largest entry cubed is singular.
 SINGULAR_DETERMINANT_RATIO = 1e-14
 

@@ -3,8 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.dynamics import NO_FORCE, RigidDirectDynamics
-from cdpr_control.kinematics import cable_directions, inverse_kinematics
+from cdpr_control import point_mass_substeps
+from cdpr_control.dynamics import NO_FORCE
+from cdpr_control.kinematics import inverse_kinematics
 from cdpr_control.robot import Robot
 from cdpr_control.rotation import IDENTITY
 from cdpr_control.statics import static_tensions
@@ -17,19 +18,24 @@ RETAUT_TOLERANCE_M = 1e-9
 class RigidCableRobot:
     """State p, ṗ (m, m/s) and θ, θ̇ (rad, rad/s); taut cables tie θ to p.
 
-    Each step integrates the direct dynamics by semi-implicit Euler in `substeps`. A
-    cable is taut while attached, not paid out beyond the straight-line length, and
-    pulling (non-negative tension); otherwise its motor spins freely. After each
-    sub-step the taut motors are put back on the kinematic constraint, so the model
-    does not drift. A step replaces the state arrays rather than writing into them.
+    Each step integrates the direct dynamics by semi-implicit Euler in `substeps`
+    (cdpr_control.point_mass_substeps.rigid_substeps, run by its `kernel`). A cable is
+    taut while attached, not paid out beyond the straight-line length, and pulling
+    (non-negative tension); otherwise its motor spins freely. After each sub-step the
+    taut motors are put back on the kinematic constraint, so the model does not drift. A
+    step replaces the state arrays rather than writing into them.
     """
 
     # a point mass has no orientation to tell: the identity, as a platform's model has one
     orientation = IDENTITY
 
-    def __init__(self, robot: Robot, position_m, substeps: int = 1):
+    def __init__(self, robot: Robot, position_m, substeps: int = 1, kernel: str = 'compiled'):
         self.robot = robot
         self.substeps = int(substeps)
+        self.kernel = point_mass_substeps.kernel(kernel)
+        self.constants = point_mass_substeps.constants_of(robot, retaut_tolerance_m=RETAUT_TOLERANCE_M)
+        self.exits = np.array(robot.exit_points_m, dtype=float)
+        self.offsets = np.array(robot.cable_length_offset_m, dtype=float)
         self.position_m = np.array(position_m, dtype=float)
         self.velocity_m_s = np.zeros(3)
         self.angle_rad = inverse_kinematics(robot, self.position_m)
@@ -37,71 +43,36 @@ class RigidCableRobot:
         # A brake holds every drum still; taut rigid cables then hold the end-effector.
         self.drums_locked = False
         self.attached = np.ones(robot.cable_count, dtype=bool)
+        self.attached_mask = np.ones(robot.cable_count)
         self.tension_n = static_tensions(robot, self.position_m, self.attached)
         self.taut = self.attached.copy()
-        self.dynamics = RigidDirectDynamics(robot)
-        self.exit_points_m = robot.exit_points_m.tolist()
-        self.cable_length_offset_m = robot.cable_length_offset_m.tolist()
-        # The cable directions at the end of the last sub-step are those the next one
-        # starts from: kept with the position they belong to.
-        self.directions_at: tuple | None = None
-        self.directions: list = []
+        # the cables' directions at position_m, which the next sub-step starts from
+        self.directions = np.empty((robot.cable_count, 4))
+        self.kernel.cable_directions(self.exits, self.position_m, self.directions)
 
     def break_cables(self, cables) -> None:
         """Detach the 0-based `cables` for good."""
         for index in cables:
             self.attached[index] = False
+            self.attached_mask[index] = 0.0
 
-    def step(self, torque_nm: np.ndarray, period_s: float, external_force_n=NO_FORCE) -> None:
-        """Apply `torque_nm` (N·m) for `period_s` (s), and `external_force_n` (N, world
-        frame) on the end-effector.
-
-        Plain floats throughout: a sub-step on numpy arrays of m ≈ 4 entries spends its
-        time in numpy's per-call overhead, not in the arithmetic.
-        """
+    def step(self, torque_nm: np.ndarray, period_s: float, substeps: int | None = None,
+             external_force_n=NO_FORCE) -> None:
+        """Apply `torque_nm` (N·m) for `period_s` (s), in `substeps` (default: the
+        model's), and `external_force_n` (N, world frame) on the end-effector."""
         if self.drums_locked:
             self.velocity_m_s = np.zeros(3)
             self.angular_velocity_rad_s = np.zeros(self.robot.cable_count)
             return
-        radius = self.robot.motor.drum_radius_m
-        h = period_s / self.substeps
-        torque = np.asarray(torque_nm, dtype=float).tolist()
-        external = tuple(external_force_n)
-        position = tuple(self.position_m.tolist())
-        vx, vy, vz = self.velocity_m_s.tolist()
-        angle = self.angle_rad.tolist()
-        speed = self.angular_velocity_rad_s.tolist()
-        attached = self.attached.tolist()
-        offsets = self.cable_length_offset_m
-        for _ in range(self.substeps):
-            directions = (self.directions if position == self.directions_at
-                          else cable_directions(self.exit_points_m, position))
-            candidates = [on and offset + radius * theta <= d + RETAUT_TOLERANCE_M
-                          for on, offset, theta, (_, _, _, d)
-                          in zip(attached, offsets, angle, directions)]
-            (ax, ay, az), theta_ddot, tension, taut = self.dynamics.accelerations(
-                directions, (vx, vy, vz), torque, speed, candidates, external)
-            vx, vy, vz = vx + h * ax, vy + h * ay, vz + h * az
-            px, py, pz = position
-            position = (px + h * vx, py + h * vy, pz + h * vz)
-            directions = cable_directions(self.exit_points_m, position)
-            next_angle, next_speed = [], []
-            for (ux, uy, uz, d), offset, is_taut, theta, w, a in zip(
-                    directions, offsets, taut, angle, speed, theta_ddot):
-                if is_taut:
-                    # on the kinematic constraint: l = d, θ̇ = −uᵀ ṗ / ρ
-                    theta = (d - offset) / radius
-                    w = -(ux * vx + uy * vy + uz * vz) / radius
-                else:
-                    w += h * a
-                    theta += h * w
-                next_angle.append(theta)
-                next_speed.append(w)
-            angle, speed = next_angle, next_speed
-            self.directions, self.directions_at = directions, position
-        self.position_m = np.array(position)
-        self.velocity_m_s = np.array((vx, vy, vz))
-        self.angle_rad = np.array(angle)
-        self.angular_velocity_rad_s = np.array(speed)
-        self.tension_n = np.array(tension)
-        self.taut = np.array(taut)
+        m = self.robot.cable_count
+        substeps = substeps or self.substeps
+        position, velocity = self.position_m.copy(), self.velocity_m_s.copy()
+        angle, speed = self.angle_rad.copy(), self.angular_velocity_rad_s.copy()
+        tension, taut = np.empty(m), np.empty(m)
+        self.kernel.rigid_substeps(substeps, period_s / substeps, self.constants, self.exits, self.offsets,
+                                   self.attached_mask, np.array(torque_nm, dtype=float),
+                                   np.array(external_force_n, dtype=float),
+                                   position, velocity, angle, speed, tension, taut, self.directions)
+        self.position_m, self.velocity_m_s = position, velocity
+        self.angle_rad, self.angular_velocity_rad_s = angle, speed
+        self.tension_n, self.taut = tension, taut != 0.0
