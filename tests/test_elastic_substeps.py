@@ -13,7 +13,7 @@ from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.robot import load_robot
 from cdpr_twin.elastic_model import ElasticCableRobot
-from cdpr_twin.elastic_substeps import KERNELS, PYTHON, kernel
+from cdpr_control.kernels import KERNELS
 
 from conftest import MOTIONS, PAPER_ROBOT
 
@@ -21,13 +21,6 @@ pytest.importorskip('numba')
 
 RECORDED = ('angle_rad', 'angular_velocity_rad_s', 'command_nm', 'true_position_m',
             'true_tension_n', 'residual_nm', 'twin_torque_nm')
-
-
-def test_compiled_is_numba_and_python_is_cpython():
-    assert kernel('compiled').name == 'compiled' and kernel('compiled') is not PYTHON
-    assert kernel('python') is PYTHON
-    with pytest.raises(ValueError, match='kernel must be one of'):
-        kernel('fortran')
 
 
 def test_a_field_run_with_a_failure_and_a_push_is_the_same_with_both_kernels():

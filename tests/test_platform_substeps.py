@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from cdpr_control import platform_substeps, pose_dynamics, pose_kinematics
+from cdpr_control.kernels import KERNELS
 from cdpr_control.config import load_config
 from cdpr_control.robot import load_robot
 from cdpr_control.rotation import from_axis_angle
@@ -28,13 +29,6 @@ PERIOD_S = 0.002
 @pytest.fixture(scope='module')
 def robot():
     return load_robot(ROBOT)
-
-
-def test_compiled_is_numba_and_python_is_cpython():
-    assert platform_substeps.kernel('compiled').name == 'compiled'
-    assert platform_substeps.kernel('python') is platform_substeps.PYTHON
-    with pytest.raises(ValueError, match='kernel must be one of'):
-        platform_substeps.kernel('fortran')
 
 
 def drive(model, robot, holding):
@@ -114,7 +108,7 @@ def test_forward_kinematics_is_the_same_with_both_kernels(robot):
     used = np.ones(robot.cable_count)
     used[4] = 0.0
     poses = []
-    for name in platform_substeps.KERNELS:
+    for name in KERNELS:
         pose = np.concatenate([robot.home_position_m, robot.platform.home_orientation])
         taken = platform_substeps.kernel(name).forward_kinematics(exits, attachments, lengths, used, pose, 30,
                                                                   1e-12, 1e-11)
@@ -136,7 +130,7 @@ def test_a_tabulated_motions_rows_are_the_same_with_both_kernels_and_as_numpy_gi
     exits, attachments, _ = platform_substeps.geometry_of(robot)
     m = robot.cable_count
     results = []
-    for name in platform_substeps.KERNELS:
+    for name in KERNELS:
         figures = (np.empty((rows, m, 6)), np.empty((rows, m)), np.empty((rows, 6)), np.empty((rows, m)),
                    np.empty((rows, m)))
         platform_substeps.kernel(name).motion_rows(platform_substeps.constants_of(robot), exits, attachments, poses,

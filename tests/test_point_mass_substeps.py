@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cdpr_control.dynamics import direct_dynamics
-from cdpr_control.point_mass_substeps import KERNELS, PYTHON, kernel
+from cdpr_control.kernels import KERNELS
 from cdpr_control.robot import load_robot
 from cdpr_twin.rigid_model import RigidCableRobot
 
@@ -17,13 +17,6 @@ from conftest import PAPER_ROBOT
 pytest.importorskip('numba')
 
 STATE = ('position_m', 'velocity_m_s', 'angle_rad', 'angular_velocity_rad_s', 'tension_n', 'taut')
-
-
-def test_compiled_is_numba_and_python_is_cpython():
-    assert kernel('compiled').name == 'compiled' and kernel('compiled') is not PYTHON
-    assert kernel('python') is PYTHON
-    with pytest.raises(ValueError, match='kernel must be one of'):
-        kernel('fortran')
 
 
 def test_a_run_through_slack_a_break_and_a_push_is_the_same_with_both_kernels():

@@ -21,9 +21,9 @@ from math import cos, sin, sqrt, tanh
 
 import numpy as np
 
-from .rotation import SMALL_ANGLE_RAD
+from .kernels import Kernel, choose, compiled_kernel, python_kernel
 
-KERNELS = ('compiled', 'python')
+from .rotation import SMALL_ANGLE_RAD
 
 # the slots of `constants`
 MASS, CENTRE, INERTIA, GRAVITY = 0, 1, 4, 13
@@ -445,64 +445,33 @@ HELPERS = (rotation_of, cables_at, length_rate, rigid_body, solve_symmetric, vel
            turn, move, spring_tensions)
 
 
-class Kernel:
-    """How the platform's equations run: `forward_kinematics`, `velocity_product`,
-    `rigid_body`, `direct_dynamics`, `motion_rows`, `rigid_substeps` and
-    `elastic_substeps` of this module, as CPython runs them or compiled."""
-
-    def __init__(self, name: str, fk, kappa, body, direct, rows, rigid, elastic):
-        self.name = name
-        self.forward_kinematics = fk
-        self.velocity_product = kappa
-        self.rigid_body = body
-        self.direct_dynamics = direct
-        self.motion_rows = rows
-        self.rigid_substeps = rigid
-        self.elastic_substeps = elastic
+PYTHON = python_kernel(forward_kinematics, velocity_product, rigid_body, direct_dynamics, motion_rows, rigid_substeps,
+                       elastic_substeps)
 
 
-PYTHON = Kernel('python', forward_kinematics, velocity_product, rigid_body, direct_dynamics, motion_rows,
-                rigid_substeps, elastic_substeps)
+def _signatures(types) -> dict:
+    # writable C-contiguous float64 arrays only
+    row, rows, count, flag = types.float64[::1], types.float64[:, ::1], types.intp, types.boolean
+    stack = types.float64[:, :, ::1]
+    geometry = (row, rows, rows, row)    # constants, exits, attachments, offsets
+    return {forward_kinematics: count(rows, rows, row, row, row, count, types.float64, types.float64),
+            velocity_product: types.void(rows, row, rows, row, row),
+            rigid_body: types.void(row, rows, row, rows, row),
+            direct_dynamics: types.void(row, rows, rows, *(row,) * 10),
+            motion_rows: types.void(row, rows, rows, rows, rows, rows, stack, rows, rows, rows, rows),
+            rigid_substeps: types.void(count, types.float64, *geometry, *(row,) * 9),
+            elastic_substeps: types.void(count, types.float64, *geometry, row, row, row, flag, *(row,) * 5)}
 
 
 @cache
 def _compiled() -> Kernel | None:
     # numba takes ~0.5 s to import: only for a platform robot
-    try:
-        import numba
-        from numba import types
-        from numba.extending import register_jitable
-    except ImportError:
-        return None
-    for helper in HELPERS:
-        # callable from the compiled kernels, compiled into each; unchanged for CPython
-        register_jitable(helper)
-    # Compiled here for writable C-contiguous float64 arrays only (a call with others is
-    # an error, not a silent compile of seconds in a realtime loop), and cached once per
-    # installation (`make setup` does it), so that a process only loads them; numba checks
-    # the cache against this file, where every function they call lives.
-    row, rows, count, flag = types.float64[::1], types.float64[:, ::1], types.intp, types.boolean
-    stack = types.float64[:, :, ::1]
-
-    def compile_(function, *arguments):
-        return numba.njit(types.void(*arguments), cache=True)(function)
-
-    geometry = (row, rows, rows, row)    # constants, exits, attachments, offsets
-    return Kernel(
-        'compiled',
-        numba.njit(count(rows, rows, row, row, row, count, types.float64, types.float64), cache=True)(
-            forward_kinematics),
-        compile_(velocity_product, rows, row, rows, row, row),
-        compile_(rigid_body, row, rows, row, rows, row),
-        compile_(direct_dynamics, row, rows, rows, *(row,) * 10),
-        compile_(motion_rows, row, rows, rows, rows, rows, rows, stack, rows, rows, rows, rows),
-        compile_(rigid_substeps, count, types.float64, *geometry, *(row,) * 9),
-        compile_(elastic_substeps, count, types.float64, *geometry, row, row, row, flag, *(row,) * 5))
+    return compiled_kernel(HELPERS, _signatures)
 
 
 def kernel(name: str = 'compiled') -> Kernel:
-    """The kernel called `name` (KERNELS); 'compiled' is the Python one where numba is
-    not installed."""
-    if name not in KERNELS:
-        raise ValueError(f'kernel must be one of {", ".join(KERNELS)}, got {name!r}')
-    return (name == 'compiled' and _compiled()) or PYTHON
+    """The kernel called `name` (KERNELS): `forward_kinematics`, `velocity_product`,
+    `rigid_body`, `direct_dynamics`, `motion_rows`, `rigid_substeps` and
+    `elastic_substeps` of this module; 'compiled' is the Python one where numba is not
+    installed."""
+    return choose(name, PYTHON, _compiled)

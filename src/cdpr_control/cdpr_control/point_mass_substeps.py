@@ -21,7 +21,7 @@ from math import sqrt
 
 import numpy as np
 
-KERNELS = ('compiled', 'python')
+from .kernels import Kernel, choose, compiled_kernel, python_kernel
 
 # the slots of `constants`
 MASS, WEIGHT, MOTOR_INERTIA, VISCOUS, RADIUS, RETAUT = 0, 1, 4, 5, 6, 7
@@ -159,49 +159,25 @@ def rigid_substeps(substeps, h, constants, exits, offsets, attached, torque, ext
 HELPERS = (cable_directions, direct_dynamics, solve_positive_definite3)
 
 
-class Kernel:
-    """How the point mass's equations run: `cable_directions`, `direct_dynamics` and
-    `rigid_substeps` of this module, as CPython runs them or compiled."""
-
-    def __init__(self, name: str, directions, direct, rigid):
-        self.name = name
-        self.cable_directions = directions
-        self.direct_dynamics = direct
-        self.rigid_substeps = rigid
+PYTHON = python_kernel(cable_directions, direct_dynamics, rigid_substeps)
 
 
-PYTHON = Kernel('python', cable_directions, direct_dynamics, rigid_substeps)
+def _signatures(types) -> dict:
+    # writable C-contiguous float64 arrays only
+    row, rows = types.float64[::1], types.float64[:, ::1]
+    return {cable_directions: types.void(rows, row, rows),
+            direct_dynamics: types.void(row, rows, *(row,) * 9),
+            rigid_substeps: types.void(types.intp, types.float64, row, rows, *(row,) * 10, rows)}
 
 
 @cache
 def _compiled() -> Kernel | None:
     # numba takes ~0.5 s to import: only for a model that asks for it
-    try:
-        import numba
-        from numba import types
-        from numba.extending import register_jitable
-    except ImportError:
-        return None
-    for helper in HELPERS:
-        # callable from the compiled kernels, compiled into each; unchanged for CPython
-        register_jitable(helper)
-    # Compiled here for writable C-contiguous float64 arrays only (a call with others is
-    # an error, not a silent compile of seconds in a realtime loop), and cached once per
-    # installation (`make setup` does it), so that a process only loads them; numba checks
-    # the cache against this file, where every function they call lives.
-    row, rows = types.float64[::1], types.float64[:, ::1]
-
-    def compile_(function, *arguments):
-        return numba.njit(types.void(*arguments), cache=True)(function)
-
-    return Kernel('compiled', compile_(cable_directions, rows, row, rows),
-                  compile_(direct_dynamics, row, rows, *(row,) * 9),
-                  compile_(rigid_substeps, types.intp, types.float64, row, rows, *(row,) * 10, rows))
+    return compiled_kernel(HELPERS, _signatures)
 
 
 def kernel(name: str = 'compiled') -> Kernel:
-    """The kernel called `name` (KERNELS); 'compiled' is the Python one where numba is
-    not installed."""
-    if name not in KERNELS:
-        raise ValueError(f'kernel must be one of {", ".join(KERNELS)}, got {name!r}')
-    return (name == 'compiled' and _compiled()) or PYTHON
+    """The kernel called `name` (KERNELS): `cable_directions`, `direct_dynamics` and
+    `rigid_substeps` of this module; 'compiled' is the Python one where numba is not
+    installed."""
+    return choose(name, PYTHON, _compiled)

@@ -14,7 +14,8 @@ from math import exp, sqrt, tanh
 
 import numpy as np
 
-KERNELS = ('compiled', 'python')
+from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
+
 
 
 def integrate(substeps, h, constants, cables, inputs, motors, state):
@@ -88,40 +89,25 @@ def integrate(substeps, h, constants, cables, inputs, motors, state):
     return px, py, pz, vx, vy, vz, fx, fy, fz
 
 
-class Kernel:
-    """How `integrate` runs: its function, and `view`, which turns a 2-D float array into
-    what it takes (the array itself, or lists that it then writes into)."""
-
-    def __init__(self, name: str, function, view):
-        self.name = name
-        self.integrate = function
-        self.view = view
+# `view` turns a 2-D float array into what `integrate` takes: lists for CPython, which it
+# then writes into; the array itself for numba.
+PYTHON = python_kernel(integrate, view=np.ndarray.tolist)
 
 
-PYTHON = Kernel('python', integrate, np.ndarray.tolist)
+def _signatures(types) -> dict:
+    floats, rows = types.float64, types.float64[:, :]
+    state = types.UniTuple(floats, 9)
+    return {integrate: state(types.intp, floats, types.Tuple((floats,) * 15 + (types.boolean,)), rows, rows,
+                             rows, state)}
 
 
 @cache
 def _compiled() -> Kernel | None:
     # numba takes ~0.5 s to import: only for a model that asks for it
-    try:
-        import numba
-        from numba import types
-    except ImportError:
-        return None
-    floats, rows = types.float64, types.float64[:, :]
-    state = types.UniTuple(floats, 9)
-    signature = state(types.intp, floats, types.Tuple((floats,) * 15 + (types.boolean,)),
-                      rows, rows, rows, state)
-    # Compiled here, for these types only (a call with others is an error, not a silent
-    # compile of seconds in a realtime loop); cached once per installation, which
-    # `make setup` does, so that a process only loads it.
-    return Kernel('compiled', numba.njit(signature, cache=True)(integrate), lambda array: array)
+    return compiled_kernel((), _signatures, view=lambda array: array)
 
 
 def kernel(name: str) -> Kernel:
     """The kernel called `name` (KERNELS); 'compiled' is the Python one where numba is
     not installed."""
-    if name not in KERNELS:
-        raise ValueError(f'kernel must be one of {", ".join(KERNELS)}, got {name!r}')
-    return (name == 'compiled' and _compiled()) or PYTHON
+    return choose(name, PYTHON, _compiled)

@@ -24,7 +24,7 @@ from cdpr_control.pose_statics import holding_torques_nm
 
 from .elastic_model import DriveTrain, ElasticCableRobot
 from .elastic_platform import ElasticPlatform
-from .elastic_substeps import KERNELS
+from cdpr_control.kernels import KERNELS
 from .rigid_model import RigidCableRobot
 from .rigid_platform import RigidPlatform
 

@@ -17,7 +17,8 @@ from contextlib import ExitStack, contextmanager
 from cdpr_control.setpoints import Setpoints
 from cdpr_fdi.supervisor import Supervisor
 from cdpr_twin.elastic_model import ElasticCableRobot
-from cdpr_twin.elastic_substeps import KERNELS, kernel
+from cdpr_control.kernels import KERNELS
+from cdpr_twin.elastic_substeps import kernel
 from cdpr_twin.plant import PlantSimulator
 from cdpr_twin.twin import DigitalTwin
 
