@@ -1,19 +1,24 @@
 """Each module written once for CPython and numba (cdpr_control.kernels) gives its
-compiled functions by the name `compiled` and the CPython ones by `python`, and names the
-choices on a wrong one. Whether the two give the same numbers is tested module by module
-(test_elastic_substeps, test_platform_substeps, test_point_mass_substeps)."""
+compiled functions by the name `compiled` and the CPython ones by `python`, names the
+choices on a wrong one, and both give the same numbers. The simulation's kernels are
+compared on whole runs in their own files (test_elastic_substeps, test_platform_substeps,
+test_point_mass_substeps); the per-tick ones of the controller and the supervisor here."""
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
-from cdpr_control import platform_substeps, point_mass_substeps
+from cdpr_control import platform_substeps, point_mass_substeps, tracking
+from cdpr_fdi import tick_arithmetic
 from cdpr_twin import elastic_substeps
 
 pytest.importorskip('numba')
 
+MODULES = (elastic_substeps, platform_substeps, point_mass_substeps, tracking, tick_arithmetic)
+MOTORS = 8
 
-@pytest.mark.parametrize('module', (elastic_substeps, platform_substeps, point_mass_substeps),
-                         ids=lambda module: module.__name__.rsplit('.', 1)[-1])
+
+@pytest.mark.parametrize('module', MODULES, ids=lambda module: module.__name__.rsplit('.', 1)[-1])
 def test_compiled_is_numba_and_python_is_cpython(module):
     compiled, python = module.kernel('compiled'), module.kernel('python')
     assert compiled.name == 'compiled' and python is module.PYTHON and compiled is not python
@@ -23,3 +28,36 @@ def test_compiled_is_numba_and_python_is_cpython(module):
             assert getattr(compiled, name).py_func is function, name
     with pytest.raises(ValueError, match='kernel must be one of compiled, python'):
         module.kernel('fortran')
+
+
+def both(module, function: str, *arguments, outputs: int):
+    """`function` of both kernels on copies of `arguments` and `outputs` fresh rows:
+    (python's outputs and result, compiled's)."""
+    results = []
+    for name in ('python', 'compiled'):
+        copies = [argument.copy() if isinstance(argument, np.ndarray) else argument for argument in arguments]
+        written = [np.full(MOTORS, np.nan) for _ in range(outputs)]
+        returned = getattr(module.kernel(name), function)(*copies, *written)
+        results.append((copies, written, returned))
+    return results
+
+
+def test_the_per_tick_kernels_give_the_same_numbers_with_both():
+    rng = np.random.default_rng(3)
+    rows = [rng.normal(0.0, 2.0, MOTORS) for _ in range(6)]
+    broken = (rng.random(MOTORS) < 0.3).astype(float)
+    motor = np.array([1.2e-4, 1.5e-3, 0.036, 0.1, 0.1])
+    checks = [
+        both(tracking, 'tracking_torques', 24.0, 0.7, 1.5, *rows[:5], broken, outputs=1),
+        both(tick_arithmetic, 'sensorless_tensions', motor, *rows[:3], np.full(MOTORS, 0.002), outputs=3),
+        both(tick_arithmetic, 'reference_tensions', motor, 0.002, *rows[:3], outputs=1),
+    ]
+    recent, total = rng.normal(0.0, 1.0, (5, 3, MOTORS)), rng.normal(0.0, 5.0, (3, MOTORS))
+    checks.append(both(tick_arithmetic, 'collapse_window', recent, total, 2, *rows[:3], 0.5, 1.0, outputs=1))
+    for (python_in, python_out, python_result), (compiled_in, compiled_out, compiled_result) in checks:
+        assert python_result == compiled_result
+        for python, compiled in zip(python_in + python_out, compiled_in + compiled_out):
+            if isinstance(python, np.ndarray):
+                assert np.array_equal(python, compiled) and not np.isnan(python).any()
+    torques = checks[0][0][1][0]
+    assert np.all(torques[broken != 0.0] == 0.0) and np.all(np.abs(torques) <= 1.5)

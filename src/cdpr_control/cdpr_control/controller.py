@@ -7,6 +7,7 @@ import numpy as np
 
 from cdpr_msgs_py.contract import FAULT, MODES, NOMINAL, RECOVERY_TENSION, SAFE_HOLD
 
+from . import tracking
 from .config import Section
 from .friction import FrictionModel
 from .robot import Robot
@@ -155,6 +156,8 @@ class JointController:
         self.torque_limit_nm = robot.motor.torque_limit_nm
         self.mode = NOMINAL
         self.broken = np.zeros(robot.cable_count, dtype=bool)
+        self.broken_mask = np.zeros(robot.cable_count)    # as the tracking kernel takes it
+        self.kernel = tracking.kernel()
         self.tension_setpoint_n: np.ndarray | None = None
         self.hold: JointReference | None = None
         self.tracked: JointReference | None = None
@@ -169,23 +172,10 @@ class JointController:
         """Mark the 0-based `cables` as broken (their motors get zero torque from now on)."""
         for index in cables:
             self.broken[index] = True
+            self.broken_mask[index] = 1.0
 
     def set_tension_setpoint(self, tensions_n: np.ndarray) -> None:
         self.tension_setpoint_n = np.asarray(tensions_n, dtype=float)
-
-    def feedback(self, angle_rad, angular_velocity_rad_s, reference: JointReference) -> np.ndarray:
-        """The PD part c_FB (N·m).
-
-        On plain floats: with m entries, numpy's cost per call (four of them, two with a
-        Python scalar) exceeds the arithmetic.
-        """
-        stiffness, damping = self.gains.stiffness_nm_rad, self.gains.damping_nm_s_rad
-        return np.array([
-            stiffness * (angle_d - angle) + damping * (speed_d - speed)
-            for angle_d, angle, speed_d, speed in zip(
-                reference.angle_rad.tolist(), np.asarray(angle_rad, dtype=float).tolist(),
-                reference.angular_velocity_rad_s.tolist(),
-                np.asarray(angular_velocity_rad_s, dtype=float).tolist())])
 
     def command(self, angle_rad, angular_velocity_rad_s, reference: JointReference | None) -> np.ndarray:
         """Motor torques c (N·m) for the measured θ, θ̇ in the current mode."""
@@ -193,14 +183,8 @@ class JointController:
         previous = speed if self.previous_speed is None else self.previous_speed
         self.previous_speed = speed
         if self.mode == RECOVERY_TENSION and self.tension_setpoint_n is not None:
-            motor = self.robot.motor
-            ahead = speed + self.command_lead_periods * (speed - previous)
-            # Damping only resists paying out: on a cable winding in it would lower the
-            # tension, and a cable that loses its tension goes slack.
-            torque = (-motor.drum_radius_m * self.tension_setpoint_n + self.friction.torque_nm(ahead)
-                      + motor.viscous_friction_nm_s_rad * speed
-                      - self.gains.tension_damping_nm_s_rad * np.maximum(speed, 0.0))
             self.tracked = self.hold = None
+            torque = self.tension_control(speed, previous)
         else:
             if self.mode in (SAFE_HOLD, FAULT) or reference is None:
                 if self.hold is None:
@@ -209,12 +193,27 @@ class JointController:
             else:
                 self.hold = None
                 self.tracked = reference
-            torque = reference.feedforward_nm + self.feedback(angle_rad, angular_velocity_rad_s,
-                                                              reference)
+            torque = np.empty(self.robot.cable_count)
+            self.kernel.tracking_torques(
+                self.gains.stiffness_nm_rad, self.gains.damping_nm_s_rad, self.torque_limit_nm,
+                np.ascontiguousarray(angle_rad, dtype=float), np.ascontiguousarray(reference.angle_rad, dtype=float),
+                speed, np.ascontiguousarray(reference.angular_velocity_rad_s, dtype=float),
+                np.ascontiguousarray(reference.feedforward_nm, dtype=float), self.broken_mask, torque)
+        self.applied_nm = torque
+        return torque
+
+    def tension_control(self, speed: np.ndarray, previous_speed: np.ndarray) -> np.ndarray:
+        """RECOVERY_TENSION's torques (N·m), within the limit, 0 on broken cables' motors."""
+        motor = self.robot.motor
+        ahead = speed + self.command_lead_periods * (speed - previous_speed)
+        # Damping only resists paying out: on a cable winding in it would lower the
+        # tension, and a cable that loses its tension goes slack.
+        torque = (-motor.drum_radius_m * self.tension_setpoint_n + self.friction.torque_nm(ahead)
+                  + motor.viscous_friction_nm_s_rad * speed
+                  - self.gains.tension_damping_nm_s_rad * np.maximum(speed, 0.0))
         # ndarray.clip: np.clip's dispatch costs twice as much on a few entries
         torque = torque.clip(-self.torque_limit_nm, self.torque_limit_nm)
         torque[self.broken] = 0.0
-        self.applied_nm = torque
         return torque
 
     def hold_point(self, angle_rad, reference: JointReference | None) -> JointReference:

@@ -17,35 +17,35 @@ import numpy as np
 from cdpr_control.friction import FrictionModel
 from cdpr_control.robot import Motor
 
+from . import tick_arithmetic
+
 
 def sensorless_tensions(motor: Motor, friction: FrictionModel, applied_torque_nm: np.ndarray,
                         speed_before_rad_s: np.ndarray, speed_after_rad_s: np.ndarray,
-                        period_s: float) -> np.ndarray:
+                        period_s) -> np.ndarray:
     """τ̂ (N) over one period in which `applied_torque_nm` took the motors between two speeds.
 
     Friction is evaluated at the speed the period started with, as the drive integrates it.
+    The arguments broadcast (a run's ticks as rows, `period_s` a column of their periods).
     """
-    return _tensions(motor, friction.torque_nm(speed_before_rad_s), applied_torque_nm,
-                     speed_before_rad_s, speed_after_rad_s, period_s)
-
-
-def _tensions(motor: Motor, friction_before_nm: np.ndarray, applied_torque_nm: np.ndarray,
-              speed_before_rad_s: np.ndarray, speed_after_rad_s: np.ndarray,
-              period_s: float) -> np.ndarray:
-    acceleration = (speed_after_rad_s - speed_before_rad_s) / period_s
-    load = (motor.inertia_kg_m2 * acceleration
-            + motor.viscous_friction_nm_s_rad * speed_before_rad_s
-            + friction_before_nm - applied_torque_nm)
-    return load / motor.drum_radius_m
+    return _sensorless(motor, friction, applied_torque_nm, speed_before_rad_s, speed_after_rad_s, period_s)[0]
 
 
 def sensorless_tension_bounds(motor: Motor, friction: FrictionModel, applied_torque_nm: np.ndarray,
                               speed_before_rad_s: np.ndarray, speed_after_rad_s: np.ndarray,
-                              period_s: float) -> tuple[np.ndarray, np.ndarray]:
+                              period_s) -> tuple[np.ndarray, np.ndarray]:
     """The lowest and highest τ̂ (N) the friction between the two speeds allows."""
-    friction_before = friction.torque_nm(speed_before_rad_s)
-    at_start = _tensions(motor, friction_before, applied_torque_nm, speed_before_rad_s,
-                         speed_after_rad_s, period_s)
-    other_end = at_start + (friction.torque_nm(speed_after_rad_s)
-                            - friction_before) / motor.drum_radius_m
-    return np.minimum(at_start, other_end), np.maximum(at_start, other_end)
+    _, low, high = _sensorless(motor, friction, applied_torque_nm, speed_before_rad_s, speed_after_rad_s,
+                               period_s)
+    return low, high
+
+
+def _sensorless(motor, friction, *arrays) -> np.ndarray:
+    """τ̂, its lowest and highest (3, *shape) of the broadcast `arrays` (tick_arithmetic)."""
+    arrays = np.broadcast_arrays(*(np.asarray(array, dtype=float) for array in arrays))
+    shape = arrays[0].shape
+    flat = [np.ascontiguousarray(array).ravel() for array in arrays]
+    result = np.empty((3, flat[0].size))
+    tick_arithmetic.kernel().sensorless_tensions(tick_arithmetic.motor_constants(motor, friction), *flat,
+                                                 *result)
+    return result.reshape((3, *shape))

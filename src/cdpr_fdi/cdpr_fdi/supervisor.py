@@ -18,13 +18,13 @@ from cdpr_control.robot import Robot
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_msgs_py.contract import FAULT, NOMINAL
 
+from . import tick_arithmetic
 from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector
 from .identification import identify_broken_cables
 from .pose_recovery import PoseRecovery
 from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point, find_safe_poses,
                        initial_tensions, taut_tension_n)
-from .residual import sensorless_tension_bounds
 from .tension_collapse import TensionCollapse
 from .wrench_balance import WrenchBalance, overstretch_m, placement
 
@@ -109,6 +109,10 @@ class Supervisor:
         self.previous_speed: np.ndarray | None = None
         self.previous_reference: JointReference | None = None
         self.tension_bounds_n = (np.zeros(robot.cable_count), np.zeros(robot.cable_count))
+        # the per-tick arithmetic (tick_arithmetic), and what it takes of the robot and the run
+        self.arithmetic = tick_arithmetic.kernel()
+        self.motor_constants = tick_arithmetic.motor_constants(robot.motor, fdi.friction)
+        self.periods_s = np.full(robot.cable_count, period_s)
         self.evidence = AlarmEvidence(fdi.identification_window_cycles)
         self.collapse = TensionCollapse(fdi.collapse_window_cycles, fdi.collapse_band_n,
                                         fdi.collapse_reference_n)
@@ -138,13 +142,14 @@ class Supervisor:
                command_nm, twin_torque_nm, twin_angular_velocity_rad_s,
                reference: JointReference) -> Verdict:
         residual = np.asarray(command_nm, float) - np.asarray(twin_torque_nm, float)
-        applied = np.asarray(applied_torque_nm, float)
+        applied = np.ascontiguousarray(applied_torque_nm, float)
+        speed = np.ascontiguousarray(angular_velocity_rad_s, float)
         collapsed: list[int] = []
         if self.previous_speed is not None:
-            self.tension_bounds_n = sensorless_tension_bounds(
-                self.robot.motor, self.fdi.friction, self.felt_torque_nm(applied),
-                self.previous_speed, np.asarray(angular_velocity_rad_s, float), self.period_s)
-            low, high = self.tension_bounds_n
+            tension, low, high = np.empty((3, speed.size))
+            self.arithmetic.sensorless_tensions(self.motor_constants, self.felt_torque_nm(applied),
+                                                self.previous_speed, speed, self.periods_s, tension, low, high)
+            self.tension_bounds_n = low, high
             self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
             if not self.broken:   # once a cable is named, nothing more is looked for
                 collapsed = self.collapse.update(low, high, self.reference_tensions(reference))
@@ -209,7 +214,7 @@ class Supervisor:
             if self.mode != previous_mode:
                 events.append(f'{self.mode} from tick {tick + 1}'
                               + (f': {self.fault_reason}' if self.mode == FAULT else ''))
-        self.previous_speed = np.array(angular_velocity_rad_s, dtype=float)
+        self.previous_speed = speed.copy()
         self.previous_command = np.array(command_nm, dtype=float)
         self.previous_applied = applied
         self.previous_reference = reference
@@ -384,11 +389,13 @@ class Supervisor:
 
     def reference_tensions(self, reference: JointReference) -> np.ndarray:
         """τ_d = (J θ̈_d + b θ̇_d − c_ID) / ρ, θ̈_d from the previous reference (N)."""
-        motor = self.robot.motor
         previous = self.previous_reference or reference
-        acceleration = (reference.angular_velocity_rad_s - previous.angular_velocity_rad_s) / self.period_s
-        return (motor.inertia_kg_m2 * acceleration + motor.viscous_friction_nm_s_rad
-                * reference.angular_velocity_rad_s - reference.feedforward_nm) / motor.drum_radius_m
+        tension = np.empty(self.robot.cable_count)
+        self.arithmetic.reference_tensions(
+            self.motor_constants, self.period_s, np.ascontiguousarray(reference.angular_velocity_rad_s, float),
+            np.ascontiguousarray(previous.angular_velocity_rad_s, float),
+            np.ascontiguousarray(reference.feedforward_nm, float), tension)
+        return tension
 
     def summary(self) -> dict:
         """What happened so far, in plain types (ticks, 1-based cables, SP in m)."""

@@ -19,9 +19,9 @@ motion is not taken for a parted one.
 """
 from __future__ import annotations
 
-from collections import deque
-
 import numpy as np
+
+from . import tick_arithmetic
 
 
 class TensionCollapse:
@@ -32,23 +32,25 @@ class TensionCollapse:
         self.window = window
         self.band_n = band_n
         self.reference_min_n = reference_min_n
-        # per period, a row each: τ̂'s lower and upper bounds (N), the reference tension (N)
-        self.recent: deque[np.ndarray] = deque()
-        # their sum over `recent`: kept as periods come and go, as the supervisor asks every
-        # period (averaging the window afresh each time cost half of a tick)
+        self.arithmetic = tick_arithmetic.kernel()
+        # per period of the window, rows: τ̂'s lower and upper bounds (N), the reference
+        # tension (N); and their sum over it, kept as periods come and go (averaging the
+        # window afresh each period cost half of a tick). Sized by the first period.
+        self.recent: np.ndarray | None = None
         self.total: np.ndarray | None = None
+        self.periods = 0
 
     def update(self, tension_low_n: np.ndarray, tension_high_n: np.ndarray,
                reference_tension_n: np.ndarray) -> list[int]:
         """A period's τ̂ bounds and reference tension in; the collapsed cables (0-based) out."""
-        period = np.array((tension_low_n, tension_high_n, reference_tension_n), dtype=float)
-        self.recent.append(period)
-        self.total = period.copy() if self.total is None else self.total + period
-        if len(self.recent) > self.window:
-            self.total -= self.recent.popleft()
-        if len(self.recent) < self.window:
+        low, high, reference = (np.ascontiguousarray(values, dtype=float)
+                                for values in (tension_low_n, tension_high_n, reference_tension_n))
+        if self.recent is None:
+            self.recent, self.total = np.zeros((self.window, 3, low.size)), np.zeros((3, low.size))
+        collapsed = np.empty(low.size)
+        count = self.arithmetic.collapse_window(self.recent, self.total, self.periods % self.window, low, high,
+                                                reference, self.band_n, self.reference_min_n, collapsed)
+        self.periods += 1
+        if self.periods < self.window or not count:
             return []
-        low, high, reference = self.total / self.window
-        distance_n = np.maximum(np.maximum(low, -high), 0.0)
-        return [int(cable) for cable in
-                np.flatnonzero((distance_n < self.band_n) & (reference >= self.reference_min_n))]
+        return [int(cable) for cable in np.flatnonzero(collapsed)]

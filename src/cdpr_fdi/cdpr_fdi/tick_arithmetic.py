@@ -1,0 +1,108 @@
+"""What the supervisor computes on every tick, motor by motor: one source, run by CPython
+or compiled by numba (cdpr_control.kernels).
+
+On a handful of motors each of these took 5–12 µs as numpy expressions, nearly all of
+it numpy's per-call cost, together half of the supervisor's tick; compiled, a call takes
+under 1 µs (docs/performance.md). The formulas are residual.py's, tension_collapse.py's
+and the supervisor's reference tension; their docstrings say why.
+
+Arrays in, arrays written: `motor` is `motor_constants(robot.motor, friction)`; the
+per-motor arrays are flat, one entry per motor (or per motor and tick, for a run's
+stack raveled).
+"""
+from __future__ import annotations
+
+from functools import cache
+from math import tanh
+
+import numpy as np
+
+from cdpr_control.friction import FrictionModel
+from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
+from cdpr_control.robot import Motor
+
+# the slots of `motor`
+INERTIA, VISCOUS, RADIUS, COULOMB, SMOOTHING = range(5)
+
+
+def motor_constants(motor: Motor, friction: FrictionModel) -> np.ndarray:
+    """J (kg·m²), b (N·m·s/rad), ρ (m), and the Coulomb friction f_c (N·m) with its
+    smoothing speed (rad/s) as the control stack models them."""
+    return np.array([motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad, motor.drum_radius_m,
+                     friction.coulomb_nm, friction.smoothing_rad_s])
+
+
+def sensorless_tensions(motor, applied_torque_nm, speed_before_rad_s, speed_after_rad_s, period_s,
+                        tension_n, low_n, high_n) -> None:
+    """τ̂ = (J θ̈ + b θ̇ + f_c(θ̇) − c) / ρ (N) over a period in which the applied torque c
+    took a motor between two speeds, friction at the speed it started with (into
+    `tension_n`), and the lowest and highest τ̂ the friction between the two speeds
+    allows (into `low_n`, `high_n`)."""
+    inertia, viscous, radius = motor[INERTIA], motor[VISCOUS], motor[RADIUS]
+    coulomb, smoothing = motor[COULOMB], motor[SMOOTHING]
+    for i in range(applied_torque_nm.shape[0]):
+        before, after = speed_before_rad_s[i], speed_after_rad_s[i]
+        friction_before = coulomb * tanh(before / smoothing)
+        at_start = (inertia * ((after - before) / period_s[i]) + viscous * before + friction_before
+                    - applied_torque_nm[i]) / radius
+        other_end = at_start + (coulomb * tanh(after / smoothing) - friction_before) / radius
+        tension_n[i] = at_start
+        low_n[i], high_n[i] = min(at_start, other_end), max(at_start, other_end)
+
+
+def reference_tensions(motor, period_s, angular_velocity_rad_s, previous_angular_velocity_rad_s,
+                       feedforward_nm, tension_n) -> None:
+    """τ_d = (J θ̈_d + b θ̇_d − c_ID) / ρ (N, into `tension_n`): the tensions a reference
+    asks for, θ̈_d from the previous reference's speeds."""
+    inertia, viscous, radius = motor[INERTIA], motor[VISCOUS], motor[RADIUS]
+    for i in range(angular_velocity_rad_s.shape[0]):
+        acceleration = (angular_velocity_rad_s[i] - previous_angular_velocity_rad_s[i]) / period_s
+        tension_n[i] = (inertia * acceleration + viscous * angular_velocity_rad_s[i] - feedforward_nm[i]) / radius
+
+
+def collapse_window(recent, total, slot, low_n, high_n, reference_n, band_n, reference_min_n,
+                    collapsed) -> int:
+    """A period's τ̂ bounds and reference tension into a window of periods (rows 0–2 of
+    `recent[slot]`, the oldest, replaced; `total` their sum over the window, kept); then
+    per motor (into `collapsed`, 1.0 or 0.0) whether the window's averages put τ̂ within
+    `band_n` of zero while the reference asked for at least `reference_min_n`. Returns
+    how many did."""
+    window = recent.shape[0]
+    count = 0
+    for i in range(low_n.shape[0]):
+        total[0, i] += low_n[i]
+        total[1, i] += high_n[i]
+        total[2, i] += reference_n[i]
+        for row in range(3):
+            total[row, i] -= recent[slot, row, i]
+        recent[slot, 0, i], recent[slot, 1, i], recent[slot, 2, i] = low_n[i], high_n[i], reference_n[i]
+        low, high, reference = total[0, i] / window, total[1, i] / window, total[2, i] / window
+        distance = max(max(low, -high), 0.0)
+        collapsed[i] = 1.0 if distance < band_n and reference >= reference_min_n else 0.0
+        count += collapsed[i] != 0.0
+    return count
+
+
+PYTHON = python_kernel(sensorless_tensions, reference_tensions, collapse_window)
+
+
+def _signatures(types) -> dict:
+    # writable C-contiguous float64 arrays only
+    row, rows, floats = types.float64[::1], types.float64[:, ::1], types.float64
+    return {sensorless_tensions: types.void(*(row,) * 8),
+            reference_tensions: types.void(row, floats, row, row, row, row),
+            collapse_window: types.intp(types.float64[:, :, ::1], rows, types.intp, row, row, row, floats, floats,
+                                        row)}
+
+
+@cache
+def _compiled() -> Kernel | None:
+    # numba takes ~0.5 s to import: only for a supervisor that asks for it
+    return compiled_kernel((), _signatures)
+
+
+def kernel(name: str = 'compiled') -> Kernel:
+    """The kernel called `name` (cdpr_control.kernels.KERNELS): `sensorless_tensions`,
+    `reference_tensions` and `collapse_window` of this module; 'compiled' is the Python
+    one where numba is not installed."""
+    return choose(name, PYTHON, _compiled)
