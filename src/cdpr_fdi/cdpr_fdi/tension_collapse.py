@@ -43,8 +43,8 @@ class TensionCollapse:
     def update(self, tension_low_n: np.ndarray, tension_high_n: np.ndarray,
                reference_tension_n: np.ndarray) -> list[int]:
         """A period's τ̂ bounds and reference tension in; the collapsed cables (0-based) out."""
-        low, high, reference = (np.ascontiguousarray(values, dtype=float)
-                                for values in (tension_low_n, tension_high_n, reference_tension_n))
+        low, high = np.ascontiguousarray(tension_low_n, dtype=float), np.ascontiguousarray(tension_high_n, dtype=float)
+        reference = np.ascontiguousarray(reference_tension_n, dtype=float)
         if self.recent is None:
             self.recent, self.total = np.zeros((self.window, 3, low.size)), np.zeros((3, low.size))
         collapsed = np.empty(low.size)

@@ -114,6 +114,9 @@ class ElasticCableRobot:
                                                  robot.cable_length_offset_m]))
         # The net force Σ τ_i u_i (N) of the tensions on the end-effector.
         self.cable_force_n = (0.0, 0.0, 0.0)
+        # the kernel's constants, and what they were made for (substep_constants)
+        self.constants: tuple = ()
+        self.constants_key: tuple | None = None
         self.evaluate_tensions()
 
     @property
@@ -171,25 +174,31 @@ class ElasticCableRobot:
         self.integrate(torque_nm, period_s / substeps, substeps, tuple(external_force_n))
         self.tension_n = self.spring_tension_n
 
-    def integrate(self, torque_nm, h: float, substeps: int,
-                  external_force_n: tuple[float, float, float]) -> None:
-        """`substeps` semi-implicit Euler sub-steps of `h` s under `torque_nm` (N·m) and
-        `external_force_n` (N); h = 0 only evaluates the tensions of the current state."""
+    def substep_constants(self, h: float, external_force_n: tuple[float, float, float]) -> tuple:
+        """The kernel's `constants` for sub-steps of `h` s under `external_force_n` (N)."""
         motor, drive, mass = self.robot.motor, self.drive, self.robot.mass_kg
         # First-order lags discretised exactly over a sub-step (gain 1: no lag).
         torque_gain = 1.0 - exp(-h / drive.torque_lag_s) if drive.torque_lag_s else 1.0
         speed_gain = 1.0 - exp(-h / drive.speed_filter_s) if drive.speed_filter_s else 1.0
         # gravity and the external force, as accelerations of the end-effector
         gx, gy, gz = (g + f / mass for g, f in zip(self.robot.gravity_m_s2.tolist(), external_force_n))
-        constants = (motor.drum_radius_m, motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad,
-                     self.coulomb_friction_nm, self.coulomb_velocity_rad_s,
-                     drive.breakaway_friction_nm, drive.stribeck_speed_rad_s, torque_gain,
-                     speed_gain, self.axial_stiffness_n, self.damping_n_s_m, mass, gx, gy, gz,
-                     self.drums_locked)
+        return (motor.drum_radius_m, motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad,
+                self.coulomb_friction_nm, self.coulomb_velocity_rad_s, drive.breakaway_friction_nm,
+                drive.stribeck_speed_rad_s, torque_gain, speed_gain, self.axial_stiffness_n, self.damping_n_s_m,
+                mass, gx, gy, gz, self.drums_locked)
+
+    def integrate(self, torque_nm, h: float, substeps: int,
+                  external_force_n: tuple[float, float, float]) -> None:
+        """`substeps` semi-implicit Euler sub-steps of `h` s under `torque_nm` (N·m) and
+        `external_force_n` (N); h = 0 only evaluates the tensions of the current state."""
+        # the same from one period to the next but for a break, a push or the brakes
+        key = (h, external_force_n, self.drums_locked, self.robot.mass_kg)
+        if key != self.constants_key:
+            self.constants, self.constants_key = self.substep_constants(h, external_force_n), key
         self.inputs[0] = torque_nm
         motors = self.kernel.view(self.motors.copy())
         px, py, pz, vx, vy, vz, fx, fy, fz = self.kernel.integrate(
-            substeps, h, constants, self.cables, self.kernel.view(self.inputs), motors,
+            substeps, h, self.constants, self.cables, self.kernel.view(self.inputs), motors,
             (*self.position_m.tolist(), *self.velocity_m_s.tolist(), *self.cable_force_n))
         self.position_m = np.array((px, py, pz))
         self.velocity_m_s = np.array((vx, vy, vz))

@@ -271,8 +271,8 @@ class PlantSimulator:
         """The torque (N·m) the motors apply, and the drive reports as applied, for
         `command_nm`: never beyond their limit."""
         limit = self.robot.motor.torque_limit_nm
-        # ndarray.clip: np.clip's dispatch costs twice as much on a few entries
-        return np.asarray(command_nm, dtype=float).clip(-limit, limit)
+        # as clip does it (NaN stays NaN), at a third of ndarray.clip's cost on a few entries
+        return np.minimum(np.maximum(np.asarray(command_nm, dtype=float), -limit), limit)
 
     def step(self, torque_nm: np.ndarray, period_s: float) -> None:
         """Send `torque_nm` to the drives and step one period. The drives apply it (as the

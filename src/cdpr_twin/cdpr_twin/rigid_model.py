@@ -13,6 +13,8 @@ from cdpr_control.statics import static_tensions
 # A slack cable whose motor has wound in to within this much of the straight-line
 # length is taut again (m).
 RETAUT_TOLERANCE_M = 1e-9
+# NO_FORCE as the kernel takes it (which reads it only: numba's signature is for writable arrays)
+NO_FORCE_ROW = np.zeros(3)
 
 
 class RigidCableRobot:
@@ -45,7 +47,7 @@ class RigidCableRobot:
         self.attached = np.ones(robot.cable_count, dtype=bool)
         self.attached_mask = np.ones(robot.cable_count)
         self.tension_n = static_tensions(robot, self.position_m, self.attached)
-        self.taut = self.attached.copy()
+        self.taut_mask = np.ones(robot.cable_count)
         # the cables' directions at position_m, which the next sub-step starts from
         self.directions = np.empty((robot.cable_count, 4))
         self.kernel.cable_directions(self.exits, self.position_m, self.directions)
@@ -70,9 +72,15 @@ class RigidCableRobot:
         angle, speed = self.angle_rad.copy(), self.angular_velocity_rad_s.copy()
         tension, taut = np.empty(m), np.empty(m)
         self.kernel.rigid_substeps(substeps, period_s / substeps, self.constants, self.exits, self.offsets,
-                                   self.attached_mask, np.array(torque_nm, dtype=float),
-                                   np.array(external_force_n, dtype=float),
+                                   self.attached_mask, np.ascontiguousarray(torque_nm, dtype=float),
+                                   NO_FORCE_ROW if external_force_n is NO_FORCE
+                                   else np.array(external_force_n, dtype=float),
                                    position, velocity, angle, speed, tension, taut, self.directions)
         self.position_m, self.velocity_m_s = position, velocity
         self.angle_rad, self.angular_velocity_rad_s = angle, speed
-        self.tension_n, self.taut = tension, taut != 0.0
+        self.tension_n, self.taut_mask = tension, taut
+
+    @property
+    def taut(self) -> np.ndarray:
+        """Which cables are taut (bool per cable)."""
+        return self.taut_mask != 0.0

@@ -60,13 +60,11 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     rows = {name: np.empty((cycles, width)) for name, width in (
         ('angle', m), ('speed', m), ('command', m), ('twin_angle', m), ('twin_speed', m),
         ('twin_torque', m), ('twin_position', 3), ('true_position', 3), ('true_tension', m),
-        ('reference_position', 3), ('reference_angle', m), ('residual', m),
-        ('recovery_reference_angle', m))}
+        ('residual', m), ('recovery_reference_angle', m))}
     rows['recovery_reference_angle'][:] = np.nan
     platform = robot.platform is not None
     if platform:
-        rows.update({name: np.empty((cycles, 4)) for name in ('true_orientation', 'twin_orientation',
-                                                               'reference_orientation')})
+        rows.update({name: np.empty((cycles, 4)) for name in ('true_orientation', 'twin_orientation')})
     applied = np.zeros(m)
     run_length = RunLength(cycles - 1, scenario.hold_after_cycles)
     ran = 0
@@ -100,16 +98,17 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             rows['twin_speed'][k] = twin_output.angular_velocity_rad_s
             rows['twin_torque'][k] = twin_output.torque_nm
             rows['twin_position'][k] = twin_output.position_m
-            row = min(k, len(scenario.reference) - 1)
-            rows['reference_position'][k] = scenario.reference.position_m[row]
-            rows['reference_angle'][k] = scenario.reference.angle_rad[row]
             if platform:
                 rows['twin_orientation'][k] = twin_output.orientation
-                rows['reference_orientation'][k] = scenario.reference.orientation[row]
             ran = k + 1
     except KeyboardInterrupt:
         pass
     rows = {name: values[:ran] for name, values in rows.items()}
+    # the reference of each tick that ran (reference_at's rows), taken at once
+    table, held = scenario.reference, np.minimum(np.arange(ran), len(scenario.reference) - 1)
+    rows['reference_position'], rows['reference_angle'] = table.position_m[held], table.angle_rad[held]
+    if platform:
+        rows['reference_orientation'] = table.orientation[held]
     return Recording(
         time_s=np.arange(ran) * scenario.period_s,
         angle_rad=rows['angle'], angular_velocity_rad_s=rows['speed'], command_nm=rows['command'],
