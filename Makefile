@@ -23,7 +23,7 @@ $(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps $(foreach p,$(PACKAGES),-e src/$(p))
 	sed -i '/^# cdpr environment/,$$d' $(VENV)/bin/activate
 	cat tools/venv-activate.sh >> $(VENV)/bin/activate
-	$(PY) -c 'import importlib; [importlib.import_module(m).kernel("compiled") for m in ("cdpr_twin.elastic_substeps", "cdpr_control.platform_substeps", "cdpr_control.point_mass_substeps", "cdpr_control.tracking", "cdpr_fdi.tick_arithmetic")]'
+	$(PY) -c 'import importlib; [importlib.import_module(m).kernel("compiled").load_all() for m in ("cdpr_twin.elastic_substeps", "cdpr_control.platform_substeps", "cdpr_control.point_mass_substeps", "cdpr_control.tracking", "cdpr_fdi.tick_arithmetic")]'
 	touch $(STAMP)
 
 demo: setup

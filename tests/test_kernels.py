@@ -49,7 +49,7 @@ def test_the_per_tick_kernels_give_the_same_numbers_with_both():
     motor = np.array([1.2e-4, 1.5e-3, 0.036, 0.1, 0.1])
     checks = [
         both(tracking, 'tracking_torques', 24.0, 0.7, 1.5, *rows[:5], broken, outputs=1),
-        both(tick_arithmetic, 'sensorless_tensions', motor, *rows[:3], np.full(MOTORS, 0.002), outputs=3),
+        both(tick_arithmetic, 'sensorless_tensions', motor, *rows[:3], 0.002, outputs=3),
         both(tick_arithmetic, 'reference_tensions', motor, 0.002, *rows[:3], outputs=1),
     ]
     recent, total = rng.normal(0.0, 1.0, (5, 3, MOTORS)), rng.normal(0.0, 5.0, (3, MOTORS))
@@ -61,3 +61,21 @@ def test_the_per_tick_kernels_give_the_same_numbers_with_both():
                 assert np.array_equal(python, compiled) and not np.isnan(python).any()
     torques = checks[0][0][1][0]
     assert np.all(torques[broken != 0.0] == 0.0) and np.all(np.abs(torques) <= 1.5)
+
+
+def test_the_per_tick_kernels_take_the_read_only_arrays_messages_give():
+    """A message's arrays are read-only views of its buffer: the controller and the
+    supervisor hand them to the compiled kernels as they are."""
+    def read_only(values):
+        array = np.frombuffer(np.asarray(values, dtype=float).tobytes())
+        assert not array.flags.writeable
+        return array
+    motors = [read_only(np.linspace(-1.0, 1.0, MOTORS) * k) for k in (1, 2, 3)]
+    torque = np.empty(MOTORS)
+    tracking.kernel('compiled').tracking_torques(24.0, 0.7, 1.5, *motors, motors[0], motors[1],
+                                                 read_only(np.zeros(MOTORS)), torque)
+    assert np.all(np.isfinite(torque))
+    tension, low, high = np.empty(MOTORS), np.empty(MOTORS), np.empty(MOTORS)
+    tick_arithmetic.kernel('compiled').sensorless_tensions(read_only([1.2e-4, 1.5e-3, 0.036, 0.1, 0.1]), *motors,
+                                                           0.002, tension, low, high)
+    assert np.all(low <= high) and np.all((tension == low) | (tension == high))

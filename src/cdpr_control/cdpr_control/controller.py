@@ -157,7 +157,7 @@ class JointController:
         self.mode = NOMINAL
         self.broken = np.zeros(robot.cable_count, dtype=bool)
         self.broken_mask = np.zeros(robot.cable_count)    # as the tracking kernel takes it
-        self.kernel = tracking.kernel()
+        self.kernel = tracking.kernel().load_all()
         self.tension_setpoint_n: np.ndarray | None = None
         self.hold: JointReference | None = None
         self.tracked: JointReference | None = None

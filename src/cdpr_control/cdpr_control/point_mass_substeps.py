@@ -163,11 +163,14 @@ PYTHON = python_kernel(cable_directions, direct_dynamics, rigid_substeps)
 
 
 def _signatures(types) -> dict:
-    # writable C-contiguous float64 arrays only
+    # C-contiguous float64 arrays only, those only read also read-only ones
     row, rows = types.float64[::1], types.float64[:, ::1]
-    return {cable_directions: types.void(rows, row, rows),
-            direct_dynamics: types.void(row, rows, *(row,) * 9),
-            rigid_substeps: types.void(types.intp, types.float64, row, rows, *(row,) * 10, rows)}
+    given, given_rows = types.Array(types.float64, 1, 'C', readonly=True), types.Array(types.float64, 2, 'C',
+                                                                                         readonly=True)
+    return {cable_directions: types.void(given_rows, given, rows),
+            direct_dynamics: types.void(given, given_rows, *(given,) * 5, *(row,) * 4),
+            rigid_substeps: types.void(types.intp, types.float64, given, given_rows, *(given,) * 4, *(row,) * 6,
+                                       rows)}
 
 
 @cache

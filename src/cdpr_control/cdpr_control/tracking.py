@@ -28,9 +28,10 @@ PYTHON = python_kernel(tracking_torques)
 
 
 def _signatures(types) -> dict:
-    # writable C-contiguous float64 arrays only
+    # C-contiguous float64 arrays only, those only read also read-only ones (from messages)
     row, floats = types.float64[::1], types.float64
-    return {tracking_torques: types.void(floats, floats, floats, *(row,) * 7)}
+    given = types.Array(types.float64, 1, 'C', readonly=True)
+    return {tracking_torques: types.void(floats, floats, floats, *(given,) * 6, row)}
 
 
 @cache

@@ -27,6 +27,7 @@ from cdpr_control.pose_kinematics import end_effector_positions, pose_of_angles
 from cdpr_control.robot import Robot
 from cdpr_control.workspace import sew_cross_section
 
+from . import tick_arithmetic
 from .config import RecoveryConfig
 from .recovery import RecoveryInfeasible, safe_point_for, safe_pose_for
 from .residual import sensorless_tensions
@@ -166,6 +167,8 @@ class Frame:
         # a platform's: its body at the safe pose (pairs of points) and the section's points
         self.safe_body_m: np.ndarray | None = None
         self.residual_section_m: np.ndarray | None = None
+        # on_state's sensorless tensions ready before the first state arrives
+        tick_arithmetic.kernel().load_all()
 
     @property
     def attached(self) -> np.ndarray:

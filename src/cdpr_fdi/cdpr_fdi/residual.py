@@ -26,7 +26,8 @@ def sensorless_tensions(motor: Motor, friction: FrictionModel, applied_torque_nm
     """τ̂ (N) over one period in which `applied_torque_nm` took the motors between two speeds.
 
     Friction is evaluated at the speed the period started with, as the drive integrates it.
-    The arguments broadcast (a run's ticks as rows, `period_s` a column of their periods).
+    One period (a value per motor, `period_s` s), or a run's: a row per period, `period_s`
+    one for all or one per row.
     """
     return _sensorless(motor, friction, applied_torque_nm, speed_before_rad_s, speed_after_rad_s, period_s)[0]
 
@@ -40,12 +41,19 @@ def sensorless_tension_bounds(motor: Motor, friction: FrictionModel, applied_tor
     return low, high
 
 
-def _sensorless(motor, friction, *arrays) -> np.ndarray:
-    """τ̂, its lowest and highest (3, *shape) of the broadcast `arrays` (tick_arithmetic)."""
-    arrays = np.broadcast_arrays(*(np.asarray(array, dtype=float) for array in arrays))
-    shape = arrays[0].shape
-    flat = [np.ascontiguousarray(array).ravel() for array in arrays]
-    result = np.empty((3, flat[0].size))
-    tick_arithmetic.kernel().sensorless_tensions(tick_arithmetic.motor_constants(motor, friction), *flat,
-                                                 *result)
-    return result.reshape((3, *shape))
+def _sensorless(motor, friction, applied_torque_nm, speed_before_rad_s, speed_after_rad_s,
+                period_s) -> np.ndarray:
+    """τ̂, its lowest and highest (3, *shape) (tick_arithmetic.sensorless_tensions)."""
+    constants, kernel = tick_arithmetic.motor_constants(motor, friction), tick_arithmetic.kernel()
+    rows = [np.ascontiguousarray(values, dtype=float)
+            for values in (applied_torque_nm, speed_before_rad_s, speed_after_rad_s)]
+    if rows[0].ndim == 1:
+        result = np.empty((3, rows[0].size))
+        kernel.sensorless_tensions(constants, *rows, float(period_s), *result)
+        return result
+    periods = np.broadcast_to(np.asarray(period_s, dtype=float).reshape(-1), len(rows[0]))
+    result = np.empty((3, *rows[0].shape))
+    for k, period in enumerate(periods.tolist()):
+        kernel.sensorless_tensions(constants, rows[0][k], rows[1][k], rows[2][k], period, result[0, k],
+                                   result[1, k], result[2, k])
+    return result

@@ -109,10 +109,9 @@ class Supervisor:
         self.previous_speed: np.ndarray | None = None
         self.previous_reference: JointReference | None = None
         self.tension_bounds_n = (np.zeros(robot.cable_count), np.zeros(robot.cable_count))
-        # the per-tick arithmetic (tick_arithmetic), and what it takes of the robot and the run
-        self.arithmetic = tick_arithmetic.kernel()
+        # the per-tick arithmetic (tick_arithmetic), and what it takes of the robot
+        self.arithmetic = tick_arithmetic.kernel().load_all()
         self.motor_constants = tick_arithmetic.motor_constants(robot.motor, fdi.friction)
-        self.periods_s = np.full(robot.cable_count, period_s)
         self.evidence = AlarmEvidence(fdi.identification_window_cycles)
         self.collapse = TensionCollapse(fdi.collapse_window_cycles, fdi.collapse_band_n,
                                         fdi.collapse_reference_n)
@@ -148,7 +147,7 @@ class Supervisor:
         if self.previous_speed is not None:
             tension, low, high = np.empty(speed.size), np.empty(speed.size), np.empty(speed.size)
             self.arithmetic.sensorless_tensions(self.motor_constants, self.felt_torque_nm(applied),
-                                                self.previous_speed, speed, self.periods_s, tension, low, high)
+                                                self.previous_speed, speed, self.period_s, tension, low, high)
             self.tension_bounds_n = low, high
             self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
             if not self.broken:   # once a cable is named, nothing more is looked for

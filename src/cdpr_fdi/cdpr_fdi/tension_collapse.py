@@ -32,7 +32,7 @@ class TensionCollapse:
         self.window = window
         self.band_n = band_n
         self.reference_min_n = reference_min_n
-        self.arithmetic = tick_arithmetic.kernel()
+        self.arithmetic = tick_arithmetic.kernel().load_all()
         # per period of the window, rows: τ̂'s lower and upper bounds (N), the reference
         # tension (N); and their sum over it, kept as periods come and go (averaging the
         # window afresh each period cost half of a tick). Sized by the first period.

@@ -7,8 +7,7 @@ under 1 µs (docs/performance.md). The formulas are residual.py's, tension_colla
 and the supervisor's reference tension; their docstrings say why.
 
 Arrays in, arrays written: `motor` is `motor_constants(robot.motor, friction)`; the
-per-motor arrays are flat, one entry per motor (or per motor and tick, for a run's
-stack raveled).
+per-motor arrays hold one entry per motor.
 """
 from __future__ import annotations
 
@@ -25,11 +24,14 @@ from cdpr_control.robot import Motor
 INERTIA, VISCOUS, RADIUS, COULOMB, SMOOTHING = range(5)
 
 
+@cache
 def motor_constants(motor: Motor, friction: FrictionModel) -> np.ndarray:
     """J (kg·m²), b (N·m·s/rad), ρ (m), and the Coulomb friction f_c (N·m) with its
-    smoothing speed (rad/s) as the control stack models them."""
-    return np.array([motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad, motor.drum_radius_m,
-                     friction.coulomb_nm, friction.smoothing_rad_s])
+    smoothing speed (rad/s) as the control stack models them (read-only: made once)."""
+    constants = np.array([motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad, motor.drum_radius_m,
+                          friction.coulomb_nm, friction.smoothing_rad_s])
+    constants.flags.writeable = False
+    return constants
 
 
 def sensorless_tensions(motor, applied_torque_nm, speed_before_rad_s, speed_after_rad_s, period_s,
@@ -37,13 +39,13 @@ def sensorless_tensions(motor, applied_torque_nm, speed_before_rad_s, speed_afte
     """τ̂ = (J θ̈ + b θ̇ + f_c(θ̇) − c) / ρ (N) over a period in which the applied torque c
     took a motor between two speeds, friction at the speed it started with (into
     `tension_n`), and the lowest and highest τ̂ the friction between the two speeds
-    allows (into `low_n`, `high_n`)."""
+    allows (into `low_n`, `high_n`); the period `period_s` long (s)."""
     inertia, viscous, radius = motor[INERTIA], motor[VISCOUS], motor[RADIUS]
     coulomb, smoothing = motor[COULOMB], motor[SMOOTHING]
     for i in range(applied_torque_nm.shape[0]):
         before, after = speed_before_rad_s[i], speed_after_rad_s[i]
         friction_before = coulomb * tanh(before / smoothing)
-        at_start = (inertia * ((after - before) / period_s[i]) + viscous * before + friction_before
+        at_start = (inertia * ((after - before) / period_s) + viscous * before + friction_before
                     - applied_torque_nm[i]) / radius
         other_end = at_start + (coulomb * tanh(after / smoothing) - friction_before) / radius
         tension_n[i] = at_start
@@ -87,12 +89,13 @@ PYTHON = python_kernel(sensorless_tensions, reference_tensions, collapse_window)
 
 
 def _signatures(types) -> dict:
-    # writable C-contiguous float64 arrays only
+    # C-contiguous float64 arrays only, those only read also read-only ones (from messages)
     row, rows, floats = types.float64[::1], types.float64[:, ::1], types.float64
-    return {sensorless_tensions: types.void(*(row,) * 8),
-            reference_tensions: types.void(row, floats, row, row, row, row),
-            collapse_window: types.intp(types.float64[:, :, ::1], rows, types.intp, row, row, row, floats, floats,
-                                        row)}
+    given = types.Array(types.float64, 1, 'C', readonly=True)
+    return {sensorless_tensions: types.void(*(given,) * 4, floats, row, row, row),
+            reference_tensions: types.void(given, floats, given, given, given, row),
+            collapse_window: types.intp(types.float64[:, :, ::1], rows, types.intp, given, given, given, floats,
+                                        floats, row)}
 
 
 @cache

@@ -27,7 +27,8 @@ class DigitalTwinNode(CdprNode):
         self.gains = PdGains.from_section(self.robot, control)
         self.substeps = settings.section('twin').integer('substeps', minimum=1)
         self.names = contract.joint_names(self.robot.cable_count)
-        self.twin: DigitalTwin | None = None
+        self.twin: DigitalTwin | None = None   # built at the first reference, where it starts
+        DigitalTwin.load_kernels(self.robot)
         self.last_stamp_ns: int | None = None
         self.last_reference: JointReference | None = None
         self.joints = self.create_stream_publisher(JointState, contract.TWIN_JOINT_STATES)

@@ -77,7 +77,7 @@ class ElasticCableRobot:
                  coulomb_velocity_rad_s: float, drive: DriveTrain = DriveTrain(),
                  kernel: str = 'compiled'):
         self.robot = robot
-        self.kernel = substep_kernel(kernel)
+        self.kernel = substep_kernel(kernel).load_all()
         self.drive = drive
         self.substeps = int(substeps)
         self.axial_stiffness_n = axial_stiffness_n

@@ -36,7 +36,7 @@ class ElasticPlatform:
         smoothing); the Coulomb friction is the robot's motors' static friction."""
         self.robot = robot
         self.config = config
-        self.kernel = platform_substeps.kernel(kernel)
+        self.kernel = platform_substeps.kernel(kernel).load_all()
         self.exits, self.attachments, self.offsets = platform_substeps.geometry_of(robot)
         self.constants = platform_substeps.constants_of(
             robot, robot.motor.static_friction_nm, config.coulomb_velocity_rad_s, config.axial_stiffness_n,

@@ -34,7 +34,7 @@ class RigidCableRobot:
     def __init__(self, robot: Robot, position_m, substeps: int = 1, kernel: str = 'compiled'):
         self.robot = robot
         self.substeps = int(substeps)
-        self.kernel = point_mass_substeps.kernel(kernel)
+        self.kernel = point_mass_substeps.kernel(kernel).load_all()
         self.constants = point_mass_substeps.constants_of(robot, retaut_tolerance_m=RETAUT_TOLERANCE_M)
         self.exits = np.array(robot.exit_points_m, dtype=float)
         self.offsets = np.array(robot.cable_length_offset_m, dtype=float)

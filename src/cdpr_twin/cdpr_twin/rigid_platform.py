@@ -29,7 +29,7 @@ class RigidPlatform:
         """At rest at the pose (p, `orientation`: the platform's home one when None)."""
         self.robot = robot
         self.substeps = int(substeps)
-        self.kernel = platform_substeps.kernel(kernel)
+        self.kernel = platform_substeps.kernel(kernel).load_all()
         self.exits, self.attachments, self.offsets = platform_substeps.geometry_of(robot)
         self.constants = platform_substeps.constants_of(robot, retaut_tolerance_m=RETAUT_TOLERANCE_M)
         self.position_m = np.array(position_m, dtype=float)

@@ -5,6 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cdpr_control import platform_substeps, point_mass_substeps, tracking
 from cdpr_control.controller import JointController, JointReference, PdGains
 from cdpr_control.robot import Robot
 
@@ -33,6 +34,14 @@ class DigitalTwin:
         self.model = (RigidCableRobot(robot, start_position_m, substeps) if robot.platform is None
                       else RigidPlatform(robot, start_position_m, start_orientation, substeps))
         self.controller = JointController(robot, gains)
+
+    @staticmethod
+    def load_kernels(robot: Robot) -> None:
+        """The compiled functions a twin of `robot` steps with, loaded now (~0.5 s with
+        numba's import): a node builds its twin at the first reference, which must not
+        wait for them."""
+        (point_mass_substeps if robot.platform is None else platform_substeps).kernel().load_all()
+        tracking.kernel().load_all()
 
     def step(self, reference: JointReference, period_s: float) -> TwinOutput:
         """The twin's state and torque at this tick; then it advances one period."""
