@@ -3,9 +3,9 @@
 The whole process of `cdpr-scenario --engine inprocess --fidelity elastic --motion along-2
 --fail-cable 4` (bag, metrics and plots included; imports too) against the goal of
 issue 24 (1.2 s; issue 16's was 1.5 s), and where its time goes, stage by stage in this
-process: settling the run, the simulation, the bag, the report from the run in memory, both as cdpr-scenario runs
-them (the report drawn by a forked process while the bag is written) and, for
-comparison, the report read back from the bag (what cdpr-report does).
+process: settling the run, the simulation, the bag, the report from the run in memory,
+both as cdpr-scenario runs them (the report drawn by a forked process while the bag is
+written) and, for comparison, the report read back from the bag (what cdpr-report does).
 """
 from __future__ import annotations
 
