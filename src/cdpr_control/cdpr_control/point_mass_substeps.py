@@ -138,8 +138,8 @@ def rigid_substeps(substeps, h, constants, exits, offsets, attached, torque, ext
     candidates, joint_acceleration, acceleration = np.empty(m), np.empty(m), np.empty(3)
     for _ in range(substeps):
         for i in range(m):
-            candidates[i] = (1.0 if attached[i] != 0.0 and offsets[i] + radius * angle[i] <= directions[i, 3] + tolerance
-                             else 0.0)
+            length = offsets[i] + radius * angle[i]    # l_i = l_i0 + ρ θ_i, paid out
+            candidates[i] = 1.0 if attached[i] != 0.0 and length <= directions[i, 3] + tolerance else 0.0
         direct_dynamics(constants, directions, velocity, torque, speed, candidates, external_force,
                         acceleration, joint_acceleration, tension, taut)
         for k in range(3):

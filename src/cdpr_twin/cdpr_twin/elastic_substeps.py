@@ -17,7 +17,6 @@ import numpy as np
 from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
 
 
-
 def integrate(substeps, h, constants, cables, inputs, motors, state):
     """`substeps` semi-implicit Euler sub-steps of `h` s; returns the new state.
 
