@@ -155,8 +155,7 @@ class JointController:
         self.previous_speed: np.ndarray | None = None
         self.torque_limit_nm = robot.motor.torque_limit_nm
         self.mode = NOMINAL
-        self.broken = np.zeros(robot.cable_count, dtype=bool)
-        self.broken_mask = np.zeros(robot.cable_count)    # as the tracking kernel takes it
+        self.broken_mask = np.zeros(robot.cable_count)    # 1.0 for a broken cable, as the tracking kernel takes it
         self.kernel = tracking.kernel().load_all()
         self.tension_setpoint_n: np.ndarray | None = None
         self.hold: JointReference | None = None
@@ -171,8 +170,12 @@ class JointController:
     def set_broken(self, cables) -> None:
         """Mark the 0-based `cables` as broken (their motors get zero torque from now on)."""
         for index in cables:
-            self.broken[index] = True
             self.broken_mask[index] = 1.0
+
+    @property
+    def broken(self) -> np.ndarray:
+        """Which motors' cables are broken (bool per motor)."""
+        return self.broken_mask != 0.0
 
     def set_tension_setpoint(self, tensions_n: np.ndarray) -> None:
         self.tension_setpoint_n = np.asarray(tensions_n, dtype=float)

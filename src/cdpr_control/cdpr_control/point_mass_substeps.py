@@ -65,9 +65,8 @@ def direct_dynamics(constants, directions, velocity, torque, speed, candidates, 
     speed_squared = vx * vx + vy * vy + vz * vz
     # Per cable, ṗ·u_i (m/s) and ṗ·u̇_i = ((u_i·ṗ)² − |ṗ|²) / d_i (m/s², u̇_i of
     # docs/design.md §4); the motor law then gives τ_i = −(J/ρ²) u_i·p̈ − pull_i, pull_i
-    # (N) free of p̈. Kept in `tension` and `joint_acceleration` until they are solved.
-    cable_speed, cable_rate = tension, joint_acceleration
-    pull = np.empty(m)
+    # (N) free of p̈.
+    cable_speed, cable_rate, pull = np.empty(m), np.empty(m), np.empty(m)
     for i in range(m):
         along = directions[i, 0] * vx + directions[i, 1] * vy + directions[i, 2] * vz
         rate = (along * along - speed_squared) / directions[i, 3]
@@ -94,26 +93,22 @@ def direct_dynamics(constants, directions, velocity, torque, speed, candidates, 
         ax, ay, az = solve_positive_definite3(mass + reflected * sxx, reflected * sxy, reflected * sxz,
                                               mass + reflected * syy, reflected * syz, mass + reflected * szz,
                                               wx - fx, wy - fy, wz - fz)
+        acceleration[0], acceleration[1], acceleration[2] = ax, ay, az
+        # The cable of the most negative tension goes slack, and the taut set is solved again.
         most_negative, slack = 0.0, -1
         for i in range(m):
             if taut[i] != 0.0:
-                theta_ddot = -(ax * directions[i, 0] + ay * directions[i, 1] + az * directions[i, 2]
-                               + cable_rate[i]) / radius
-                tension_i = (inertia * theta_ddot - viscous * cable_speed[i] / radius - torque[i]) / radius
-                if tension_i < most_negative:
-                    most_negative, slack = tension_i, i
+                joint_acceleration[i] = -(ax * directions[i, 0] + ay * directions[i, 1] + az * directions[i, 2]
+                                          + cable_rate[i]) / radius
+                tension[i] = (inertia * joint_acceleration[i] - viscous * cable_speed[i] / radius - torque[i]) / radius
+                if tension[i] < most_negative:
+                    most_negative, slack = tension[i], i
+            else:
+                joint_acceleration[i] = (torque[i] - viscous * speed[i]) / inertia
+                tension[i] = 0.0
         if slack < 0:
-            break
+            return
         taut[slack] = 0.0
-    acceleration[0], acceleration[1], acceleration[2] = ax, ay, az
-    for i in range(m):
-        if taut[i] != 0.0:
-            joint_acceleration[i] = -(ax * directions[i, 0] + ay * directions[i, 1] + az * directions[i, 2]
-                                      + cable_rate[i]) / radius
-            tension[i] = (inertia * joint_acceleration[i] - viscous * cable_speed[i] / radius - torque[i]) / radius
-        else:
-            joint_acceleration[i] = (torque[i] - viscous * speed[i]) / inertia
-            tension[i] = 0.0
 
 
 def solve_positive_definite3(a, b, c, d, e, f, x, y, z):

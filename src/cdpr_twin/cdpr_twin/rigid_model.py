@@ -13,8 +13,9 @@ from cdpr_control.statics import static_tensions
 # A slack cable whose motor has wound in to within this much of the straight-line
 # length is taut again (m).
 RETAUT_TOLERANCE_M = 1e-9
-# NO_FORCE as the kernel takes it (which reads it only: numba's signature is for writable arrays)
+# NO_FORCE as the kernel takes it
 NO_FORCE_ROW = np.zeros(3)
+NO_FORCE_ROW.flags.writeable = False
 
 
 class RigidCableRobot:
@@ -44,8 +45,7 @@ class RigidCableRobot:
         self.angular_velocity_rad_s = np.zeros(robot.cable_count)
         # A brake holds every drum still; taut rigid cables then hold the end-effector.
         self.drums_locked = False
-        self.attached = np.ones(robot.cable_count, dtype=bool)
-        self.attached_mask = np.ones(robot.cable_count)
+        self.attached_mask = np.ones(robot.cable_count)    # 1.0 while attached, as the kernel takes it
         self.tension_n = static_tensions(robot, self.position_m, self.attached)
         self.taut_mask = np.ones(robot.cable_count)
         # the cables' directions at position_m, which the next sub-step starts from
@@ -55,8 +55,12 @@ class RigidCableRobot:
     def break_cables(self, cables) -> None:
         """Detach the 0-based `cables` for good."""
         for index in cables:
-            self.attached[index] = False
             self.attached_mask[index] = 0.0
+
+    @property
+    def attached(self) -> np.ndarray:
+        """Which cables are still attached (bool per cable)."""
+        return self.attached_mask != 0.0
 
     def step(self, torque_nm: np.ndarray, period_s: float, substeps: int | None = None,
              external_force_n=NO_FORCE) -> None:
