@@ -7,15 +7,23 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.cdpr-setup
 PACKAGES := cdpr_msgs_py cdpr_control cdpr_twin cdpr_fdi cdpr_bringup
 PACKAGE_FILES := $(foreach p,$(PACKAGES),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
+# The modules whose per-tick functions are compiled (cdpr_control/kernels.py)
+KERNEL_MODULES := cdpr_twin.elastic_substeps cdpr_control.platform_substeps cdpr_control.point_mass_substeps \
+	cdpr_control.tracking cdpr_fdi.tick_arithmetic
 
 # What rclpy needs in a venv. The DDS set-up (loopback only, no shared memory) is applied
 # by the launchers and the test session themselves (cdpr_msgs_py/dds.py).
 export AMENT_PREFIX_PATH := $(VENV_ABS)$(if $(AMENT_PREFIX_PATH),:$(AMENT_PREFIX_PATH))
 export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
 
-.PHONY: setup demo demo-6dof test bench clean
+.PHONY: setup kernels demo demo-6dof test bench clean
 
-setup: $(STAMP)
+setup: $(STAMP) kernels
+
+# Built ahead of time from the sources as they are (nothing to do where they are built
+# already): a node then starts without loading numba.
+kernels: $(STAMP)
+	$(PY) -m cdpr_control.kernels $(KERNEL_MODULES)
 
 $(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -23,7 +31,6 @@ $(STAMP): requirements.txt $(PACKAGE_FILES) tools/venv-activate.sh
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps $(foreach p,$(PACKAGES),-e src/$(p))
 	sed -i '/^# cdpr environment/,$$d' $(VENV)/bin/activate
 	cat tools/venv-activate.sh >> $(VENV)/bin/activate
-	$(PY) -c 'import importlib; [importlib.import_module(m).kernel("compiled").load_all() for m in ("cdpr_twin.elastic_substeps", "cdpr_control.platform_substeps", "cdpr_control.point_mass_substeps", "cdpr_control.tracking", "cdpr_fdi.tick_arithmetic")]'
 	touch $(STAMP)
 
 demo: setup

@@ -5,10 +5,13 @@ compared on whole runs in their own files (test_elastic_substeps, test_platform_
 test_point_mass_substeps); the per-tick ones of the controller and the supervisor here."""
 from __future__ import annotations
 
+import importlib
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from cdpr_control import platform_substeps, point_mass_substeps, tracking
+from cdpr_control import kernels, platform_substeps, point_mass_substeps, tracking
 from cdpr_fdi import tick_arithmetic
 from cdpr_twin import elastic_substeps
 
@@ -19,15 +22,37 @@ MOTORS = 8
 
 
 @pytest.mark.parametrize('module', MODULES, ids=lambda module: module.__name__.rsplit('.', 1)[-1])
-def test_compiled_is_numba_and_python_is_cpython(module):
+def test_compiled_is_built_from_this_source_and_python_is_cpython(module, monkeypatch):
+    """`make setup` builds every kernel module ahead of time: `compiled` is that build,
+    with a function for each of CPython's; without it, numba compiles the very functions
+    CPython runs."""
     compiled, python = module.kernel('compiled'), module.kernel('python')
     assert compiled.name == 'compiled' and python is module.PYTHON and compiled is not python
-    for name, function in vars(python).items():
-        if callable(function) and name != 'view':
-            # a numba dispatcher compiled from the very function CPython runs
-            assert getattr(compiled, name).py_func is function, name
+    built = kernels.ahead_of_time(module)
+    assert built is not None, f'{module.__name__} not built ahead of time: make setup builds it'
+    functions = {name: function for name, function in vars(python).items() if callable(function) and name != 'view'}
+    for name in functions:
+        assert getattr(compiled, name) is getattr(built, name), name
+    monkeypatch.setattr(kernels, 'ahead_of_time', lambda module: None)
+    just_in_time = kernels.compiled_kernel(module.__name__)
+    assert {name: function for name, (function, _) in just_in_time.sources().items()} == functions
     with pytest.raises(ValueError, match='kernel must be one of compiled, python'):
         module.kernel('fortran')
+
+
+def test_a_kernel_built_from_an_earlier_source_is_not_loaded(tmp_path, monkeypatch):
+    """The build is found by its source's hash: once the source changes, the kernel is
+    numba's again until the next build, never machine code of another source."""
+    source = tmp_path / 'edited_arithmetic.py'
+    source.write_text(Path(tick_arithmetic.__file__).read_text())
+    monkeypatch.syspath_prepend(str(tmp_path))
+    module = importlib.import_module('edited_arithmetic')
+    assert kernels.ahead_of_time(module) is None
+    assert kernels.main(['edited_arithmetic']) == 0
+    built = kernels.ahead_of_time(module)
+    assert built is not None and set(dir(built)) >= {'sensorless_tensions', 'reference_tensions', 'collapse_window'}
+    source.write_text(source.read_text() + '# edited\n')
+    assert kernels.ahead_of_time(module) is None
 
 
 def both(module, function: str, *arguments, outputs: int):

@@ -3,12 +3,32 @@ CPython runs as they are or numba compiles (elastic_substeps, platform_substeps,
 point_mass_substeps, cdpr_fdi.tick_arithmetic).
 
 On a handful of cables numpy's per-call cost is most of a computation; numba compiles
-such loops to a few µs or less, for ~0.5 s of loading numba in each process that uses
-one. The `python` kernel runs the same functions, for a machine without numba and to
-check the compiled one against: both do the same operations in the same order.
+such loops to a few µs or less. The `python` kernel runs the same functions, for a
+machine without numba and to check the compiled one against: both do the same
+operations in the same order.
+
+The `compiled` kernel of a module is, in this order:
+- its extension module built ahead of time from this very source (`make setup` runs
+  `python -m cdpr_control.kernels MODULE...`, numba's pycc and the C compiler), kept in
+  the package's `__pycache__` under the source's hash: it loads in under a millisecond
+  without numba, where loading numba and the cached machine code costs each process
+  ~0.6 s of CPU and ~100 MB (every node of the loop, at every start);
+- else numba's just-in-time compilation, cached (a colcon workspace's install, an edited
+  source until the next `make setup`);
+- else, without numba, the Python one.
+A kernel module names the functions numba compiles and their types in
+`signatures(numba.types)` (function → signature) and the functions they call in
+`HELPERS`.
 """
 from __future__ import annotations
 
+import hashlib
+import importlib
+import importlib.machinery
+import importlib.util
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 from typing import Callable
 
 KERNELS = ('compiled', 'python')
@@ -34,11 +54,11 @@ def python_kernel(*functions: Callable, **attributes) -> Kernel:
 
 
 class CompiledKernel(Kernel):
-    """The `compiled` kernel: each function compiled by numba when first used (a process
-    loads, or compiles, only what it calls: each costs ~0.1 s to load from the cache and
-    seconds to compile), for exactly the types of its signature (a call with others is an
-    error, not a silent compile of seconds in a realtime loop), and cached once per
-    installation (`make setup` compiles them all, `load_all`)."""
+    """The `compiled` kernel where none was built ahead of time: each function compiled by
+    numba when first used (a process loads, or compiles, only what it calls: each costs
+    ~0.1 s to load from the cache and seconds to compile), for exactly the types of its
+    signature (a call with others is an error, not a silent compile of seconds in a
+    realtime loop), and cached."""
 
     def __init__(self, numba, signatures: dict, **attributes):
         super().__init__('compiled', {}, **attributes)
@@ -54,6 +74,10 @@ class CompiledKernel(Kernel):
         setattr(self, name, compiled)
         return compiled
 
+    def sources(self) -> dict:
+        """Per function name, (the function compiled, its numba signature)."""
+        return dict(self._signatures)
+
     def load_all(self) -> 'Kernel':
         """Every function compiled, or loaded from the cache (~0.1 s each), now: so that a
         realtime loop's first tick does not wait for one; the kernel itself."""
@@ -62,23 +86,102 @@ class CompiledKernel(Kernel):
         return self
 
 
-def compiled_kernel(helpers, signatures: Callable, **attributes) -> CompiledKernel | None:
-    """The `compiled` kernel of the functions of `signatures(numba.types)` (function →
-    numba signature); the `helpers` they call are compiled into each. None where numba
-    is not installed.
+def compiled_kernel(module_name: str, **attributes) -> Kernel | None:
+    """The `compiled` kernel of the kernel module `module_name`: built ahead of time from
+    its source, else compiled by numba when first used; None where numba is not installed.
 
-    numba checks a cache against the file of the function it compiled only: every
-    helper must live in the file of the functions that call it.
+    Both check what they run against the file of the compiled functions only (its hash,
+    numba's cache its time stamp): every helper must live in that file.
     """
+    module = sys.modules[module_name]
+    built = ahead_of_time(module)
+    if built is not None:
+        return Kernel('compiled', {name: getattr(built, name) for name in dir(built) if not name.startswith('_')},
+                      **attributes)
     try:
         import numba
-        from numba.extending import register_jitable
     except ImportError:
         return None
-    for helper in helpers:
+    _register_helpers(module)
+    return CompiledKernel(numba, module.signatures(numba.types), **attributes)
+
+
+def _register_helpers(module) -> None:
+    from numba.extending import register_jitable
+    for helper in module.HELPERS:
         # callable from the compiled functions; unchanged for CPython
         register_jitable(helper)
-    return CompiledKernel(numba, signatures(numba.types), **attributes)
+
+
+def _ahead_of_time_path(module) -> tuple[str, Path]:
+    """(the extension's module name, its file) for the source of `module` as it is now."""
+    source = Path(module.__file__)
+    digest = hashlib.sha256(source.read_bytes()).hexdigest()[:16]
+    name = f'{source.stem}_ahead_of_time'
+    return name, source.parent / '__pycache__' / f'{name}.{digest}{importlib.machinery.EXTENSION_SUFFIXES[0]}'
+
+
+def ahead_of_time(module):
+    """The extension module built from the source of `module` as it is now, or None."""
+    name, path = _ahead_of_time_path(module)
+    if not path.is_file():
+        return None
+    spec = importlib.util.spec_from_file_location(name, path)
+    built = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(built)
+    return built
+
+
+def build_ahead_of_time(module_name: str) -> str:
+    """Build the extension of the kernel module `module_name` (numba's pycc, the C
+    compiler) beside its source, replacing any built from an earlier source; what was
+    done ('' where it was built already)."""
+    module = importlib.import_module(module_name)
+    name, path = _ahead_of_time_path(module)
+    if path.is_file():
+        return ''
+    import warnings
+
+    from numba import types
+    from numba.core.errors import NumbaPendingDeprecationWarning
+    with warnings.catch_warnings():
+        # pycc is numba's ahead-of-time compiler, deprecated without a successor yet
+        warnings.simplefilter('ignore', NumbaPendingDeprecationWarning)
+        from numba.pycc import CC
+    _register_helpers(module)
+    compiler = CC(name)
+    compiler.output_dir = str(path.parent)
+    compiler.output_file = path.name
+    for function, signature in module.signatures(types).items():
+        compiler.export(function.__name__, signature)(function)
+    path.parent.mkdir(exist_ok=True)
+    for earlier in path.parent.glob(f'{name}.*'):
+        earlier.unlink()
+    compiler.compile()
+    return f'{module_name}: kernels built ahead of time'
+
+
+def main(argv=None) -> int:
+    """Build the extensions of the kernel modules named, two at a time, those not built
+    from their current source yet (a C compiler is needed: where the build fails, numba
+    compiles the kernels at first use instead)."""
+    names = sys.argv[1:] if argv is None else argv
+    with ProcessPoolExecutor(2) as pool:
+        for outcome in pool.map(_build_or_say, names):
+            if outcome:
+                print(outcome)
+    return 0
+
+
+def _build_or_say(module_name: str) -> str:
+    try:
+        return build_ahead_of_time(module_name)
+    except Exception as err:   # any compiler or toolchain failure leaves the JIT path
+        return f'{module_name}: not built ahead of time ({type(err).__name__}: {err}); numba compiles it at first use'
+
+
+if __name__ == '__main__':
+    sys.exit(main())
 
 
 def choose(name: str, python: Kernel, compiled: Callable[[], Kernel | None]) -> Kernel:

@@ -449,7 +449,7 @@ PYTHON = python_kernel(forward_kinematics, velocity_product, rigid_body, direct_
                        elastic_substeps)
 
 
-def _signatures(types) -> dict:
+def signatures(types) -> dict:
     # writable C-contiguous float64 arrays only
     row, rows, count, flag = types.float64[::1], types.float64[:, ::1], types.intp, types.boolean
     stack = types.float64[:, :, ::1]
@@ -465,8 +465,8 @@ def _signatures(types) -> dict:
 
 @cache
 def _compiled() -> Kernel | None:
-    # numba takes ~0.5 s to import: only for a platform robot
-    return compiled_kernel(HELPERS, _signatures)
+    # built or compiled once per process, only by one that asks for it
+    return compiled_kernel(__name__)
 
 
 def kernel(name: str = 'compiled') -> Kernel:

@@ -157,7 +157,7 @@ HELPERS = (cable_directions, direct_dynamics, solve_positive_definite3)
 PYTHON = python_kernel(cable_directions, direct_dynamics, rigid_substeps)
 
 
-def _signatures(types) -> dict:
+def signatures(types) -> dict:
     # C-contiguous float64 arrays only, those only read also read-only ones
     row, rows = types.float64[::1], types.float64[:, ::1]
     given, given_rows = types.Array(types.float64, 1, 'C', readonly=True), types.Array(types.float64, 2, 'C',
@@ -170,8 +170,8 @@ def _signatures(types) -> dict:
 
 @cache
 def _compiled() -> Kernel | None:
-    # numba takes ~0.5 s to import: only for a model that asks for it
-    return compiled_kernel(HELPERS, _signatures)
+    # built or compiled once per process, only by one that asks for it
+    return compiled_kernel(__name__)
 
 
 def kernel(name: str = 'compiled') -> Kernel:

@@ -24,10 +24,12 @@ def tracking_torques(stiffness_nm_rad, damping_nm_s_rad, limit_nm, angle_rad, re
         torque_nm[i] = 0.0 if broken[i] != 0.0 else min(max(torque, -limit_nm), limit_nm)
 
 
+# what the compiled functions call: nothing but themselves
+HELPERS = ()
 PYTHON = python_kernel(tracking_torques)
 
 
-def _signatures(types) -> dict:
+def signatures(types) -> dict:
     # C-contiguous float64 arrays only, those only read also read-only ones (from messages)
     row, floats = types.float64[::1], types.float64
     given = types.Array(types.float64, 1, 'C', readonly=True)
@@ -36,8 +38,8 @@ def _signatures(types) -> dict:
 
 @cache
 def _compiled() -> Kernel | None:
-    # numba takes ~0.5 s to import: only for a controller that asks for it
-    return compiled_kernel((), _signatures)
+    # built or compiled once per process, only by one that asks for it
+    return compiled_kernel(__name__)
 
 
 def kernel(name: str = 'compiled') -> Kernel:

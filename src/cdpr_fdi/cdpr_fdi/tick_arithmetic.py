@@ -85,10 +85,12 @@ def collapse_window(recent, total, slot, low_n, high_n, reference_n, band_n, ref
     return count
 
 
+# what the compiled functions call: nothing but themselves
+HELPERS = ()
 PYTHON = python_kernel(sensorless_tensions, reference_tensions, collapse_window)
 
 
-def _signatures(types) -> dict:
+def signatures(types) -> dict:
     # C-contiguous float64 arrays only, those only read also read-only ones (from messages)
     row, rows, floats = types.float64[::1], types.float64[:, ::1], types.float64
     given = types.Array(types.float64, 1, 'C', readonly=True)
@@ -100,8 +102,8 @@ def _signatures(types) -> dict:
 
 @cache
 def _compiled() -> Kernel | None:
-    # numba takes ~0.5 s to import: only for a supervisor that asks for it
-    return compiled_kernel((), _signatures)
+    # built or compiled once per process, only by one that asks for it
+    return compiled_kernel(__name__)
 
 
 def kernel(name: str = 'compiled') -> Kernel:

@@ -3,9 +3,9 @@
 `integrate` is written on indexable sequences and scalars only. CPython runs it on lists
 of floats (on m ≈ 4 cables numpy's per-call overhead would be most of the cost); numba,
 when installed, compiles it for float64 arrays: a period of 8 sub-steps then takes ~12
-instead of ~65 µs (2-core EPYC), for ~1 s of loading numba in each process. Both do the
-same floating-point operations in the same order (tests/test_elastic_substeps.py
-compares them).
+instead of ~65 µs (2-core EPYC), built ahead of time by `make setup`
+(cdpr_control.kernels). Both do the same floating-point operations in the same order
+(tests/test_elastic_substeps.py compares them).
 """
 from __future__ import annotations
 
@@ -88,12 +88,14 @@ def integrate(substeps, h, constants, cables, inputs, motors, state):
     return px, py, pz, vx, vy, vz, fx, fy, fz
 
 
+# what the compiled function calls: nothing but itself
+HELPERS = ()
 # `view` turns a 2-D float array into what `integrate` takes: lists for CPython, which it
 # then writes into; the array itself for numba.
 PYTHON = python_kernel(integrate, view=np.ndarray.tolist)
 
 
-def _signatures(types) -> dict:
+def signatures(types) -> dict:
     floats, rows = types.float64, types.float64[:, :]
     state = types.UniTuple(floats, 9)
     return {integrate: state(types.intp, floats, types.Tuple((floats,) * 15 + (types.boolean,)), rows, rows,
@@ -102,8 +104,8 @@ def _signatures(types) -> dict:
 
 @cache
 def _compiled() -> Kernel | None:
-    # numba takes ~0.5 s to import: only for a model that asks for it
-    return compiled_kernel((), _signatures, view=lambda array: array)
+    # built or compiled once per process, only by one that asks for it
+    return compiled_kernel(__name__, view=lambda array: array)
 
 
 def kernel(name: str) -> Kernel:
