@@ -18,6 +18,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import os
 import re
 from collections import Counter, defaultdict
 from contextlib import contextmanager
@@ -67,7 +68,17 @@ LEAD_CYCLES = CONTROL.integer('reference_lead_cycles')
 MODES = contract.MODES
 ALL_FIELDS = ('position', 'velocity', 'effort')
 
-FUZZ = settings(max_examples=100, deadline=None, database=None,
+# Examples per test as make test runs them, times CDPR_FUZZ_SCALE (1; docs/testing.md,
+# "Fuzzing deeper"). 50 per message handler and mode: with 100, the handlers took 70 s of
+# the suite's 600 s of test time, nearly all of it hypothesis drawing the messages.
+SCALE = float(os.environ.get('CDPR_FUZZ_SCALE', '1'))
+
+
+def examples(count: int) -> int:
+    return max(1, round(count * SCALE))
+
+
+FUZZ = settings(max_examples=examples(50), deadline=None, database=None,
                 suppress_health_check=[HealthCheck.too_slow])
 
 # Huge and garbage values overflow numpy inside the nodes' models (forward kinematics of
@@ -547,7 +558,7 @@ pose_angles = st.one_of(central_points.map(lambda point: inverse_kinematics(ROBO
                         joint_values.map(np.array))
 
 
-@settings(FUZZ, max_examples=30)
+@settings(FUZZ, max_examples=examples(30))
 @given(cable=st.integers(0, CABLES - 1), failure_tick=st.integers(1, 3), extra_ticks=st.integers(1, 6),
        angles=pose_angles, reference=st.tuples(joint_values, joint_values, joint_values))
 def test_supervisor_names_a_freed_motor_whatever_the_pose(
@@ -613,7 +624,7 @@ def plan_ids(node):
     return [(start, id(table)) for start, table in node.schedule.segments]
 
 
-@settings(FUZZ, max_examples=25)
+@settings(FUZZ, max_examples=examples(25))
 @pytest.mark.parametrize('clock_mode', ['lockstep'], indirect=True)
 @given(goal=st.one_of(plannable_goals, unplannable_goals))
 def test_trajectory_generator_plans_finite_goals_in_the_workspace_only(
@@ -638,7 +649,7 @@ def test_trajectory_generator_plans_finite_goals_in_the_workspace_only(
 MAX_JUMP_TICKS = 500
 
 
-@settings(FUZZ, max_examples=50)
+@settings(FUZZ, max_examples=examples(50))
 @pytest.mark.parametrize('clock_mode', ['lockstep'], indirect=True)
 @given(jumps=st.lists(st.tuples(st.integers(-50, MAX_JUMP_TICKS), st.integers(0, PERIOD_NS - 1),
                                 joint_states(st.just(0))), min_size=1, max_size=10))
@@ -970,7 +981,7 @@ mutations = st.tuples(st.sampled_from(list(paths(SHIPPED))), st.sampled_from(KIN
     lambda mutation: st.tuples(st.just(mutation[0]), st.just(mutation[1]), replacements(*mutation)))
 
 
-@settings(FUZZ, max_examples=150)
+@settings(FUZZ, max_examples=examples(150))
 @given(mutation=mutations)
 # What the loaders took for numbers before config.py checked vectors element by element
 # (True as 1.0, '1.0' as 1.0) or raised on (OverflowError on an integer beyond float).
