@@ -36,18 +36,29 @@ class BoundedMinimumNorm(TensionDistribution):
     def distribute_each(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
         """`distribute` of every row (NaN where none), the closed form for the whole stack at
         once: only the rows it leaves outside the bounds are projected, one by one."""
+        return self._stack(structures, wrenches_n, first_infeasible_raises=False)
+
+    def distribute_rows(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+        """As the base class's, without projecting the rows after the first infeasible one
+        (a recovery plan that does not fit is tried again slower: its rest is not needed)."""
+        return self._stack(structures, wrenches_n, first_infeasible_raises=True)
+
+    def _stack(self, structures, wrenches_n, first_infeasible_raises: bool) -> np.ndarray:
         reference = np.full(structures.shape[:-2] + structures.shape[-1:], self.reference_tension_n)
         try:
             tensions = reference + minimum_norm(
                 structures, wrenches_n - np.einsum('...ij,...j->...i', structures, reference))
         except InfeasibleTensionError:
             # a row whose cables span too little: the others are still answered
-            return super().distribute_each(structures, wrenches_n)
+            return (super().distribute_rows if first_infeasible_raises
+                    else super().distribute_each)(structures, wrenches_n)
         outside = self._outside_bounds(tensions)
         for row in np.flatnonzero(outside):
             try:
                 tensions[row] = self._projection(structures[row], wrenches_n[row], reference[row])
-            except InfeasibleTensionError:
+            except InfeasibleTensionError as err:
+                if first_infeasible_raises:
+                    raise err.in_row(int(row)) from None
                 tensions[row] = np.nan
         return tensions
 

@@ -25,3 +25,12 @@ class FlooredLeastSquares(TensionDistribution):
             return self.within.distribute(structure, wrench_n)
         except InfeasibleTensionError:
             return np.minimum(floored_fit(structure, wrench_n, self.tension_min_n), self.tension_max_n)
+
+    def distribute_each(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+        """`distribute` of every row: `within`'s for the whole stack at once, the floored
+        fit of the rows where it has none."""
+        tensions = self.within.distribute_each(structures, wrenches_n)
+        for row in np.flatnonzero(np.isnan(tensions).any(axis=-1)):
+            tensions[row] = np.minimum(floored_fit(structures[row], wrenches_n[row], self.tension_min_n),
+                                       self.tension_max_n)
+        return tensions
