@@ -40,18 +40,51 @@ def test_compiled_is_built_from_this_source_and_python_is_cpython(module, monkey
         module.kernel('fortran')
 
 
+SMALL_KERNEL_MODULE = """
+from functools import cache
+
+from cdpr_control.kernels import choose, compiled_kernel, python_kernel
+
+
+def scaled(values, factor, out):
+    for i in range(values.shape[0]):
+        out[i] = factor * values[i]
+
+
+HELPERS = ()
+PYTHON = python_kernel(scaled)
+
+
+def signatures(types):
+    row = types.float64[::1]
+    return {scaled: types.void(row, types.float64, row)}
+
+
+@cache
+def _compiled():
+    return compiled_kernel(__name__)
+
+
+def kernel(name='compiled'):
+    return choose(name, PYTHON, _compiled)
+"""
+
+
 def test_a_kernel_built_from_an_earlier_source_is_not_loaded(tmp_path, monkeypatch):
     """The build is found by its source's hash: once the source changes, the kernel is
     numba's again until the next build, never machine code of another source."""
-    source = tmp_path / 'edited_arithmetic.py'
-    source.write_text(Path(tick_arithmetic.__file__).read_text())
+    source = tmp_path / 'small_kernel.py'
+    source.write_text(SMALL_KERNEL_MODULE)
     monkeypatch.syspath_prepend(str(tmp_path))
-    module = importlib.import_module('edited_arithmetic')
+    module = importlib.import_module('small_kernel')
     assert kernels.ahead_of_time(module) is None
-    assert kernels.main(['edited_arithmetic']) == 0
+    assert kernels.main(['small_kernel']) == 0
     built = kernels.ahead_of_time(module)
-    assert built is not None and set(dir(built)) >= {'sensorless_tensions', 'reference_tensions', 'collapse_window'}
-    source.write_text(source.read_text() + '# edited\n')
+    assert built is not None and module.kernel().scaled is built.scaled
+    doubled = np.empty(3)
+    built.scaled(np.arange(3.0), 2.0, doubled)
+    assert doubled.tolist() == [0.0, 2.0, 4.0]
+    source.write_text(SMALL_KERNEL_MODULE + '# edited\n')
     assert kernels.ahead_of_time(module) is None
 
 
