@@ -43,13 +43,22 @@ class WrenchBalance:
         self.period_s = period_s
         self.window = window
         # per tick: motor angles (rad), speeds (rad/s), sensorless tensions over the period
-        # that ended there (N)
-        self.ticks: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=window + 1)
+        # that ended there (N), and its placements found so far (taut cables → placement):
+        # a tick placed as "now" is placed again as "then" `window` ticks later
+        self.ticks: deque[tuple[int, np.ndarray, np.ndarray, np.ndarray, dict]] = deque(maxlen=window + 1)
 
     def record(self, tick: int, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray,
                tension_n: np.ndarray) -> None:
         self.ticks.append((tick, np.asarray(angle_rad, float),
-                           np.asarray(angular_velocity_rad_s, float), np.asarray(tension_n, float)))
+                           np.asarray(angular_velocity_rad_s, float), np.asarray(tension_n, float), {}))
+
+    def _placed(self, recorded, taut: np.ndarray):
+        """`placement` of a recorded tick by the `taut` cables, found once."""
+        _, angle, speed, _, placements = recorded
+        key = taut.tobytes()
+        if key not in placements:
+            placements[key] = placement(self.robot, angle, speed, taut)
+        return placements[key]
 
     def unexplained_force_n(self, free_since: dict[int, int]) -> np.ndarray | None:
         """F (N) with the cables of `free_since` (0-based cable → the first tick its motor
@@ -64,12 +73,11 @@ class WrenchBalance:
         taut = robot.cable_mask(list(free_since))
         if len(self.ticks) <= self.window or np.count_nonzero(taut) < robot.degrees_of_freedom:
             return None
-        (_, angle_then, speed_then, _), (_, angle_now, speed_now, _) = self.ticks[0], self.ticks[-1]
-        twist_then = placement(robot, angle_then, speed_then, taut)[2]
-        _, orientation, twist_now, structure = placement(robot, angle_now, speed_now, taut)
+        twist_then = self._placed(self.ticks[0], taut)[2]
+        _, orientation, twist_now, structure = self._placed(self.ticks[-1], taut)
         acceleration = (twist_now - twist_then) / (self.window * self.period_s)
-        tensions = np.array([tension for _, _, _, tension in list(self.ticks)[1:]])
-        ticks = np.array([tick for tick, _, _, _ in list(self.ticks)[1:]])
+        tensions = np.array([tension for _, _, _, tension, _ in list(self.ticks)[1:]])
+        ticks = np.array([tick for tick, _, _, _, _ in list(self.ticks)[1:]])
         for cable, since in free_since.items():
             tensions[ticks >= since, cable] = 0.0
         pulled = structure @ tensions.mean(axis=0)
