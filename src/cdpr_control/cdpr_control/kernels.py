@@ -122,13 +122,17 @@ def _ahead_of_time_path(module) -> tuple[str, Path]:
 
 
 def ahead_of_time(module):
-    """The extension module built from the source of `module` as it is now, or None."""
+    """The extension module built from the source of `module` as it is now, or None (also
+    where it cannot be loaded: built against other libraries than this environment's)."""
     name, path = _ahead_of_time_path(module)
     if not path.is_file():
         return None
     spec = importlib.util.spec_from_file_location(name, path)
     built = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(built)
+    try:
+        spec.loader.exec_module(built)
+    except ImportError:
+        return None
     return built
 
 
