@@ -6,7 +6,6 @@ test_point_mass_substeps); the per-tick ones of the controller and the superviso
 from __future__ import annotations
 
 import importlib
-from pathlib import Path
 
 import numpy as np
 import pytest
