@@ -9,8 +9,10 @@ receive time. `effort_command` holds the commands of the graph's controller only
 (parameter `command_writer`, as the plant obeys): those of any other writer go to
 `effort_command/other_writers`, so that offline FDI and reports see what the motors
 obeyed. Per-cycle topics are subscribed reliable + keep-all, so none is lost.
-On SIGINT/SIGTERM the node drains its queue and closes the bag; if it is killed, the
-bag keeps every chunk flushed so far (at most `flush_period_s` old, see bag_io).
+On SIGINT/SIGTERM the node drains its queue, also while it is quiet as long as a writer
+of a per-tick topic is still there (at most runtime.spin.DRAIN_LIMIT_S), and closes the
+bag; if it is killed, the bag keeps every chunk flushed so far (at most
+`flush_period_s` old, see bag_io).
 
 A bag is the evidence of what the robot did, so a hole in it is said: per per-tick topic
 the recorder counts the ticks it lacks from the stamps (tick_gaps), keeps the counts in
@@ -82,6 +84,8 @@ class BagRecorderNode(CdprNode):
         self.recorded = 0
         # connection id → (topic, its gaps) of the per-tick topics
         self.gaps: dict[int, tuple[str, TickGaps]] = {}
+        # the per-tick topics' full names: stopping, the bag waits for their writers
+        self.per_tick_names: list[str] = []
         command_writer = self.parameter('command_writer', 'controller',
                                         'the node whose effort_command is recorded as such; any '
                                         f'other writer\'s goes to effort_command/{OTHER_WRITERS}')
@@ -93,6 +97,7 @@ class BagRecorderNode(CdprNode):
             connection = self.writer.add_topic(name, kind, [bag_qos(profile)])
             if contract.TOPICS[topic].every_tick:
                 self.gaps[connection.id] = (topic, TickGaps(settings.period_ns))
+                self.per_tick_names.append(name)
             if topic == contract.EFFORT_COMMAND:
                 others = self.writer.add_topic(f'{name}/{OTHER_WRITERS}', kind, [bag_qos(profile)])
                 subscriptions.append((topic, lambda t=topic, c=connection, o=others, p=profile:
@@ -140,6 +145,12 @@ class BagRecorderNode(CdprNode):
         missing = {topic: count for topic, count in self.missing_ticks().items() if count}
         return {**super().current_facts(),
                 'missing ticks': ', '.join(f'{topic} {count}' for topic, count in missing.items()) or 'none'}
+
+    def awaits_writers(self) -> bool:
+        """A writer of a per-tick topic still there may hold ticks this node has not had
+        (it waits for their acknowledgement before it exits): a recorder behind a loaded
+        machine, quiet a moment, must not close the bag before them."""
+        return any(self.count_publishers(name) for name in self.per_tick_names)
 
     def idle(self) -> None:
         super().idle()

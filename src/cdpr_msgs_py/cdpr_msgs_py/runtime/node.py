@@ -158,6 +158,11 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
         self.diagnostics.maybe_publish()
         self.try_start()
 
+    def awaits_writers(self) -> bool:
+        """Whether, stopping, the node keeps draining though quiet: writers it reads are
+        still there and may still send what they hold (the recorder's case)."""
+        return False
+
     def close(self) -> None:
         """Called once on the way out."""
         self.diagnostics.publish()

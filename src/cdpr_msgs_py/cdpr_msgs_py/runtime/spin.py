@@ -117,7 +117,8 @@ def run_composed(node_classes, args=None) -> int:
     return 0
 
 def drain(executor, nodes) -> None:
-    """Spin until none of `nodes` has done anything for DRAIN_QUIET_S (at most DRAIN_LIMIT_S).
+    """Spin until none of `nodes` has done anything for DRAIN_QUIET_S and none awaits a
+    writer (CdprNode.awaits_writers), at most DRAIN_LIMIT_S.
 
     Their timers first stop: what is queued is handled, nothing new is started (a timer
     that kept firing, the markers' frames, kept the node and the recorder busy for the
@@ -134,5 +135,5 @@ def drain(executor, nodes) -> None:
         if activity != seen:
             seen = activity
             quiet_since = time.monotonic()
-        elif time.monotonic() - quiet_since > DRAIN_QUIET_S:
+        elif time.monotonic() - quiet_since > DRAIN_QUIET_S and not any(node.awaits_writers() for node in nodes):
             break
