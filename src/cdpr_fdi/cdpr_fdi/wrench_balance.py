@@ -76,8 +76,9 @@ class WrenchBalance:
         twist_then = self._placed(self.ticks[0], taut)[2]
         _, orientation, twist_now, structure = self._placed(self.ticks[-1], taut)
         acceleration = (twist_now - twist_then) / (self.window * self.period_s)
-        tensions = np.array([tension for _, _, _, tension, _ in list(self.ticks)[1:]])
-        ticks = np.array([tick for tick, _, _, _, _ in list(self.ticks)[1:]])
+        window = list(self.ticks)[1:]
+        tensions = np.array([tension for _, _, _, tension, _ in window])
+        ticks = np.array([tick for tick, *_ in window])
         for cable, since in free_since.items():
             tensions[ticks >= since, cable] = 0.0
         pulled = structure @ tensions.mean(axis=0)
