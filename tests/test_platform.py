@@ -13,9 +13,11 @@ from cdpr_control.config import ConfigError, Section
 from cdpr_control.dynamics import direct_dynamics as point_mass_direct_dynamics
 from cdpr_control.kinematics import KinematicsError, structure_matrix
 from cdpr_control.robot import Platform, load_robot, robot_from_section
-from cdpr_control.rotation import (IDENTITY, difference, from_axis_angle, from_rotation_vector, normalised,
-                                   product, rotation_matrix, to_rotation_vector)
-from cdpr_control.tension_distribution import InfeasibleTensionError, make_tension_distribution
+from cdpr_control.pose_trajectories import BrakedTurn
+from cdpr_control.rotation import (IDENTITY, conjugate, difference, from_axis_angle, from_rotation_vector,
+                                   normalised, product, rotation_matrix, to_rotation_vector)
+from cdpr_control.tension_distribution import InfeasibleTensionError, LoweredFloor, make_tension_distribution
+from cdpr_control.tension_distribution.lowered_floor import FLOOR_BISECTIONS
 
 from conftest import CONFIG_DIR, EIGHT_CABLE_ROBOT, PAPER_ROBOT
 
@@ -231,6 +233,116 @@ def test_a_stack_of_poses_gives_each_rows_inverse_dynamics_and_names_its_first_i
     stack[0][1] = (1.0, 0.75, 1.95)
     with pytest.raises(InfeasibleTensionError, match=r'p = \(1.0000, 0.7500, 1.9500\) m'):
         pose_dynamics.inverse_dynamics(robot, distribution, *stack)
+
+
+# ---- seven cables: one direction of tensions left free ----------------------------------
+
+def seven_cable_stack(robot, rng, count, acceleration_m_s2):
+    """S and w of random poses accelerated at random up to `acceleration_m_s2` (m/s²,
+    rad/s² for the turn), cable 2 detached: many rows no tensions within the bounds pull."""
+    attached = robot.cable_mask([1])
+    structures, wrenches = [], []
+    for position, orientation in random_poses(robot, rng, count):
+        accelerations = rng.uniform(-acceleration_m_s2, acceleration_m_s2, 6)
+        terms = pose_dynamics.motion_terms(robot, np.concatenate([position, orientation])[None], np.zeros((1, 6)),
+                                           accelerations[None])
+        structures.append(terms.structure[0][:, attached])
+        wrenches.append(terms.wrench_n[0])
+    return np.array(structures), np.array(wrenches)
+
+
+def test_seven_cables_are_projected_at_once_as_the_active_set_does_row_by_row(robot, rng):
+    """With one free direction the bounded method projects a stack's rows in closed form
+    (an interval): the same tensions as its active-set search on each row alone, and no
+    tensions where that search proves there are none."""
+    structures, wrenches = seven_cable_stack(robot, rng, 300, 6.0)
+    for reference_n in (0.0, 40.0):
+        method = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n,
+                                           reference_tension_n=reference_n)
+        stack = method.distribute_each(structures, wrenches)
+        alone = []
+        for structure, wrench in zip(structures, wrenches):
+            try:
+                alone.append(method.distribute(structure, wrench))
+            except InfeasibleTensionError:
+                alone.append(np.full(structure.shape[1], np.nan))
+        alone = np.array(alone)
+        found = ~np.isnan(alone).any(axis=1)
+        assert 30 < found.sum() < len(found) - 30
+        np.testing.assert_array_equal(np.isnan(stack).any(axis=1), ~found)
+        np.testing.assert_allclose(stack[found], alone[found], rtol=0, atol=1e-9)
+
+
+def test_a_lowered_floor_keeps_the_least_tension_as_high_as_any_tensions_allow(robot, rng):
+    """Where the method has no tensions at its floor, the lowered floor's pull the wrench
+    exactly with the least of them as high as scipy's LP (max f s.t. S τ = w, f ≤ τ ≤
+    τ_max) finds, and none where that is below the lowest floor; elsewhere they are the
+    method's. With two free directions (eight cables) the bisection finds the same floor."""
+    from scipy.optimize import linprog
+
+    def largest_floor(structure, wrench):
+        count = structure.shape[1]
+        result = linprog(np.r_[np.zeros(count), -1.0], A_ub=np.hstack([-np.eye(count), np.ones((count, 1))]),
+                         b_ub=np.zeros(count), A_eq=np.hstack([structure, np.zeros((6, 1))]), b_eq=wrench,
+                         bounds=[(None, robot.tension_max_n)] * count + [(None, None)], method='highs')
+        return -result.fun if result.status == 0 else -np.inf
+
+    within = make_tension_distribution('bounded_minimum_norm', 2.0 * robot.tension_min_n, robot.tension_max_n)
+    lowered = LoweredFloor(within, robot.tension_min_n)
+    structures, wrenches = seven_cable_stack(robot, rng, 300, 4.0)
+    tensions, own = lowered.distribute_each(structures, wrenches), within.distribute_each(structures, wrenches)
+    kept = ~np.isnan(own).any(axis=1)
+    np.testing.assert_array_equal(tensions[kept], own[kept])
+    counts = {'lowered': 0, 'none': 0}
+    for structure, wrench, row in zip(structures[~kept], wrenches[~kept], tensions[~kept]):
+        best = largest_floor(structure, wrench)
+        if best < robot.tension_min_n - 1e-7:
+            assert np.isnan(row).all()
+            counts['none'] += 1
+            continue
+        counts['lowered'] += 1
+        np.testing.assert_allclose(structure @ row, wrench, atol=1e-8)
+        assert row.max() <= robot.tension_max_n + 1e-9
+        assert row.min() == pytest.approx(best, abs=1e-7)
+    assert min(counts.values()) >= 10, counts
+    structures = np.array([pose_kinematics.wrench_matrix(robot, *pose)[0] for pose in random_poses(robot, rng, 40)])
+    wrenches = seven_cable_stack(robot, rng, 40, 4.0)[1]
+    floors, rows = lowered._bisected(structures, wrenches)
+    for structure, wrench, floor, row in zip(structures, wrenches, floors, rows):
+        best = largest_floor(structure, wrench)
+        if np.isfinite(floor):
+            np.testing.assert_allclose(structure @ row, wrench, atol=1e-8)
+            # up to the method's own floor, above which it has the tensions itself
+            expected = min(best, within.tension_min_n)
+            assert expected - robot.tension_min_n * 2.0 ** -FLOOR_BISECTIONS - 1e-7 <= floor <= expected + 1e-7
+        else:
+            assert best < robot.tension_min_n + 1e-7
+
+
+def test_a_braked_turn_takes_over_the_spin_and_turns_to_its_goal_at_rest():
+    """From q_0 turning at ω_0: ω and α are the derivatives of the orientation (finite
+    differences), ω(0) = ω_0, rest after `brake_s` turned on by ω_0 brake_s / 2, then the
+    goal reached at rest; nothing jumps where the brake ends."""
+    start = from_axis_angle([0.3, -0.2, 1.0], 0.4)
+    spin = np.array([0.4, -0.3, 0.2])
+    goal = from_axis_angle([1.0, 0.5, 0.0], 0.3)
+    turn = BrakedTurn(start, spin, 0.6, goal, 1.5)
+    times = np.linspace(0.0, 2.3, 461)
+    orientation, omega, alpha = turn.sample(times)
+    np.testing.assert_allclose(orientation[0], start, atol=1e-12)
+    np.testing.assert_allclose(omega[0], spin, atol=1e-12)
+    step = times[1] - times[0]
+    rates = np.array([to_rotation_vector(product(later, conjugate(earlier)))
+                      for earlier, later in zip(orientation[:-2], orientation[2:])]) / (2.0 * step)
+    np.testing.assert_allclose(rates, omega[1:-1], atol=1e-4)
+    # α jumps in slope where the brake and the turn end: no central difference across them
+    smooth = (np.abs(times[1:-1] - 0.6) > step) & (np.abs(times[1:-1] - 2.1) > step)
+    np.testing.assert_allclose(((omega[2:] - omega[:-2]) / (2.0 * step))[smooth], alpha[1:-1][smooth], atol=2e-3)
+    rest = turn.sample(0.6)
+    assert np.allclose(rest[1], 0.0) and np.allclose(rest[2], 0.0, atol=1e-9)
+    assert np.linalg.norm(difference(rest[0], start) - 0.3 * spin) < 1e-12
+    end = turn.sample(2.1)
+    assert np.linalg.norm(difference(end[0], goal)) < 1e-12 and np.allclose(end[1], 0.0)
 
 
 # ---- dynamics --------------------------------------------------------------------------

@@ -95,6 +95,43 @@ def test_from_where_seven_cables_hold_it_taut_the_platform_reaches_its_safe_pose
     assert tension.min() >= base.robot.tension_min_n and tension.max() <= base.robot.tension_max_n
 
 
+def least_tension_after_naming(run) -> tuple[float, dict]:
+    """The least tension (N) of the cables left, from the tick after the naming on, and
+    the run's FDI summary."""
+    recording = run_inprocess(run)
+    fdi = recording.fdi
+    attached = run.robot.cable_mask([cable - 1 for cable in fdi['broken_cables']])
+    return float(recording.true_tension_n[fdi['identified_tick'] + 1:][:, attached].min()), fdi
+
+
+def test_near_the_border_the_move_keeps_the_margin_each_pose_allows():
+    """Cable 7 breaks 0.11 of the way round the circle (campaign seed 2), the platform
+    1.4 N inside the seven cables' border and turning: no move keeps every cable 2 N
+    above τ_min from there. The plan brakes the turn as well as the path and lowers the
+    margin only where a pose needs it, and no cable goes below τ_min (before: 0 N for
+    0.25 s, the brake planned with the floored least-squares tensions)."""
+    run = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='circle',
+                                         fidelity='rigid', fail_cables=[7], fail_at_fraction=0.11242174167186213,
+                                         seed=2))
+    least, fdi = least_tension_after_naming(run)
+    assert fdi['broken_cables'] == [7] and fdi['mode'] == 'SAFE_HOLD', fdi
+    assert least >= run.robot.tension_min_n
+
+
+def test_half_a_torque_step_at_the_naming_keeps_elastic_cables_from_ringing_slack():
+    """Cable 7 breaks 0.27 of the way along (elastic plant, seed 2): the move's first row
+    asks each motor for up to ~12 N of cable force more or less than the tick before.
+    Stepped at once, the elastic cables ring below τ_min in the next ticks; half the step
+    first (recovery.command_step_share 0.5), they stay above it."""
+    run = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='along',
+                                         fidelity='elastic', fail_cables=[7], fail_at_fraction=0.2726207622485094,
+                                         seed=2))
+    least, fdi = least_tension_after_naming(run)
+    assert fdi['mode'] == 'SAFE_HOLD' and least >= run.robot.tension_min_n, (least, fdi['mode'])
+    stepped = dataclasses.replace(run, recovery=dataclasses.replace(run.recovery, command_step_share=1.0))
+    assert least_tension_after_naming(stepped)[0] < run.robot.tension_min_n
+
+
 def test_where_the_seven_cables_cannot_hold_it_it_is_fault_saying_why():
     base = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='circle',
                                           fidelity='rigid', fail_cables=[1], fail_at_s=2.24))

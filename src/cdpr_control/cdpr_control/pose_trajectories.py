@@ -11,8 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .rotation import from_rotation_vector, normalised, product
-from .trajectories import Trajectory, quintic_profile
+from .rotation import difference, from_rotation_vector, normalised, product
+from .trajectories import HermiteQuintic, Trajectory, quintic_profile
+
+# The axis of a turn by no angle: any will do.
+NO_TURN_AXIS = (0.0, 0.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -61,10 +64,41 @@ class Turn:
         return Turn(end, self.axis, -self.angle_rad, self.duration_s, total_s - self.delay_s - self.duration_s)
 
 
-class PoseTrajectory:
-    """A platform's motion: `path` for its position, `turn` for its orientation."""
+class BrakedTurn:
+    """A recovery's orientation: from `start` turning at ω_0 (rad/s, world frame), brought
+    to rest about ω_0's axis over `brake_s` by the Hermite quintic (turned on by ω_0 brake_s
+    / 2, as a path braked by HermiteQuintic goes on by half its speed times that time), then
+    turned to `goal` about a fixed axis over `turn_s` with the rest-to-rest law.
 
-    def __init__(self, path: Trajectory, turn: Turn):
+    The rotation vector φ(t) of the brake keeps ω_0's direction, so ω = φ̇ and α = φ̈
+    exactly; the two parts do not overlap in time, so their rates add.
+    """
+
+    def __init__(self, start, angular_velocity_rad_s, brake_s: float, goal, turn_s: float):
+        spin = np.asarray(angular_velocity_rad_s, dtype=float)
+        self.start = normalised(start)
+        self.brake = HermiteQuintic(np.zeros(3), spin, 0.5 * brake_s * spin, np.zeros(3), brake_s)
+        rest = normalised(product(from_rotation_vector(self.brake.goal_m), self.start))
+        turn = difference(goal, rest)
+        angle = float(np.linalg.norm(turn))
+        self.turn = Turn(rest, turn / angle if angle > 0.0 else NO_TURN_AXIS, angle, turn_s, brake_s)
+
+    def sample(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, ω, α) at time t (s) of the motion; of each time of an array t (n × 4, n × 3)."""
+        braked, brake_velocity, brake_acceleration = self.brake.sample(t)
+        turned, turn_velocity, turn_acceleration = self.turn.sample(t)
+        # each part rests while the other moves: the brake's end is the turn's start
+        braking = np.asarray(t) < self.turn.delay_s
+        orientation = np.where(braking[..., None], normalised(product(from_rotation_vector(braked), self.start)),
+                               turned)
+        return orientation, brake_velocity + turn_velocity, brake_acceleration + turn_acceleration
+
+
+class PoseTrajectory:
+    """A platform's motion: `path` for its position, `turn` (a Turn or BrakedTurn) for its
+    orientation."""
+
+    def __init__(self, path: Trajectory, turn: Turn | BrakedTurn):
         self.path = path
         self.turn = turn
         self.duration_s = path.duration_s

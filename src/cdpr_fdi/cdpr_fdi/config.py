@@ -163,6 +163,7 @@ class RecoveryConfig:
     plan_tension_margin_n: float
     replan_attempts: int
     replan_slowdown: float
+    command_step_share: float
     reached_tolerance_m: float
     hold_after_s: float
     swing_damping_ratio: float
@@ -232,6 +233,7 @@ class RecoveryConfig:
             replan_attempts=recovery.integer('replan_attempts', minimum=0),
             # each re-plan slower than the one before
             replan_slowdown=recovery.number('replan_slowdown', minimum=1.0),
+            command_step_share=recovery.number('command_step_share', positive=True, maximum=1.0),
             reached_tolerance_m=recovery.number('reached_tolerance_m', positive=True),
             hold_after_s=recovery.number('hold_after_s', non_negative=True),
             swing_damping_ratio=recovery.number('swing_damping_ratio', non_negative=True),

@@ -2,8 +2,9 @@
 
 Where the remaining cables can hold the platform at rest where it is at the naming —
 static tensions within [τ_min, τ_max] exist at its pose — position control takes over at
-once (RECOVERY_MOVE): a quintic from the platform's velocity brings its position to rest,
-its orientation held; then a straight quintic takes the position to the safe pose's while
+once (RECOVERY_MOVE): quintics from the platform's twist bring its position and its
+orientation to rest (BrakedTurn: a plan that took the orientation as still would step
+the motors' speeds, and the platform turns fast in the ticks after a break); then a straight quintic takes the position to the safe pose's while
 the orientation turns about a fixed axis to the safe pose's with the same law; then
 SAFE_HOLD. The move is tabulated per tick for the remaining cables, their tensions
 planned `plan_tension_margin_n` above τ_min; a plan whose tensions leave the bounds is
@@ -29,21 +30,19 @@ from __future__ import annotations
 import numpy as np
 
 from cdpr_control.pose_reference import tabulate_pose_reference
-from cdpr_control.pose_trajectories import PoseTrajectory, Turn
+from cdpr_control.pose_trajectories import BrakedTurn, PoseTrajectory
 from cdpr_control.robot import Robot
-from cdpr_control.rotation import difference
 from cdpr_control.safe_pose import tension_margin_n
-from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError, TensionDistribution,
-                                               make_tension_distribution)
+from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError, LoweredFloor,
+                                               TensionDistribution, make_tension_distribution)
 from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
 
 from .config import RecoveryConfig
 from .recovery import RecoveryInfeasible, TabulatedMove, safe_pose_for
 
-# The axis of a turn by no angle: any will do.
-NO_TURN_AXIS = (0.0, 0.0, 1.0)
-
+# Least tensions (N) of two tries this close count as equal: the faster is kept.
+LEAST_TENSION_RESOLUTION_N = 0.01
 
 def check_held(robot: Robot, attached: np.ndarray, position_m, orientation) -> None:
     """RecoveryInfeasible unless static tensions of the `attached` cables within the
@@ -63,12 +62,13 @@ class PoseRecovery(TabulatedMove):
 
     def __init__(self, robot: Robot, config: RecoveryConfig, distribution: TensionDistribution,
                  period_s: float, attached: np.ndarray, start_tick: int, position_m, orientation,
-                 velocity_m_s):
-        """From the pose (p, q) and velocity (m/s) the remaining (`attached`) cables give at
-        detection, to their safe pose (recovery.safe_pose_for); RecoveryInfeasible where no
-        static tensions within the bounds hold the platform at that pose (checked first: a
-        safe pose the supervisor's start did not find, after several cables, takes ~0.2 s),
-        or where there is no safe pose."""
+                 velocity_m_s, angular_velocity_rad_s, command_nm):
+        """From the pose (p, q) and twist (v m/s, ω rad/s) the remaining (`attached`) cables
+        give at detection, and the torques (N·m) the motors were commanded on that tick, to
+        their safe pose (recovery.safe_pose_for); RecoveryInfeasible where no static
+        tensions within the bounds hold the platform at that pose (checked first: a safe
+        pose the supervisor's start did not find, after several cables, takes ~0.2 s), or
+        where there is no safe pose."""
         check_held(robot, attached, position_m, orientation)
         safe = safe_pose_for(robot, config, attached)
         self.robot = robot
@@ -85,39 +85,73 @@ class PoseRecovery(TabulatedMove):
         self.timed_out = False
         self.outside_bounds: str | None = None
         self.table = self.plan(np.asarray(position_m, dtype=float), orientation,
-                               np.asarray(velocity_m_s, dtype=float))
+                               np.asarray(velocity_m_s, dtype=float), np.asarray(angular_velocity_rad_s, dtype=float))
+        self.ease_in(np.asarray(command_nm, dtype=float))
 
-    def plan(self, position_m, orientation, velocity_m_s):
-        """The move's joint references per tick, slower at each try whose tensions leave
-        the bounds; the slowest with the floored least-squares tensions where none fits
-        (module docstring), saying why in `outside_bounds` (None where a plan fits)."""
+    def plan(self, position_m, orientation, velocity_m_s, angular_velocity_rad_s):
+        """The move's joint references per tick (module docstring): the first of the tries
+        whose tensions keep the planned margin; else, of the tries, the one whose least
+        tension is highest with the margin lowered where a pose needs it; else the slowest
+        with the floored least-squares tensions. `outside_bounds` says why where no try
+        kept the margin (None where one did)."""
         config = self.config
         brake_s = config.brake_s(float(np.linalg.norm(velocity_m_s)))
-        for attempt in range(config.replan_attempts + 1):
-            slowdown = config.replan_slowdown ** attempt
-            move = self.move(position_m, orientation, velocity_m_s, brake_s / slowdown, slowdown)
+        # braking sooner keeps a platform near the border inside it, braking gently asks
+        # less of the cables: each with the move slower and slower
+        slowdowns = [config.replan_slowdown ** attempt for attempt in range(config.replan_attempts + 1)]
+        tries = ([(brake_s / slowdown, slowdown) for slowdown in slowdowns]
+                 + [(brake_s, slowdown) for slowdown in slowdowns[1:]])
+        moves = [self.move(position_m, orientation, velocity_m_s, angular_velocity_rad_s, *each) for each in tries]
+        for move in moves:
             try:
                 table = tabulate_pose_reference(self.robot, self.distribution, move, self.period_s, self.attached)
             except InfeasibleTensionError as err:
-                self.outside_bounds = str(err)
+                reason = str(err)
                 continue
-            self.outside_bounds = None
             return table
-        return tabulate_pose_reference(self.robot, FlooredLeastSquares(self.distribution), move, self.period_s,
-                                       self.attached)
+        lowered = LoweredFloor(self.distribution, self.robot.tension_min_n)
+        best, best_least = None, -np.inf
+        for move in moves:
+            try:
+                table = tabulate_pose_reference(self.robot, lowered, move, self.period_s, self.attached)
+            except InfeasibleTensionError:
+                continue
+            least = float(np.min(table.tension_n[:, self.attached]))
+            # a faster move unless a slower one keeps clearly more
+            if least > best_least + LEAST_TENSION_RESOLUTION_N:
+                best, best_least = table, least
+        if best is not None:
+            self.outside_bounds = (f'{reason}; planned with the margin each pose allows, the least tension '
+                                   f'{best_least:.2f} N')
+            return best
+        self.outside_bounds = (f'{reason}; no try keeps every cable at {self.robot.tension_min_n:g} N: the slowest '
+                               f'planned nearest the bounds')
+        return tabulate_pose_reference(self.robot, FlooredLeastSquares(lowered), moves[len(slowdowns) - 1],
+                                       self.period_s, self.attached)
 
-    def move(self, position_m, orientation, velocity_m_s, brake_s: float, slowdown: float) -> PoseTrajectory:
-        """Brake over `brake_s` (to half its speed times that time ahead), then a quintic to
-        the safe pose, `slowdown` times longer than configured, then rest there."""
+    def ease_in(self, command_nm: np.ndarray) -> None:
+        """The first row the controller tracks (row 1: row 0 is the naming tick's, already
+        commanded) takes `command_step_share` of the step from `command_nm` to its
+        feed-forward, the next row the rest: a step in torque rings elastic cables, and
+        half of it rings them half as much (docs/platform.md)."""
+        if len(self.table) < 2:
+            return
+        held = (1.0 - self.config.command_step_share) * (command_nm - self.table.feedforward_nm[1]) * self.attached
+        self.table.feedforward_nm[1] += held
+        self.table.tension_n[1] -= held / self.robot.motor.drum_radius_m
+
+    def move(self, position_m, orientation, velocity_m_s, angular_velocity_rad_s, brake_s: float,
+             slowdown: float) -> PoseTrajectory:
+        """Brake position and orientation over `brake_s` (each on by half its speed times
+        that time), then a quintic to the safe pose, `slowdown` times longer than
+        configured, then rest there."""
         rest = position_m + 0.5 * brake_s * velocity_m_s
-        turn = difference(self.safe_orientation, orientation)
-        angle = float(np.linalg.norm(turn))
         move_s = self.config.move_s(float(np.linalg.norm(self.safe_point_m - rest))) * slowdown
         path = Sequence([HermiteQuintic(position_m, velocity_m_s, rest, np.zeros(3), brake_s),
                          HermiteQuintic(rest, np.zeros(3), self.safe_point_m, np.zeros(3), move_s),
                          Hold(self.safe_point_m, self.period_s)])
-        return PoseTrajectory(path, Turn(orientation, turn / angle if angle > 0.0 else NO_TURN_AXIS, angle,
-                                         move_s, brake_s))
+        return PoseTrajectory(path, BrakedTurn(orientation, angular_velocity_rad_s, brake_s, self.safe_orientation,
+                                               move_s))
 
     def tabulated(self) -> tuple[int, object]:
         return self.start_tick, self.table

@@ -353,10 +353,10 @@ class Supervisor:
         try:
             check_recoverable(self.robot, attached)
             if self.robot.platform is not None:
-                self.recovery = self.pose_recovery(tick, attached, angle_rad, angular_velocity_rad_s)
+                self.recovery = self.pose_recovery(tick, attached, angle_rad, angular_velocity_rad_s, command_nm)
                 if self.recovery.outside_bounds:
-                    events.append(f'the move to the safe pose leaves the tension bounds, planned nearest '
-                                  f'them: {self.recovery.outside_bounds}')
+                    events.append(f'the move to the safe pose cannot keep the planned tension margin: '
+                                  f'{self.recovery.outside_bounds}')
                 return events
             position = forward_kinematics(self.robot, np.asarray(angle_rad, float), attached)
             taut = taut_tension_n(self.robot, self.recovery_config, attached)
@@ -374,12 +374,14 @@ class Supervisor:
             events.append(f'FAULT: {err}')
         return events
 
-    def pose_recovery(self, tick: int, attached: np.ndarray, angle_rad, angular_velocity_rad_s) -> PoseRecovery:
+    def pose_recovery(self, tick: int, attached: np.ndarray, angle_rad, angular_velocity_rad_s,
+                      command_nm) -> PoseRecovery:
         """A platform's recovery from its pose and velocity as the remaining cables give
-        them (pose_recovery.py); RecoveryInfeasible where it cannot start."""
+        them, and the torques commanded on the tick (pose_recovery.py); RecoveryInfeasible
+        where it cannot start."""
         position, orientation, twist, _ = placement(self.robot, angle_rad, angular_velocity_rad_s, attached)
         return PoseRecovery(self.robot, self.recovery_config, self.distribution, self.period_s, attached, tick,
-                            position, orientation, twist[:3])
+                            position, orientation, twist[:3], twist[3:], command_nm)
 
     def planned_references(self, tick: int, count: int) -> list[tuple[int, JointReference]]:
         """(tick, joint reference) of the `count` ticks after tick + 1 that the recovery's

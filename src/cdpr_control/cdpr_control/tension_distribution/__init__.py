@@ -2,6 +2,7 @@
 from .base import InfeasibleTensionError, TensionDistribution, floored_fit, minimum_norm
 from .bounded_minimum_norm import BoundedMinimumNorm
 from .floored_least_squares import FlooredLeastSquares
+from .lowered_floor import LoweredFloor, largest_floors
 from .pseudo_inverse import PseudoInverse
 
 METHODS = {method.name: method for method in (PseudoInverse, BoundedMinimumNorm)}
@@ -26,5 +27,5 @@ def configured_tension_distribution(control, robot) -> TensionDistribution:
 
 
 __all__ = ['InfeasibleTensionError', 'TensionDistribution', 'PseudoInverse',
-           'BoundedMinimumNorm', 'FlooredLeastSquares', 'METHODS', 'configured_tension_distribution',
+           'BoundedMinimumNorm', 'FlooredLeastSquares', 'LoweredFloor', 'largest_floors', 'METHODS', 'configured_tension_distribution',
            'floored_fit', 'make_tension_distribution', 'minimum_norm']

@@ -1,6 +1,7 @@
 """The interface every tension-distribution method implements."""
 from __future__ import annotations
 
+import copy
 from abc import ABC, abstractmethod
 
 import numpy as np
@@ -36,7 +37,7 @@ class InfeasibleTensionError(ValueError):
 
     def at(self, position_m, orientation=None) -> 'InfeasibleTensionError':
         """The same error, naming the end-effector's position (and a platform's orientation)."""
-        return InfeasibleTensionError(self.reason, position_m, orientation=orientation)
+        return InfeasibleTensionError(self.reason, position_m, self.row, orientation)
 
     def in_row(self, row: int) -> 'InfeasibleTensionError':
         """The same error, naming the row of a stack it came from."""
@@ -54,6 +55,12 @@ class TensionDistribution(ABC):
                              f'{tension_min_n}, {tension_max_n}')
         self.tension_min_n = float(tension_min_n)
         self.tension_max_n = float(tension_max_n)
+
+    def with_floor(self, tension_min_n: float) -> 'TensionDistribution':
+        """The same method with its lower bound at `tension_min_n` (N)."""
+        lowered = copy.copy(self)
+        lowered.tension_min_n = float(tension_min_n)
+        return lowered
 
     @abstractmethod
     def distribute(self, structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:

@@ -52,8 +52,16 @@ class BoundedMinimumNorm(TensionDistribution):
             # a row whose cables span too little: the others are still answered
             return (super().distribute_rows if first_infeasible_raises
                     else super().distribute_each)(structures, wrenches_n)
-        outside = self._outside_bounds(tensions)
-        for row in np.flatnonzero(outside):
+        outside = np.flatnonzero(self._outside_bounds(tensions))
+        if outside.size and structures.shape[-1] - structures.shape[-2] == 1:
+            tensions[outside] = self._interval_projection(structures[outside], wrenches_n[outside],
+                                                          reference[outside])
+            outside = outside[np.isnan(tensions[outside]).any(axis=-1)]
+            if not first_infeasible_raises:
+                return tensions
+            # the active-set search names why the first row has none (and settles a row
+            # the interval left out by rounding alone)
+        for row in outside:
             try:
                 tensions[row] = self._projection(structures[row], wrenches_n[row], reference[row])
             except InfeasibleTensionError as err:
@@ -61,6 +69,25 @@ class BoundedMinimumNorm(TensionDistribution):
                     raise err.in_row(int(row)) from None
                 tensions[row] = np.nan
         return tensions
+
+    def _interval_projection(self, structures, wrenches_n, references):
+        """`_projection` of each row of a stack whose cables leave a null space of one
+        dimension, at once (NaN where none): there the polytope is an interval of z, and
+        the projection z_ref clipped to it."""
+        particular = minimum_norm(structures, wrenches_n)
+        null = np.linalg.svd(structures)[2][:, -1, :]
+        with np.errstate(divide='ignore', invalid='ignore'):
+            to_min = (self.tension_min_n - particular) / null
+            to_max = (self.tension_max_n - particular) / null
+        rising = null > 0.0
+        low = np.where(rising, to_min, np.where(null < 0.0, to_max, -np.inf)).max(axis=-1)
+        high = np.where(rising, to_max, np.where(null < 0.0, to_min, np.inf)).min(axis=-1)
+        # a cable the null space does not move must itself lie within the bounds
+        fixed = (null == 0.0) & ((particular < self.tension_min_n) | (particular > self.tension_max_n))
+        z = np.clip(np.einsum('ij,ij->i', null, references - particular), low, high)
+        tensions = particular + z[:, None] * null
+        held = (low <= high) & ~fixed.any(axis=-1) & ~self._outside_bounds(tensions)
+        return np.where(held[:, None], tensions, np.nan)
 
     def _projection(self, structure, wrench_n, reference):
         count = structure.shape[1]

@@ -1,0 +1,100 @@
+"""Another method's tensions where they exist; elsewhere the most margin the pose allows."""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import BOUND_TOLERANCE_N, InfeasibleTensionError, TensionDistribution, minimum_norm
+
+# Bisection steps of the largest floor where the cables leave a null space of two or more
+# dimensions: the floor to within (τ_floor − τ_lowest) / 2¹² of the best.
+FLOOR_BISECTIONS = 12
+
+
+def largest_floors(structures: np.ndarray, wrenches_n: np.ndarray, tension_max_n: float):
+    """Per row of a stack (S n × d × k, w n × d), the largest floor f (N) for which
+    tensions within [f, τ_max] pull w, and those tensions (n × k); −inf and NaN where no
+    tensions below τ_max pull it. Closed form where the cables leave a null space of at
+    most one dimension (a platform on seven cables, d = 6, k = 7); LinAlgError above.
+
+    Every τ with S τ = w is τ₀ + λ n (τ₀ = S⁺ w, n spanning the null space): the least
+    tension, min_i (τ₀_i + λ n_i), is concave in λ and peaks where two of the lines
+    cross, or at an end of the λ the upper bound allows; with one point left at the
+    largest floor, that point is the tensions.
+    """
+    particular = minimum_norm(structures, wrenches_n)
+    nullity = structures.shape[-1] - structures.shape[-2]
+    if nullity <= 0:
+        held = particular.max(axis=-1) <= tension_max_n + BOUND_TOLERANCE_N
+        return (np.where(held, particular.min(axis=-1), -np.inf),
+                np.where(held[:, None], particular, np.nan))
+    if nullity > 1:
+        raise np.linalg.LinAlgError(f'a null space of {nullity} dimensions has no closed form here')
+    null = np.linalg.svd(structures)[2][:, -1, :]
+    with np.errstate(divide='ignore', invalid='ignore'):
+        reach = (tension_max_n - particular) / null
+        low = np.where(null < 0.0, reach, -np.inf).max(axis=-1)
+        high = np.where(null > 0.0, reach, np.inf).min(axis=-1)
+        crossings = ((particular[:, None, :] - particular[:, :, None])
+                     / (null[:, :, None] - null[:, None, :])).reshape(len(particular), -1)
+    candidates = np.concatenate([low[:, None], high[:, None], crossings], axis=1)
+    # an unbounded end or parallel lines give no candidate: an end that is there stands in
+    inside = np.where(np.isfinite(high), high, np.where(np.isfinite(low), low, 0.0))[:, None]
+    candidates = np.where(np.isfinite(candidates), np.clip(candidates, low[:, None], high[:, None]), inside)
+    least = (particular[:, None, :] + candidates[:, :, None] * null[:, None, :]).min(axis=-1)
+    best = np.argmax(least, axis=1)
+    rows = np.arange(len(particular))
+    scale = candidates[rows, best]
+    held = low <= high
+    tensions = particular + scale[:, None] * null
+    return np.where(held, least[rows, best], -np.inf), np.where(held[:, None], tensions, np.nan)
+
+
+class LoweredFloor(TensionDistribution):
+    """`within`'s tensions wherever they lie within its bounds; where none do, the
+    tensions that keep the least cable as high above `lowest_n` as the wrench allows,
+    the wrench pulled exactly (its floor lowered as far as that row needs, no further:
+    a platform braking where its cables cannot keep the full margin). Rows no tensions
+    above `lowest_n` pull are infeasible, as for any method: its tension_min_n is
+    `lowest_n`."""
+
+    name = 'lowered_floor'
+
+    def __init__(self, within: TensionDistribution, lowest_n: float):
+        super().__init__(lowest_n, within.tension_max_n)
+        self.within = within
+
+    def distribute(self, structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
+        tensions = self.distribute_each(structure[None], np.asarray(wrench_n, dtype=float)[None])[0]
+        if np.isnan(tensions).any():
+            raise InfeasibleTensionError(f'no cable tensions above {self.tension_min_n:g} N pull the wrench')
+        return tensions
+
+    def distribute_each(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+        tensions = self.within.distribute_each(structures, wrenches_n)
+        lowered = np.flatnonzero(np.isnan(tensions).any(axis=-1))
+        if not lowered.size:
+            return tensions
+        try:
+            floors, at_floor = largest_floors(structures[lowered], wrenches_n[lowered], self.tension_max_n)
+        except np.linalg.LinAlgError:
+            floors, at_floor = self._bisected(structures[lowered], wrenches_n[lowered])
+        tensions[lowered] = np.where((floors >= self.tension_min_n - BOUND_TOLERANCE_N)[:, None], at_floor, np.nan)
+        return tensions
+
+    def _bisected(self, structures, wrenches_n):
+        """largest_floors by bisection with `within`'s method, for any null space."""
+        floors = np.full(len(structures), -np.inf)
+        tensions = np.full(structures.shape[:1] + structures.shape[-1:], np.nan)
+        for row, (structure, wrench) in enumerate(zip(structures, wrenches_n)):
+            low, high = self.tension_min_n, self.within.tension_min_n
+            for step in range(FLOOR_BISECTIONS + 1):
+                floor = low if step == 0 else 0.5 * (low + high)
+                try:
+                    tensions[row] = self.within.with_floor(floor).distribute(structure, wrench)
+                except InfeasibleTensionError:
+                    if step == 0:
+                        break
+                    high = floor
+                else:
+                    floors[row], low = floor, floor
+        return floors, tensions
