@@ -4,16 +4,20 @@ Where the remaining cables can hold the platform at rest where it is at the nami
 static tensions within [τ_min, τ_max] exist at its pose — position control takes over at
 once (RECOVERY_MOVE): quintics from the platform's twist bring its position and its
 orientation to rest (BrakedTurn: a plan that took the orientation as still would step
-the motors' speeds, and the platform turns fast in the ticks after a break); then a straight quintic takes the position to the safe pose's while
-the orientation turns about a fixed axis to the safe pose's with the same law; then
-SAFE_HOLD. The move is tabulated per tick for the remaining cables, their tensions
-planned `plan_tension_margin_n` above τ_min; a plan whose tensions leave the bounds is
-planned again, braking sooner and moving slower, `replan_attempts` times. Where none
-fits — the move passes poses where the cables cannot pull its wrench with the margin —
-the slowest plan is tabulated with the floored least-squares tensions on those rows
-(cdpr_control.tension_distribution.FlooredLeastSquares): the wrench out of reach is
-missed by a little, every cable planned at least at the floor, and the joints' position
-control keeps the platform on its way.
+the motors' speeds, and the platform turns fast in the ticks after a break); then a
+straight quintic takes the position to the safe pose's while the orientation turns about
+a fixed axis to the safe pose's with the same law; then SAFE_HOLD. The move is tabulated
+per tick for the remaining cables, their tensions planned `plan_tension_margin_n` above
+τ_min, and tried braking sooner and moving slower, then braking as first planned and
+moving slower: the first try that keeps the margin is taken. Named near the border,
+where the cables cannot keep that margin even at rest, each try is planned with the
+margin lowered where a pose needs it (cdpr_control.tension_distribution.LoweredFloor:
+the wrench pulled exactly, the least tension as high as the pose allows, not below
+τ_min) and the try with the highest least tension is taken. Where no try keeps every
+cable at τ_min, the slowest is tabulated with the floored least-squares tensions on those
+rows (FlooredLeastSquares): the wrench out of reach is missed by a little, and the joints'
+position control keeps the platform on its way. The move's first tick goes
+`command_step_share` of the way from the torques commanded at the naming (ease_in).
 
 Where no static tensions within the bounds hold the platform at its pose, a cable goes
 slack whatever the drives do: RecoveryInfeasible, so the supervisor holds the drums
@@ -43,6 +47,7 @@ from .recovery import RecoveryInfeasible, TabulatedMove, safe_pose_for
 
 # Least tensions (N) of two tries this close count as equal: the faster is kept.
 LEAST_TENSION_RESOLUTION_N = 0.01
+
 
 def check_held(robot: Robot, attached: np.ndarray, position_m, orientation) -> None:
     """RecoveryInfeasible unless static tensions of the `attached` cables within the
