@@ -119,17 +119,32 @@ def test_near_the_border_the_move_keeps_the_margin_each_pose_allows():
 
 
 def test_half_a_torque_step_at_the_naming_keeps_elastic_cables_from_ringing_slack():
-    """Cable 7 breaks 0.27 of the way along (elastic plant, seed 2): the move's first row
-    asks each motor for up to ~12 N of cable force more or less than the tick before.
-    Stepped at once, the elastic cables ring below τ_min in the next ticks; half the step
-    first (recovery.command_step_share 0.5), they stay above it."""
-    run = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='along',
-                                         fidelity='elastic', fail_cables=[7], fail_at_fraction=0.2726207622485094,
-                                         seed=2))
+    """Cable 7 breaks 0.35 of the way up the tilting climb (elastic plant, seed 1): the
+    move's first row asks each motor for a cable force several newtons from the tick
+    before's. Stepped at once, the elastic cables ring below τ_min in the next ticks; half
+    the step first (recovery.command_step_share 0.5), they stay above it."""
+    run = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='climb-tilt',
+                                         fidelity='elastic', fail_cables=[7], fail_at_fraction=0.34760025781117565,
+                                         seed=1))
     least, fdi = least_tension_after_naming(run)
     assert fdi['mode'] == 'SAFE_HOLD' and least >= run.robot.tension_min_n, (least, fdi['mode'])
     stepped = dataclasses.replace(run, recovery=dataclasses.replace(run.recovery, command_step_share=1.0))
     assert least_tension_after_naming(stepped)[0] < run.robot.tension_min_n
+
+
+def test_a_brake_that_starts_lifting_keeps_the_takeover_above_the_floor():
+    """Cable 8 breaks 0.66 of the way across with the yaw (rigid plant, seed 2), the
+    platform named near the border (the plan's least tension 2.8 N): the ticks in which
+    the drives take over from the falling platform take ~0.9 N off the plan. A brake that starts by
+    lifting at recovery.brake_lift_m_s2 (1 m/s²) has every cable pull more then, and none
+    goes below τ_min; from rest acceleration one does."""
+    run = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='across-yaw',
+                                         fidelity='rigid', fail_cables=[8], fail_at_fraction=0.6619734158671637,
+                                         seed=2))
+    least, fdi = least_tension_after_naming(run)
+    assert fdi['mode'] == 'SAFE_HOLD' and least >= run.robot.tension_min_n, (least, fdi['mode'])
+    unlifted = dataclasses.replace(run, recovery=dataclasses.replace(run.recovery, brake_lift_m_s2=0.0))
+    assert least_tension_after_naming(unlifted)[0] < run.robot.tension_min_n
 
 
 def test_where_the_seven_cables_cannot_hold_it_it_is_fault_saying_why():

@@ -16,8 +16,10 @@ the wrench pulled exactly, the least tension as high as the pose allows, not bel
 τ_min) and the try with the highest least tension is taken. Where no try keeps every
 cable at τ_min, the slowest is tabulated with the floored least-squares tensions on those
 rows (FlooredLeastSquares): the wrench out of reach is missed by a little, and the joints'
-position control keeps the platform on its way. The move's first tick goes
-`command_step_share` of the way from the torques commanded at the naming (ease_in).
+position control keeps the platform on its way. The brake starts lifting the platform
+(`brake_lift_m_s2`: every cable then pulls more than at rest, a margin for the ticks
+in which the drives take over), and the move's first tick goes `command_step_share` of
+the way from the torques commanded at the naming (ease_in).
 
 Where no static tensions within the bounds hold the platform at its pose, a cable goes
 slack whatever the drives do: RecoveryInfeasible, so the supervisor holds the drums
@@ -148,11 +150,15 @@ class PoseRecovery(TabulatedMove):
     def move(self, position_m, orientation, velocity_m_s, angular_velocity_rad_s, brake_s: float,
              slowdown: float) -> PoseTrajectory:
         """Brake position and orientation over `brake_s` (each on by half its speed times
-        that time), then a quintic to the safe pose, `slowdown` times longer than
-        configured, then rest there."""
+        that time; the path starting with `brake_lift_m_s2` upward, which every cable pulls
+        for), then a quintic to the safe pose, `slowdown` times longer than configured,
+        then rest there."""
         rest = position_m + 0.5 * brake_s * velocity_m_s
         move_s = self.config.move_s(float(np.linalg.norm(self.safe_point_m - rest))) * slowdown
-        path = Sequence([HermiteQuintic(position_m, velocity_m_s, rest, np.zeros(3), brake_s),
+        gravity = np.linalg.norm(self.robot.gravity_m_s2)
+        up = -self.robot.gravity_m_s2 / gravity if gravity > 0.0 else np.zeros(3)
+        path = Sequence([HermiteQuintic(position_m, velocity_m_s, rest, np.zeros(3), brake_s,
+                                        self.config.brake_lift_m_s2 * up),
                          HermiteQuintic(rest, np.zeros(3), self.safe_point_m, np.zeros(3), move_s),
                          Hold(self.safe_point_m, self.period_s)])
         return PoseTrajectory(path, BrakedTurn(orientation, angular_velocity_rad_s, brake_s, self.safe_orientation,
