@@ -104,15 +104,28 @@ def least_tension_after_naming(run) -> tuple[float, dict]:
     return float(recording.true_tension_n[fdi['identified_tick'] + 1:][:, attached].min()), fdi
 
 
+def broken_at_fraction(motion: str, fidelity: str, cable: int, fraction: float, seed: int):
+    """The run of a campaign's matrix: 1-based `cable` breaking at `fraction` of `motion`."""
+    return build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion=motion, fidelity=fidelity,
+                                          fail_cables=[cable], fail_at_fraction=fraction, seed=seed))
+
+
+def held_above_the_floor_only_with_the_defaults(run, **instead) -> None:
+    """The run recovers to SAFE_HOLD with every cable left at τ_min or more from the
+    naming on; with the recovery settings `instead`, a cable goes below τ_min."""
+    least, fdi = least_tension_after_naming(run)
+    assert fdi['mode'] == 'SAFE_HOLD' and least >= run.robot.tension_min_n, (least, fdi['mode'])
+    changed = dataclasses.replace(run, recovery=dataclasses.replace(run.recovery, **instead))
+    assert least_tension_after_naming(changed)[0] < run.robot.tension_min_n
+
+
 def test_near_the_border_the_move_keeps_the_margin_each_pose_allows():
     """Cable 7 breaks 0.11 of the way round the circle (campaign seed 2), the platform
     1.4 N inside the seven cables' border and turning: no move keeps every cable 2 N
     above τ_min from there. The plan brakes the turn as well as the path and lowers the
     margin only where a pose needs it, and no cable goes below τ_min (before: 0 N for
     0.25 s, the brake planned with the floored least-squares tensions)."""
-    run = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='circle',
-                                         fidelity='rigid', fail_cables=[7], fail_at_fraction=0.11242174167186213,
-                                         seed=2))
+    run = broken_at_fraction('circle', 'rigid', 7, 0.11242174167186213, seed=2)
     least, fdi = least_tension_after_naming(run)
     assert fdi['broken_cables'] == [7] and fdi['mode'] == 'SAFE_HOLD', fdi
     assert least >= run.robot.tension_min_n
@@ -123,28 +136,18 @@ def test_half_a_torque_step_at_the_naming_keeps_elastic_cables_from_ringing_slac
     move's first row asks each motor for a cable force several newtons from the tick
     before's. Stepped at once, the elastic cables ring below τ_min in the next ticks; half
     the step first (recovery.command_step_share 0.5), they stay above it."""
-    run = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='climb-tilt',
-                                         fidelity='elastic', fail_cables=[7], fail_at_fraction=0.34760025781117565,
-                                         seed=1))
-    least, fdi = least_tension_after_naming(run)
-    assert fdi['mode'] == 'SAFE_HOLD' and least >= run.robot.tension_min_n, (least, fdi['mode'])
-    stepped = dataclasses.replace(run, recovery=dataclasses.replace(run.recovery, command_step_share=1.0))
-    assert least_tension_after_naming(stepped)[0] < run.robot.tension_min_n
+    held_above_the_floor_only_with_the_defaults(
+        broken_at_fraction('climb-tilt', 'elastic', 7, 0.34760025781117565, seed=1), command_step_share=1.0)
 
 
 def test_a_brake_that_starts_lifting_keeps_the_takeover_above_the_floor():
     """Cable 8 breaks 0.66 of the way across with the yaw (rigid plant, seed 2), the
     platform named near the border (the plan's least tension 2.8 N): the ticks in which
-    the drives take over from the falling platform take ~0.9 N off the plan. A brake that starts by
-    lifting at recovery.brake_lift_m_s2 (1 m/s²) has every cable pull more then, and none
-    goes below τ_min; from rest acceleration one does."""
-    run = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='across-yaw',
-                                         fidelity='rigid', fail_cables=[8], fail_at_fraction=0.6619734158671637,
-                                         seed=2))
-    least, fdi = least_tension_after_naming(run)
-    assert fdi['mode'] == 'SAFE_HOLD' and least >= run.robot.tension_min_n, (least, fdi['mode'])
-    unlifted = dataclasses.replace(run, recovery=dataclasses.replace(run.recovery, brake_lift_m_s2=0.0))
-    assert least_tension_after_naming(unlifted)[0] < run.robot.tension_min_n
+    the drives take over from the falling platform take ~0.9 N off the plan. A brake that
+    starts by lifting at recovery.brake_lift_m_s2 (1 m/s²) has every cable pull more
+    then, and none goes below τ_min; from rest acceleration one does."""
+    held_above_the_floor_only_with_the_defaults(
+        broken_at_fraction('across-yaw', 'rigid', 8, 0.6619734158671637, seed=2), brake_lift_m_s2=0.0)
 
 
 def test_where_the_seven_cables_cannot_hold_it_it_is_fault_saying_why():
