@@ -27,5 +27,5 @@ def configured_tension_distribution(control, robot) -> TensionDistribution:
 
 
 __all__ = ['InfeasibleTensionError', 'TensionDistribution', 'PseudoInverse',
-           'BoundedMinimumNorm', 'FlooredLeastSquares', 'LoweredFloor', 'largest_floors', 'METHODS', 'configured_tension_distribution',
-           'floored_fit', 'make_tension_distribution', 'minimum_norm']
+           'BoundedMinimumNorm', 'FlooredLeastSquares', 'LoweredFloor', 'largest_floors', 'METHODS',
+           'configured_tension_distribution', 'floored_fit', 'make_tension_distribution', 'minimum_norm']

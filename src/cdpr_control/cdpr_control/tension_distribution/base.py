@@ -126,6 +126,24 @@ def minimum_norm(structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
     return np.einsum('...ij,...i->...j', structure, solved)
 
 
+def free_direction(structures: np.ndarray, wrenches_n: np.ndarray, tension_min_n: float, tension_max_n: float):
+    """For each row of a stack whose cables leave one free direction (S n × d × (d + 1),
+    w n × d): τ₀ = S⁺ w, the unit n spanning the null space of S, and the least and
+    greatest λ (N) for which τ₀ + λ n keeps every cable within [tension_min_n,
+    tension_max_n] (either bound may be infinite; low > high where no λ does)."""
+    particular = minimum_norm(structures, wrenches_n)
+    null = np.linalg.svd(structures)[2][:, -1, :]
+    with np.errstate(divide='ignore', invalid='ignore'):
+        to_min = (tension_min_n - particular) / null
+        to_max = (tension_max_n - particular) / null
+    rising, falling = null > 0.0, null < 0.0
+    low = np.where(rising, to_min, np.where(falling, to_max, -np.inf)).max(axis=-1)
+    high = np.where(rising, to_max, np.where(falling, to_min, np.inf)).min(axis=-1)
+    # a cable the free direction does not move must itself lie within the bounds
+    fixed = ~rising & ~falling & ((particular < tension_min_n) | (particular > tension_max_n))
+    return particular, null, np.where(fixed.any(axis=-1), np.inf, low), high
+
+
 def floored_fit(structure: np.ndarray, wrench_n: np.ndarray, floor_n: float) -> np.ndarray:
     """Tensions (N) no lower than `floor_n` whose wrench S τ comes near `wrench_n` where
     no tensions above the floor pull it: the least-squares fit of every cable; while one

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BOUND_TOLERANCE_N, InfeasibleTensionError, TensionDistribution, minimum_norm
+from .base import BOUND_TOLERANCE_N, InfeasibleTensionError, TensionDistribution, free_direction, minimum_norm
 
 DIRECTION_TOLERANCE = 1e-12
 
@@ -74,19 +74,10 @@ class BoundedMinimumNorm(TensionDistribution):
         """`_projection` of each row of a stack whose cables leave a null space of one
         dimension, at once (NaN where none): there the polytope is an interval of z, and
         the projection z_ref clipped to it."""
-        particular = minimum_norm(structures, wrenches_n)
-        null = np.linalg.svd(structures)[2][:, -1, :]
-        with np.errstate(divide='ignore', invalid='ignore'):
-            to_min = (self.tension_min_n - particular) / null
-            to_max = (self.tension_max_n - particular) / null
-        rising = null > 0.0
-        low = np.where(rising, to_min, np.where(null < 0.0, to_max, -np.inf)).max(axis=-1)
-        high = np.where(rising, to_max, np.where(null < 0.0, to_min, np.inf)).min(axis=-1)
-        # a cable the null space does not move must itself lie within the bounds
-        fixed = (null == 0.0) & ((particular < self.tension_min_n) | (particular > self.tension_max_n))
+        particular, null, low, high = free_direction(structures, wrenches_n, self.tension_min_n, self.tension_max_n)
         z = np.clip(np.einsum('ij,ij->i', null, references - particular), low, high)
         tensions = particular + z[:, None] * null
-        held = (low <= high) & ~fixed.any(axis=-1) & ~self._outside_bounds(tensions)
+        held = (low <= high) & ~self._outside_bounds(tensions)
         return np.where(held[:, None], tensions, np.nan)
 
     def _projection(self, structure, wrench_n, reference):

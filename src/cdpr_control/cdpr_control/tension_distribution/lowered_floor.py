@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BOUND_TOLERANCE_N, InfeasibleTensionError, TensionDistribution, minimum_norm
+from .base import BOUND_TOLERANCE_N, InfeasibleTensionError, TensionDistribution, free_direction, minimum_norm
 
 # Bisection steps of the largest floor where the cables leave a null space of two or more
 # dimensions: the floor to within (τ_floor − τ_lowest) / 2¹² of the best.
@@ -21,19 +21,16 @@ def largest_floors(structures: np.ndarray, wrenches_n: np.ndarray, tension_max_n
     cross, or at an end of the λ the upper bound allows; with one point left at the
     largest floor, that point is the tensions.
     """
-    particular = minimum_norm(structures, wrenches_n)
     nullity = structures.shape[-1] - structures.shape[-2]
     if nullity <= 0:
+        particular = minimum_norm(structures, wrenches_n)
         held = particular.max(axis=-1) <= tension_max_n + BOUND_TOLERANCE_N
         return (np.where(held, particular.min(axis=-1), -np.inf),
                 np.where(held[:, None], particular, np.nan))
     if nullity > 1:
         raise np.linalg.LinAlgError(f'a null space of {nullity} dimensions has no closed form here')
-    null = np.linalg.svd(structures)[2][:, -1, :]
+    particular, null, low, high = free_direction(structures, wrenches_n, -np.inf, tension_max_n)
     with np.errstate(divide='ignore', invalid='ignore'):
-        reach = (tension_max_n - particular) / null
-        low = np.where(null < 0.0, reach, -np.inf).max(axis=-1)
-        high = np.where(null > 0.0, reach, np.inf).min(axis=-1)
         crossings = ((particular[:, None, :] - particular[:, :, None])
                      / (null[:, :, None] - null[:, None, :])).reshape(len(particular), -1)
     candidates = np.concatenate([low[:, None], high[:, None], crossings], axis=1)
