@@ -7,6 +7,7 @@ hold the platform at rest, to its safe pose; from where they cannot, FAULT, sayi
 from __future__ import annotations
 
 import dataclasses
+from concurrent.futures import Future
 
 import numpy as np
 import pytest
@@ -15,6 +16,9 @@ from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 
 from cdpr_control.rotation import difference
+from cdpr_control.tension_distribution import InfeasibleTensionError
+from cdpr_fdi.planning import PlanAtOnce, PlanInBackground
+from cdpr_fdi.pose_recovery import PoseRecovery
 from cdpr_fdi.recovery import safe_pose_for
 
 from conftest import CONFIG_DIR
@@ -168,3 +172,89 @@ def test_a_push_that_slackens_cables_taken_taut_names_none_and_raises_nothing():
                                           fidelity='rigid', pushes=[(2.0, 0.5, 0.0, 0.0, 60.0)], duration_s=6.0))
     fdi = run_inprocess(base).fdi
     assert fdi['broken_cables'] == [] and fdi['mode'] == 'NOMINAL', fdi
+
+
+class PlannedWhenTold:
+    """A planner (cdpr_fdi.planning) whose plans are made only when `finish` is called:
+    a realtime supervisor's planning thread, as slow as a test needs it."""
+
+    def __init__(self):
+        self.waiting = []
+
+    def submit(self, plan, *args) -> Future:
+        future = Future()
+        self.waiting.append((future, plan, args))
+        return future
+
+    def finish(self) -> None:
+        for future, plan, args in self.waiting:
+            future.set_result(plan(*args))
+
+
+def recovery_on_the_climb(planner) -> PoseRecovery:
+    """Cable 2 named 0.6 of the way up the tilting climb, the platform where its reference
+    is then (moving and turning), the move to the safe pose planned by `planner`."""
+    run = scenario('rigid', False)
+    reference = run.reference
+    row = int(0.6 * len(reference))
+    attached = run.robot.cable_mask([1])
+    return PoseRecovery(run.robot, run.recovery, run.distribution, run.period_s, attached, 1000,
+                        reference.position_m[row], reference.orientation[row], reference.velocity_m_s[row],
+                        reference.platform_angular_velocity_rad_s[row], reference.feedforward_nm[row], planner)
+
+
+def references_from(recovery, first_tick: int, last_tick: int) -> list:
+    """(mode, joint reference) the recovery gives for each tick + 1 of first..last."""
+    return [recovery.setpoint(tick, None, None)[::2] for tick in range(first_tick, last_tick + 1)]
+
+
+def test_a_move_planned_after_the_brake_ended_starts_from_the_rest_the_brake_held():
+    """Realtime, the move to the safe pose is planned beside the loop while the platform
+    brakes (planning.py). Planned 30 ticks after the brake ended, the platform is held at
+    the brake's rest meanwhile, nothing sent ahead past it; then the move runs as planned
+    at once, 30 ticks later, from that rest, and the delay is said."""
+    planner = PlannedWhenTold()
+    late, at_once = recovery_on_the_climb(planner), recovery_on_the_climb(PlanAtOnce())
+    brake_end, delay = at_once.brake_end_tick, 30
+    expected = references_from(at_once, 1000, brake_end + 3000)
+    # planned at once, the move starts on the brake's last tick, at its rest
+    assert at_once.move_start_tick == brake_end and expected[-1][0] == 'SAFE_HOLD'
+    got = references_from(late, 1000, brake_end - 2)
+    for (mode, reference), (want_mode, want) in zip(got, expected):
+        assert mode == want_mode == 'RECOVERY_MOVE'
+        np.testing.assert_array_equal(reference.feedforward_nm, want.feedforward_nm)
+    rest = late.brake
+    assert np.allclose(rest.velocity_m_s[-1], 0.0) and np.allclose(rest.platform_angular_velocity_rad_s[-1], 0.0)
+    for tick in range(brake_end - 1, brake_end + delay - 1):
+        mode, _, held = late.setpoint(tick, None, None)
+        assert mode == 'RECOVERY_MOVE' and late.planned_references(tick, 10) == []
+        np.testing.assert_array_equal(held.angle_rad, rest.angle_rad[-1])
+        np.testing.assert_array_equal(held.feedforward_nm, rest.feedforward_nm[-1])
+    planner.finish()
+    got = references_from(late, brake_end + delay - 1, brake_end + delay + 3000)
+    for (mode, reference), (want_mode, want) in zip(got, expected[brake_end - 1000 - 1:]):
+        assert mode == want_mode
+        if want is not None:
+            np.testing.assert_allclose(reference.angle_rad, want.angle_rad, atol=1e-12)
+            np.testing.assert_allclose(reference.feedforward_nm, want.feedforward_nm, atol=1e-9)
+    assert late.phase_ticks['SAFE_HOLD'] == at_once.phase_ticks['SAFE_HOLD'] + delay
+    assert any(f'planned {delay} ticks after the brake ended' in note for note in late.take_notes())
+
+
+def test_a_move_planned_on_a_thread_of_its_own_is_the_move_planned_at_once():
+    """PlanInBackground, the realtime supervisor's planner, gives the table planning at
+    once gives, within a bounded wait; a plan that fails hands its error to the tick that
+    takes the move (the supervisor then holds the drums: FAULT)."""
+    background, at_once = recovery_on_the_climb(PlanInBackground()), recovery_on_the_climb(PlanAtOnce())
+    move, _ = background.planned_move.result(timeout=30.0)
+    np.testing.assert_array_equal(move.feedforward_nm, at_once.planned_move.result()[0].feedforward_nm)
+
+    def fails(*_):
+        raise InfeasibleTensionError('planned to fail')
+
+    failing = recovery_on_the_climb(PlanInBackground())
+    failing.planned_move = PlanInBackground().submit(fails)
+    with pytest.raises(InfeasibleTensionError, match='planned to fail'):
+        for tick in range(1000, failing.brake_end_tick + 100):
+            failing.planned_move.exception(timeout=30.0)
+            failing.setpoint(tick, None, None)

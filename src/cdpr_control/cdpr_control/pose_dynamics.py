@@ -100,13 +100,14 @@ def motion_terms(robot: Robot, poses, twists, accelerations) -> MotionTerms:
 
 def inverse_dynamics(robot: Robot, tension_distribution: TensionDistribution, position_m, orientation,
                      velocity_m_s, angular_velocity_rad_s, acceleration_m_s2, angular_acceleration_rad_s2,
-                     attached=None, external_wrench=None) -> PlatformInverseDynamics:
+                     attached=None, external_wrench=None, nan_where_infeasible: bool = False) -> PlatformInverseDynamics:
     """Torques that make the platform follow the pose x, twist and its rate with the
     `attached` cables: the cables' wrench w = M (a, α) + h − w_g − w_ext is shared by
     `tension_distribution`, and c = J θ̈ + b θ̇ − ρ τ. A detached cable carries no tension
     and its motor is not tied to the platform: its figures are 0. Of one pose, or of each
     row of stacks (n × 3, n × 4 for the orientations), a tabulated motion at once;
-    InfeasibleTensionError names the first pose whose wrench no tensions pull."""
+    InfeasibleTensionError names the first pose whose wrench no tensions pull (with
+    `nan_where_infeasible`, such rows' tensions and torques are NaN instead)."""
     motor = robot.motor
     single = np.ndim(position_m) == 1
     poses = np.concatenate([np.atleast_2d(position_m), np.atleast_2d(orientation)], axis=1)
@@ -115,12 +116,13 @@ def inverse_dynamics(robot: Robot, tension_distribution: TensionDistribution, po
         np.concatenate([np.atleast_2d(acceleration_m_s2), np.atleast_2d(angular_acceleration_rad_s2)], axis=1))
     wrench = terms.wrench_n if external_wrench is None else terms.wrench_n - external_wrench
     theta_dot, theta_ddot = terms.joint_velocity_rad_s, terms.joint_acceleration_rad_s2
+    distribute = tension_distribution.distribute_each if nan_where_infeasible else tension_distribution.distribute_rows
     try:
         if attached is None:
-            tension = tension_distribution.distribute_rows(terms.structure, wrench)
+            tension = distribute(terms.structure, wrench)
         else:
             tension = np.zeros(theta_dot.shape)
-            tension[:, attached] = tension_distribution.distribute_rows(terms.structure[:, :, attached], wrench)
+            tension[:, attached] = distribute(terms.structure[:, :, attached], wrench)
     except InfeasibleTensionError as err:
         raise err.at(poses[err.row, :3], poses[err.row, 3:]) from None
     if attached is not None:

@@ -51,6 +51,14 @@ class Turn:
         self.duration_s = float(duration_s)
         self.delay_s = float(delay_s)
 
+    @classmethod
+    def between(cls, start, goal, duration_s: float, delay_s: float = 0.0) -> 'Turn':
+        """The turn from `start` to `goal` about the fixed axis of their difference."""
+        start = normalised(start)
+        turn = difference(goal, start)
+        angle = float(np.linalg.norm(turn))
+        return cls(start, turn / angle if angle > 0.0 else NO_TURN_AXIS, angle, duration_s, delay_s)
+
     def sample(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(q, ω, α) at time t (s) of the motion; of each time of an array t (n × 4, n × 3)."""
         turned, angular_velocity, angular_acceleration = (
@@ -78,10 +86,7 @@ class BrakedTurn:
         spin = np.asarray(angular_velocity_rad_s, dtype=float)
         self.start = normalised(start)
         self.brake = HermiteQuintic(np.zeros(3), spin, 0.5 * brake_s * spin, np.zeros(3), brake_s)
-        rest = normalised(product(from_rotation_vector(self.brake.goal_m), self.start))
-        turn = difference(goal, rest)
-        angle = float(np.linalg.norm(turn))
-        self.turn = Turn(rest, turn / angle if angle > 0.0 else NO_TURN_AXIS, angle, turn_s, brake_s)
+        self.turn = Turn.between(product(from_rotation_vector(self.brake.goal_m), self.start), goal, turn_s, brake_s)
 
     def sample(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(q, ω, α) at time t (s) of the motion; of each time of an array t (n × 4, n × 3)."""

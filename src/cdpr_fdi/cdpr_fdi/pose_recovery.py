@@ -2,24 +2,31 @@
 
 Where the remaining cables can hold the platform at rest where it is at the naming —
 static tensions within [τ_min, τ_max] exist at its pose — position control takes over at
-once (RECOVERY_MOVE): quintics from the platform's twist bring its position and its
-orientation to rest (BrakedTurn: a plan that took the orientation as still would step
-the motors' speeds, and the platform turns fast in the ticks after a break); then a
-straight quintic takes the position to the safe pose's while the orientation turns about
-a fixed axis to the safe pose's with the same law; then SAFE_HOLD. The move is tabulated
-per tick for the remaining cables, their tensions planned `plan_tension_margin_n` above
-τ_min, and tried braking sooner and moving slower, then braking as first planned and
-moving slower: the first try that keeps the margin is taken. Named near the border,
-where the cables cannot keep that margin even at rest, each try is planned with the
-margin lowered where a pose needs it (cdpr_control.tension_distribution.LoweredFloor:
-the wrench pulled exactly, the least tension as high as the pose allows, not below
-τ_min) and the try with the highest least tension is taken. Where no try keeps every
-cable at τ_min, the slowest is tabulated with the floored least-squares tensions on those
-rows (FlooredLeastSquares): the wrench out of reach is missed by a little, and the joints'
-position control keeps the platform on its way. The brake starts lifting the platform
-(`brake_lift_m_s2`: every cable then pulls more than at rest, a margin for the ticks
-in which the drives take over), and the move's first tick goes `command_step_share` of
-the way from the torques commanded at the naming (ease_in).
+once (RECOVERY_MOVE), in two parts planned one after the other:
+
+- the brake, planned at the naming: quintics from the platform's twist bring its
+  position and its orientation to rest (BrakedTurn: a plan that took the orientation as
+  still would step the motors' speeds, and the platform turns fast in the ticks after a
+  break), the path starting with `brake_lift_m_s2` upward (every cable then pulls more
+  than at rest, a margin for the ticks in which the drives take over), its first tick
+  going `command_step_share` of the way from the torques commanded at the naming
+  (ease_in). Tried as configured, then sooner and sooner;
+- the move, planned from the brake's rest (by a `planner`, planning.py: at once, or on a
+  thread while a realtime loop brakes): a straight quintic takes the position to the
+  safe pose's while the orientation turns about a fixed axis with the same law; tried as
+  configured, then slower and slower. Should its plan not be ready when the brake ends,
+  the platform is held at rest where the brake left it until it is; then SAFE_HOLD.
+
+Each part is tabulated per tick for the remaining cables, their tensions planned
+`plan_tension_margin_n` above τ_min: the first try that keeps that margin is taken.
+Where no try does (named near the border), the margin is lowered where a pose needs it
+(cdpr_control.tension_distribution.LoweredFloor: the wrench pulled exactly, the least
+tension as high as the pose allows, not below τ_min) and the try with the highest least
+tension is taken. Where no try keeps every cable at τ_min, the last (the shortest brake,
+the slowest move) is tabulated with the floored least-squares tensions on those rows
+(FlooredLeastSquares): the wrench out of reach is missed by a little, and the joints'
+position control keeps the platform on its way. What each part gave up is said once
+(`take_notes`).
 
 Where no static tensions within the bounds hold the platform at its pose, a cable goes
 slack whatever the drives do: RecoveryInfeasible, so the supervisor holds the drums
@@ -33,21 +40,26 @@ not tell.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from cdpr_control.pose_reference import tabulate_pose_reference
-from cdpr_control.pose_trajectories import BrakedTurn, PoseTrajectory
+from cdpr_control.controller import JointReference
+from cdpr_control.pose_reference import PoseReferenceTable, tabulate_pose_reference, tabulate_pose_references
+from cdpr_control.pose_trajectories import BrakedTurn, PoseTrajectory, Turn
 from cdpr_control.robot import Robot
 from cdpr_control.safe_pose import tension_margin_n
 from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError, LoweredFloor,
                                                TensionDistribution, make_tension_distribution)
+from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N
 from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
 
 from .config import RecoveryConfig
-from .recovery import RecoveryInfeasible, TabulatedMove, safe_pose_for
+from .planning import PlanAtOnce
+from .recovery import RecoveryInfeasible, safe_pose_for, table_reference
 
-# Least tensions (N) of two tries this close count as equal: the faster is kept.
+# Least tensions (N) of two tries this close count as equal: the first (faster) is kept.
 LEAST_TENSION_RESOLUTION_N = 0.01
 
 
@@ -62,20 +74,21 @@ def check_held(robot: Robot, attached: np.ndarray, position_m, orientation) -> N
             f'do, and no recovery from there is built for a platform (docs/platform.md)')
 
 
-class PoseRecovery(TabulatedMove):
+class PoseRecovery:
     """Steps through a platform's recovery, one control tick at a time, as Recovery does
     a point mass's: `setpoint(tick, angle, speed)` gives the mode and the joint reference
     of the next tick."""
 
     def __init__(self, robot: Robot, config: RecoveryConfig, distribution: TensionDistribution,
                  period_s: float, attached: np.ndarray, start_tick: int, position_m, orientation,
-                 velocity_m_s, angular_velocity_rad_s, command_nm):
+                 velocity_m_s, angular_velocity_rad_s, command_nm, planner=None):
         """From the pose (p, q) and twist (v m/s, ω rad/s) the remaining (`attached`) cables
         give at detection, and the torques (N·m) the motors were commanded on that tick, to
-        their safe pose (recovery.safe_pose_for); RecoveryInfeasible where no static
-        tensions within the bounds hold the platform at that pose (checked first: a safe
-        pose the supervisor's start did not find, after several cables, takes ~0.2 s), or
-        where there is no safe pose."""
+        their safe pose (recovery.safe_pose_for), the move planned by `planner`
+        (planning.py; at once when None); RecoveryInfeasible where no static tensions
+        within the bounds hold the platform at that pose (checked first: a safe pose the
+        supervisor's start did not find, after several cables, takes ~0.2 s), or where
+        there is no safe pose."""
         check_held(robot, attached, position_m, orientation)
         safe = safe_pose_for(robot, config, attached)
         self.robot = robot
@@ -84,93 +97,166 @@ class PoseRecovery(TabulatedMove):
         self.attached = np.asarray(attached, dtype=bool).copy()
         self.safe_point_m = safe.position_m
         self.safe_orientation = safe.orientation
-        self.distribution = make_tension_distribution(
+        self.margin = make_tension_distribution(
             distribution.name, distribution.tension_min_n + config.plan_tension_margin_n, distribution.tension_max_n)
+        self.lowered = LoweredFloor(self.margin, robot.tension_min_n)
         self.mode = RECOVERY_MOVE
         self.start_tick = start_tick
         self.phase_ticks = {RECOVERY_MOVE: start_tick}
         self.timed_out = False
-        self.outside_bounds: str | None = None
-        self.table = self.plan(np.asarray(position_m, dtype=float), orientation,
-                               np.asarray(velocity_m_s, dtype=float), np.asarray(angular_velocity_rad_s, dtype=float))
+        self.brake, note = self.plan_brake(np.asarray(position_m, dtype=float), orientation,
+                                           np.asarray(velocity_m_s, dtype=float),
+                                           np.asarray(angular_velocity_rad_s, dtype=float))
+        self.notes = [note] if note else []
         self.ease_in(np.asarray(command_nm, dtype=float))
+        # the brake's last row: its rest, where the move starts
+        self.brake_end_tick = start_tick + len(self.brake) - 1
+        self.planned_move = (planner or PlanAtOnce()).submit(self.plan_move, self.brake.position_m[-1],
+                                                             self.brake.orientation[-1])
+        self.move: PoseReferenceTable | None = None
+        self.move_start_tick: int | None = None
 
-    def plan(self, position_m, orientation, velocity_m_s, angular_velocity_rad_s):
-        """The move's joint references per tick (module docstring): the first of the tries
-        whose tensions keep the planned margin; else, of the tries, the one whose least
-        tension is highest with the margin lowered where a pose needs it; else the slowest
-        with the floored least-squares tensions. `outside_bounds` says why where no try
-        kept the margin (None where one did)."""
+    def plan_brake(self, position_m, orientation, velocity_m_s,
+                   angular_velocity_rad_s) -> tuple[PoseReferenceTable, str]:
+        """The brake's joint references per tick (module docstring), its last row at rest,
+        and a note where it cannot keep the margin: over brake_s(|v|), then over that
+        shortened `replan_slowdown` times, up to `replan_attempts` times; each a whole
+        number of periods."""
         config = self.config
         brake_s = config.brake_s(float(np.linalg.norm(velocity_m_s)))
-        # braking sooner keeps a platform near the border inside it, braking gently asks
-        # less of the cables: each with the move slower and slower
-        slowdowns = [config.replan_slowdown ** attempt for attempt in range(config.replan_attempts + 1)]
-        tries = ([(brake_s / slowdown, slowdown) for slowdown in slowdowns]
-                 + [(brake_s, slowdown) for slowdown in slowdowns[1:]])
-        moves = [self.move(position_m, orientation, velocity_m_s, angular_velocity_rad_s, *each) for each in tries]
-        for move in moves:
-            try:
-                table = tabulate_pose_reference(self.robot, self.distribution, move, self.period_s, self.attached)
-            except InfeasibleTensionError as err:
-                reason = str(err)
+        gravity = np.linalg.norm(self.robot.gravity_m_s2)
+        up = -self.robot.gravity_m_s2 / gravity if gravity > 0.0 else np.zeros(3)
+        brakes = []
+        for attempt in range(config.replan_attempts + 1):
+            duration_s = math.ceil(brake_s / config.replan_slowdown ** attempt / self.period_s) * self.period_s
+            rest = position_m + 0.5 * duration_s * velocity_m_s
+            path = HermiteQuintic(position_m, velocity_m_s, rest, np.zeros(3), duration_s,
+                                  config.brake_lift_m_s2 * up)
+            # the turn after the brake is the move's: of it only its start, the rest, is sampled
+            brakes.append(PoseTrajectory(path, BrakedTurn(orientation, angular_velocity_rad_s, duration_s,
+                                                          orientation, self.period_s)))
+        return self.best_of(brakes, 'the brake')
+
+    def plan_move(self, position_m, orientation) -> tuple[PoseReferenceTable, str]:
+        """The move's joint references per tick from rest at (p, q) to the safe pose, its
+        last row there at rest, and a note where it cannot keep the margin: over
+        move_s(distance), then `replan_slowdown` times longer, up to `replan_attempts`
+        times."""
+        config = self.config
+        move_s = config.move_s(float(np.linalg.norm(self.safe_point_m - position_m)))
+        moves = []
+        for attempt in range(config.replan_attempts + 1):
+            duration_s = move_s * config.replan_slowdown ** attempt
+            path = Sequence([HermiteQuintic(position_m, np.zeros(3), self.safe_point_m, np.zeros(3), duration_s),
+                             Hold(self.safe_point_m, self.period_s)])
+            moves.append(PoseTrajectory(path, Turn.between(orientation, self.safe_orientation, duration_s)))
+        return self.best_of(moves, 'the move to the safe pose', slowest_on_ties=True)
+
+    def best_of(self, tries: list[PoseTrajectory], part: str,
+                slowest_on_ties: bool = False) -> tuple[PoseReferenceTable, str]:
+        """The table of the first try whose tensions keep the planned margin; else of the
+        try whose least tension is highest with the margin lowered where a pose needs it
+        (of equals, the first, or with `slowest_on_ties` the last); else of the last try
+        with the floored least-squares tensions; with a note saying which where it is not
+        the first kind ('' where it is). The first try is tabulated alone (it mostly keeps
+        the margin), the others together."""
+        floor = self.margin.tension_min_n - BOUND_TOLERANCE_N
+        best, best_least, short = None, -np.inf, ''
+        for table in self.tabulated_tries(tries):
+            if isinstance(table, InfeasibleTensionError):
+                short = short or str(table)
                 continue
-            return table
-        lowered = LoweredFloor(self.distribution, self.robot.tension_min_n)
-        best, best_least = None, -np.inf
-        for move in moves:
-            try:
-                table = tabulate_pose_reference(self.robot, lowered, move, self.period_s, self.attached)
-            except InfeasibleTensionError:
-                continue
-            least = float(np.min(table.tension_n[:, self.attached]))
-            # a faster move unless a slower one keeps clearly more
-            if least > best_least + LEAST_TENSION_RESOLUTION_N:
-                best, best_least = table, least
+            least = table.tension_n[:, self.attached].min(axis=1)
+            if least.min() >= floor:
+                return table, ''
+            if not short:
+                where = table.position_m[int(np.argmax(least < floor))]
+                short = (f'{self.margin.tension_min_n:g} N not kept from p = '
+                         f'({", ".join(f"{value:.4f}" for value in where)}) m')
+            if least.min() > best_least + LEAST_TENSION_RESOLUTION_N or (
+                    slowest_on_ties and least.min() > best_least - LEAST_TENSION_RESOLUTION_N):
+                best, best_least = table, float(least.min())
         if best is not None:
-            self.outside_bounds = (f'{reason}; planned with the margin each pose allows, the least tension '
-                                   f'{best_least:.2f} N')
-            return best
-        self.outside_bounds = (f'{reason}; no try keeps every cable at {self.robot.tension_min_n:g} N: the slowest '
-                               f'planned nearest the bounds')
-        return tabulate_pose_reference(self.robot, FlooredLeastSquares(lowered), moves[len(slowdowns) - 1],
-                                       self.period_s, self.attached)
+            return best, (f'{part} cannot keep the planned tension margin ({short}): planned with the margin '
+                          f'each pose allows, the least tension {best_least:.2f} N')
+        return (tabulate_pose_reference(self.robot, FlooredLeastSquares(self.lowered), tries[-1], self.period_s,
+                                        self.attached),
+                f'{part} cannot keep the planned tension margin ({short}); no try keeps every cable at '
+                f'{self.robot.tension_min_n:g} N: the last planned nearest the bounds')
+
+    def tabulated_tries(self, tries: list[PoseTrajectory]):
+        """Each try's table with the lowered floor (or the error naming where not even
+        τ_min holds): the first alone, the others, if it does not keep the margin, in one
+        pass."""
+        first = tabulate_pose_references(self.robot, self.lowered, tries[:1], self.period_s, self.attached)
+        yield first[0]
+        yield from tabulate_pose_references(self.robot, self.lowered, tries[1:], self.period_s, self.attached)
 
     def ease_in(self, command_nm: np.ndarray) -> None:
         """The first row the controller tracks (row 1: row 0 is the naming tick's, already
         commanded) takes `command_step_share` of the step from `command_nm` to its
         feed-forward, the next row the rest: a step in torque rings elastic cables, and
         half of it rings them half as much (docs/platform.md)."""
-        if len(self.table) < 2:
+        if len(self.brake) < 2:
             return
-        held = (1.0 - self.config.command_step_share) * (command_nm - self.table.feedforward_nm[1]) * self.attached
-        self.table.feedforward_nm[1] += held
-        self.table.tension_n[1] -= held / self.robot.motor.drum_radius_m
+        held = (1.0 - self.config.command_step_share) * (command_nm - self.brake.feedforward_nm[1]) * self.attached
+        self.brake.feedforward_nm[1] += held
+        self.brake.tension_n[1] -= held / self.robot.motor.drum_radius_m
 
-    def move(self, position_m, orientation, velocity_m_s, angular_velocity_rad_s, brake_s: float,
-             slowdown: float) -> PoseTrajectory:
-        """Brake position and orientation over `brake_s` (each on by half its speed times
-        that time; the path starting with `brake_lift_m_s2` upward, which every cable pulls
-        for), then a quintic to the safe pose, `slowdown` times longer than configured,
-        then rest there."""
-        rest = position_m + 0.5 * brake_s * velocity_m_s
-        move_s = self.config.move_s(float(np.linalg.norm(self.safe_point_m - rest))) * slowdown
-        gravity = np.linalg.norm(self.robot.gravity_m_s2)
-        up = -self.robot.gravity_m_s2 / gravity if gravity > 0.0 else np.zeros(3)
-        path = Sequence([HermiteQuintic(position_m, velocity_m_s, rest, np.zeros(3), brake_s,
-                                        self.config.brake_lift_m_s2 * up),
-                         HermiteQuintic(rest, np.zeros(3), self.safe_point_m, np.zeros(3), move_s),
-                         Hold(self.safe_point_m, self.period_s)])
-        return PoseTrajectory(path, BrakedTurn(orientation, angular_velocity_rad_s, brake_s, self.safe_orientation,
-                                               move_s))
+    def take_notes(self) -> list[str]:
+        """What the plans gave up, or how they came late, each said once."""
+        notes, self.notes = self.notes, []
+        return notes
 
-    def tabulated(self) -> tuple[int, object]:
-        return self.start_tick, self.table
+    def take_move(self, tick: int) -> None:
+        """The move, once planned: its first row (the brake's rest) on the brake's last
+        tick, or on tick + 1 where the plan came later (the platform held at rest till
+        then). Raises what planning raised."""
+        if self.move is not None or not self.planned_move.done():
+            return
+        self.move, note = self.planned_move.result()
+        self.move_start_tick = max(self.brake_end_tick, tick + 1)
+        self.notes += [note] if note else []
+        if self.move_start_tick > self.brake_end_tick:
+            self.notes.append(f'the move to the safe pose was planned {self.move_start_tick - self.brake_end_tick} '
+                              f'ticks after the brake ended: the platform held at rest meanwhile')
+
+    def reference_at(self, tick: int) -> JointReference | None:
+        """The joint reference of `tick` as far as the plans fix it: a brake's row; its
+        rest until the move starts (None ahead of now: the move may start sooner); a
+        move's row; None after the move."""
+        if self.move is not None and tick >= self.move_start_tick:
+            row = tick - self.move_start_tick
+            return table_reference(self.move, row) if row < len(self.move) else None
+        row = tick - self.start_tick
+        return table_reference(self.brake, min(row, len(self.brake) - 1))
 
     def setpoint(self, tick: int, angle_rad, angular_velocity_rad_s):
-        """(mode, None, JointReference or None) for tick + 1: the move's rows, its last one
-        on the tick SAFE_HOLD starts, then nothing (the controller holds it at rest)."""
+        """(mode, None, JointReference or None) for tick + 1: the brake's rows, its rest
+        until the move is planned, the move's rows, the last on the tick SAFE_HOLD starts,
+        then nothing (the controller holds it at rest)."""
         if self.mode == SAFE_HOLD:
             return self.mode, None, None
-        reference = self.move_setpoint(tick)
+        self.take_move(tick)
+        reference = self.reference_at(tick + 1)
+        if reference is None:
+            self.mode = SAFE_HOLD
+            self.phase_ticks[SAFE_HOLD] = tick + 1
+            reference = table_reference(self.move, len(self.move) - 1)
         return self.mode, None, reference
+
+    def planned_references(self, tick: int, count: int) -> list[tuple[int, JointReference]]:
+        """(tick, joint reference) of the `count` ticks after tick + 1 that the plans
+        already fix (the brake's rows up to its rest; the move's once taken); none outside
+        RECOVERY_MOVE."""
+        if self.mode != RECOVERY_MOVE:
+            return []
+        planned = []
+        for later in range(tick + 2, tick + 2 + count):
+            if self.move is None and later > self.brake_end_tick:
+                break
+            reference = self.reference_at(later)
+            if reference is None:
+                break
+            planned.append((later, reference))
+        return planned

@@ -92,8 +92,11 @@ class Verdict:
 class Supervisor:
 
     def __init__(self, robot: Robot, fdi: FdiConfig, recovery: RecoveryConfig,
-                 distribution: TensionDistribution, period_s: float):
+                 distribution: TensionDistribution, period_s: float, planner=None):
+        """`planner` plans a platform's move to its safe pose (planning.py: at once when
+        None; a realtime node's on a thread of its own)."""
         self.robot = robot
+        self.planner = planner
         self.fdi = fdi
         self.recovery_config = recovery
         self.distribution = distribution
@@ -207,10 +210,12 @@ class Supervisor:
             try:
                 self.mode, tensions, setpoint = self.recovery.setpoint(tick, angle_rad,
                                                                        angular_velocity_rad_s)
-            except (ValueError, np.linalg.LinAlgError) as err:
+            except (ValueError, RecoveryInfeasible, np.linalg.LinAlgError) as err:
                 # the pose cannot be found or the move to SP cannot be planned: hold
                 self.mode, tensions, setpoint = FAULT, None, None
                 self.fault_reason = f'recovery failed at tick {tick}: {err}'
+            if isinstance(self.recovery, PoseRecovery):
+                events += self.recovery.take_notes()
             if self.mode != previous_mode:
                 events.append(f'{self.mode} from tick {tick + 1}'
                               + (f': {self.fault_reason}' if self.mode == FAULT else ''))
@@ -354,9 +359,6 @@ class Supervisor:
             check_recoverable(self.robot, attached)
             if self.robot.platform is not None:
                 self.recovery = self.pose_recovery(tick, attached, angle_rad, angular_velocity_rad_s, command_nm)
-                if self.recovery.outside_bounds:
-                    events.append(f'the move to the safe pose cannot keep the planned tension margin: '
-                                  f'{self.recovery.outside_bounds}')
                 return events
             position = forward_kinematics(self.robot, np.asarray(angle_rad, float), attached)
             taut = taut_tension_n(self.robot, self.recovery_config, attached)
@@ -381,7 +383,7 @@ class Supervisor:
         where it cannot start."""
         position, orientation, twist, _ = placement(self.robot, angle_rad, angular_velocity_rad_s, attached)
         return PoseRecovery(self.robot, self.recovery_config, self.distribution, self.period_s, attached, tick,
-                            position, orientation, twist[:3], twist[3:], command_nm)
+                            position, orientation, twist[:3], twist[3:], command_nm, self.planner)
 
     def planned_references(self, tick: int, count: int) -> list[tuple[int, JointReference]]:
         """(tick, joint reference) of the `count` ticks after tick + 1 that the recovery's

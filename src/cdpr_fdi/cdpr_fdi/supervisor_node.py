@@ -31,6 +31,7 @@ from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 
 from .config import settled_fdi
+from .planning import PlanAtOnce, PlanInBackground
 from .supervisor import Supervisor
 
 INPUTS = ('state', 'command', 'twin', 'reference')
@@ -52,7 +53,9 @@ class SupervisorNode(CdprNode):
         self.origin_wall_ns = 0    # when the first tick was judged (monotonic ns)
         fdi, recovery = settled_fdi(settings, self.robot)
         distribution = configured_tension_distribution(control, self.robot)
-        self.supervisor = Supervisor(self.robot, fdi, recovery, distribution, self.period_s)
+        # realtime, a platform's move is planned beside the loop, not in the tick (planning.py)
+        self.supervisor = Supervisor(self.robot, fdi, recovery, distribution, self.period_s,
+                                     PlanInBackground() if self.clock_mode == 'realtime' else PlanAtOnce())
         self.names = contract.joint_names(self.robot.cable_count)
         self.inputs: dict[str, dict[int, object]] = {name: {} for name in INPUTS}
         self.origin_ns: int | None = None

@@ -126,13 +126,24 @@ def minimum_norm(structure: np.ndarray, wrench_n: np.ndarray) -> np.ndarray:
     return np.einsum('...ij,...i->...j', structure, solved)
 
 
+def null_vectors(structures: np.ndarray) -> np.ndarray:
+    """For each S of a stack whose cables leave one free direction (n × d × (d + 1), of
+    full row rank), the unit vector spanning its null space (either sign): the column of
+    the projector I − S⁺S onto that space with the largest diagonal entry, n_j² ≥ 1/(d + 1)
+    of it, normalised (a quarter of an SVD's time on a platform's stacks)."""
+    transposed = np.swapaxes(structures, -1, -2)
+    projector = np.eye(structures.shape[-1]) - transposed @ np.linalg.solve(structures @ transposed, structures)
+    column = projector[np.arange(len(structures)), :, np.argmax(np.diagonal(projector, axis1=-2, axis2=-1), axis=-1)]
+    return column / np.linalg.norm(column, axis=-1, keepdims=True)
+
+
 def free_direction(structures: np.ndarray, wrenches_n: np.ndarray, tension_min_n: float, tension_max_n: float):
     """For each row of a stack whose cables leave one free direction (S n × d × (d + 1),
     w n × d): τ₀ = S⁺ w, the unit n spanning the null space of S, and the least and
     greatest λ (N) for which τ₀ + λ n keeps every cable within [tension_min_n,
     tension_max_n] (either bound may be infinite; low > high where no λ does)."""
     particular = minimum_norm(structures, wrenches_n)
-    null = np.linalg.svd(structures)[2][:, -1, :]
+    null = null_vectors(structures)
     with np.errstate(divide='ignore', invalid='ignore'):
         to_min = (tension_min_n - particular) / null
         to_max = (tension_max_n - particular) / null

@@ -1,0 +1,60 @@
+"""Where a platform's move to its safe pose is planned: at once, or beside a realtime loop.
+
+A recovery brakes first and plans its move from where the brake brings the platform to
+rest (pose_recovery.py). The in-process engine and a lockstep graph plan the move at
+once: nothing moves meanwhile. A realtime supervisor cannot stop judging ticks and
+sending the brake's references for the 0.05–2 s a move can take to plan on this machine
+(docs/platform.md): it plans on a thread of its own while the brake runs, and the
+recovery holds the platform at rest if the plan is not ready when the brake ends.
+
+A planner's `submit(plan, *args)` returns a concurrent.futures.Future of plan(*args).
+"""
+from __future__ import annotations
+
+import sys
+import threading
+from concurrent.futures import Future
+
+from cdpr_msgs_py.scheduling import time_sharing_for_this_thread
+
+# The interpreter's switch interval beside a planning thread (s): a tenth of a 2 ms tick.
+SWITCH_INTERVAL_S = 0.0002
+
+
+def _settle(future: Future, plan, args) -> None:
+    try:
+        future.set_result(plan(*args))
+    except Exception as err:   # handed to whoever reads the future: the recovery's FAULT
+        future.set_exception(err)
+
+
+class PlanAtOnce:
+    """Plans on the caller's thread before returning."""
+
+    def submit(self, plan, *args) -> Future:
+        future = Future()
+        _settle(future, plan, args)
+        return future
+
+
+class PlanInBackground:
+    """Plans on a daemon thread at time-sharing priority: the node's realtime threads
+    (SCHED_FIFO, which a new thread would inherit) keep the cores the loop needs, and
+    planning takes what they leave. A thread computing holds the GIL until the
+    interpreter's switch interval has passed (5 ms by default) when another asks for it:
+    the node's callbacks, which must publish the brake's references within a tick or
+    two, would wait that long at each. The planner sets it to `switch_interval_s` for
+    the process."""
+
+    def __init__(self, switch_interval_s: float = SWITCH_INTERVAL_S):
+        sys.setswitchinterval(switch_interval_s)
+
+    def submit(self, plan, *args) -> Future:
+        future = Future()
+
+        def work():
+            time_sharing_for_this_thread()
+            _settle(future, plan, args)
+
+        threading.Thread(target=work, name='recovery planning', daemon=True).start()
+        return future
