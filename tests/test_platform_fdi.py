@@ -187,7 +187,9 @@ class PlannedWhenTold:
         return future
 
     def finish(self) -> None:
-        for future, plan, args in self.waiting:
+        """Make every plan handed in so far."""
+        while self.waiting:
+            future, plan, args = self.waiting.pop(0)
             future.set_result(plan(*args))
 
 
@@ -208,13 +210,17 @@ def references_from(recovery, first_tick: int, last_tick: int) -> list:
     return [recovery.setpoint(tick, None, None)[::2] for tick in range(first_tick, last_tick + 1)]
 
 
-def test_a_move_planned_after_the_brake_ended_starts_from_the_rest_the_brake_held():
-    """Realtime, the move to the safe pose is planned beside the loop while the platform
-    brakes (planning.py). Planned 30 ticks after the brake ended, the platform is held at
-    the brake's rest meanwhile, nothing sent ahead past it; then the move runs as planned
-    at once, 30 ticks later, from that rest, and the delay is said."""
+def test_a_brake_and_a_move_planned_late_keep_to_what_was_sent_and_hold_at_rest():
+    """Realtime, a platform's brake is committed for its first ticks at the naming and the
+    rest of it, then the move to the safe pose, are planned beside the loop while it
+    brakes (planning.py). The brake's rest planned in time: the same brake as planned at
+    once. The move planned 30 ticks after the brake ended: the platform held at the
+    brake's rest meanwhile, nothing sent ahead past it; then the move runs as planned at
+    once, 30 ticks later, from that rest, the delay said. The brake's rest not planned
+    by the time its rows are to be sent: the first try's rest of the way, planned then."""
     planner = PlannedWhenTold()
     late, at_once = recovery_on_the_climb(planner), recovery_on_the_climb(PlanAtOnce())
+    planner.finish()
     brake_end, delay = at_once.brake_end_tick, 30
     expected = references_from(at_once, 1000, brake_end + 3000)
     # planned at once, the move starts on the brake's last tick, at its rest
@@ -238,14 +244,29 @@ def test_a_move_planned_after_the_brake_ended_starts_from_the_rest_the_brake_hel
             np.testing.assert_allclose(reference.angle_rad, want.angle_rad, atol=1e-12)
             np.testing.assert_allclose(reference.feedforward_nm, want.feedforward_nm, atol=1e-9)
     assert late.phase_ticks['SAFE_HOLD'] == at_once.phase_ticks['SAFE_HOLD'] + delay
-    assert any(f'planned {delay} ticks after the brake ended' in note for note in late.take_notes())
+    notes = late.take_notes()
+    assert any(f'planned {delay} ticks after the brake ended' in note for note in notes)
+    assert not any('not planned by tick' in note for note in notes), notes
+
+    never = recovery_on_the_climb(PlannedWhenTold())
+    committed = never.switch_tick - 1000
+    assert never.planned_references(1000, committed - 2)[-1][0] == never.switch_tick - 1
+    assert never.continuation is not None
+    # rows past the committed ones wanted: the first try's rest of the way, planned now
+    sent = never.planned_references(1000, committed + 10)
+    assert never.continuation is None and sent[-1][0] == 1000 + 1 + committed + 10
+    assert any(f'not planned by tick {never.switch_tick}' in note for note in never.take_notes())
+    np.testing.assert_allclose(never.brake.feedforward_nm, at_once.brake.feedforward_nm, atol=1e-9)
 
 
 def test_a_move_planned_on_a_thread_of_its_own_is_the_move_planned_at_once():
-    """PlanInBackground, the realtime supervisor's planner, gives the table planning at
+    """PlanInBackground, the realtime supervisor's planner, gives the tables planning at
     once gives, within a bounded wait; a plan that fails hands its error to the tick that
-    takes the move (the supervisor then holds the drums: FAULT)."""
+    takes it (the supervisor then holds the drums: FAULT)."""
     background, at_once = recovery_on_the_climb(PlanInBackground()), recovery_on_the_climb(PlanAtOnce())
+    background.continuation.result(timeout=30.0)
+    background.settle_brake(1000)
+    np.testing.assert_array_equal(background.brake.feedforward_nm, at_once.brake.feedforward_nm)
     move, _ = background.planned_move.result(timeout=30.0)
     np.testing.assert_array_equal(move.feedforward_nm, at_once.planned_move.result()[0].feedforward_nm)
 
@@ -253,8 +274,7 @@ def test_a_move_planned_on_a_thread_of_its_own_is_the_move_planned_at_once():
         raise InfeasibleTensionError('planned to fail')
 
     failing = recovery_on_the_climb(PlanInBackground())
-    failing.planned_move = PlanInBackground().submit(fails)
+    failing.continuation = PlanInBackground().submit(fails)
+    failing.continuation.exception(timeout=30.0)
     with pytest.raises(InfeasibleTensionError, match='planned to fail'):
-        for tick in range(1000, failing.brake_end_tick + 100):
-            failing.planned_move.exception(timeout=30.0)
-            failing.setpoint(tick, None, None)
+        failing.setpoint(1000, None, None)

@@ -36,12 +36,13 @@ def tabulate_pose_reference(robot: Robot, tension_distribution: TensionDistribut
 
 
 def tabulate_pose_references(robot: Robot, tension_distribution: TensionDistribution, trajectories: list,
-                             period_s: float, attached=None) -> list:
-    """`tabulate_pose_reference` of each of `trajectories`, in one pass over all their
-    rows (what each costs apart is mostly numpy's per-call time on tables of a few
-    hundred rows); for a trajectory with a pose no tensions hold, in its place the
-    InfeasibleTensionError naming the first."""
-    samples = [trajectory.sample(np.arange(int(round(trajectory.duration_s / period_s)) + 1) * period_s)
+                             period_s: float, attached=None, rows: int | None = None) -> list:
+    """`tabulate_pose_reference` of each of `trajectories` (of its first `rows` rows where
+    given), in one pass over all their rows (what each costs apart is mostly numpy's
+    per-call time on tables of a few hundred rows); for a trajectory with a pose no
+    tensions hold, in its place the InfeasibleTensionError naming the first."""
+    samples = [trajectory.sample(np.arange(min(int(round(trajectory.duration_s / period_s)) + 1,
+                                               rows or np.iinfo(int).max)) * period_s)
                for trajectory in trajectories]
     motion = [np.concatenate(figures) for figures in zip(*(sample.motion for sample in samples))]
     dynamics = pose_dynamics.inverse_dynamics(robot, tension_distribution, *motion, attached=attached,

@@ -78,14 +78,18 @@ class BrakedTurn:
     / 2, as a path braked by HermiteQuintic goes on by half its speed times that time), then
     turned to `goal` about a fixed axis over `turn_s` with the rest-to-rest law.
 
-    The rotation vector φ(t) of the brake keeps ω_0's direction, so ω = φ̇ and α = φ̈
-    exactly; the two parts do not overlap in time, so their rates add.
+    A brake already under way is taken over with its angular acceleration α_0 and turned on
+    by `turned_rad` (φ, rad) instead; along ω_0's axis, as such a brake's are. The rotation
+    vector φ(t) of the brake then keeps ω_0's direction, so ω = φ̇ and α = φ̈ exactly; the
+    two parts do not overlap in time, so their rates add.
     """
 
-    def __init__(self, start, angular_velocity_rad_s, brake_s: float, goal, turn_s: float):
+    def __init__(self, start, angular_velocity_rad_s, brake_s: float, goal, turn_s: float,
+                 angular_acceleration_rad_s2=(0.0, 0.0, 0.0), turned_rad=None):
         spin = np.asarray(angular_velocity_rad_s, dtype=float)
         self.start = normalised(start)
-        self.brake = HermiteQuintic(np.zeros(3), spin, 0.5 * brake_s * spin, np.zeros(3), brake_s)
+        turned = 0.5 * brake_s * spin if turned_rad is None else np.asarray(turned_rad, dtype=float)
+        self.brake = HermiteQuintic(np.zeros(3), spin, turned, np.zeros(3), brake_s, angular_acceleration_rad_s2)
         self.turn = Turn.between(product(from_rotation_vector(self.brake.goal_m), self.start), goal, turn_s, brake_s)
 
     def sample(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

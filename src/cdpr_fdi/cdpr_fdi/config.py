@@ -165,6 +165,7 @@ class RecoveryConfig:
     replan_slowdown: float
     command_step_share: float
     brake_lift_m_s2: float
+    committed_brake_s: float
     reached_tolerance_m: float
     hold_after_s: float
     swing_damping_ratio: float
@@ -236,6 +237,7 @@ class RecoveryConfig:
             replan_slowdown=recovery.number('replan_slowdown', minimum=1.0),
             command_step_share=recovery.number('command_step_share', positive=True, maximum=1.0),
             brake_lift_m_s2=recovery.number('brake_lift_m_s2', non_negative=True),
+            committed_brake_s=recovery.number('committed_brake_s', non_negative=True),
             reached_tolerance_m=recovery.number('reached_tolerance_m', positive=True),
             hold_after_s=recovery.number('hold_after_s', non_negative=True),
             swing_damping_ratio=recovery.number('swing_damping_ratio', non_negative=True),

@@ -10,9 +10,13 @@ once (RECOVERY_MOVE), in two parts planned one after the other:
   break), the path starting with `brake_lift_m_s2` upward (every cable then pulls more
   than at rest, a margin for the ticks in which the drives take over), its first tick
   going `command_step_share` of the way from the torques commanded at the naming
-  (ease_in). Tried as configured, then sooner and sooner;
-- the move, planned from the brake's rest (by a `planner`, planning.py: at once, or on a
-  thread while a realtime loop brakes): a straight quintic takes the position to the
+  (ease_in). Its first `committed_brake_s` as configured is planned and sent at once;
+  the rest of it from where that ends, as configured, then braking sooner and sooner,
+  by the planner (below) — a realtime supervisor's drives take over within a tick or
+  two, not once every try is planned; should the rest come later than the drives need
+  it, the brake as configured is kept;
+- the move, planned from the brake's rest by the `planner` (planning.py: at once, or on
+  a thread while a realtime loop brakes): a straight quintic takes the position to the
   safe pose's while the orientation turns about a fixed axis with the same law; tried as
   configured, then slower and slower. Should its plan not be ready when the brake ends,
   the platform is held at rest where the brake left it until it is; then SAFE_HOLD.
@@ -40,14 +44,16 @@ not tell.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
 from cdpr_control.controller import JointReference
 from cdpr_control.pose_reference import PoseReferenceTable, tabulate_pose_reference, tabulate_pose_references
-from cdpr_control.pose_trajectories import BrakedTurn, PoseTrajectory, Turn
+from cdpr_control.pose_trajectories import BrakedTurn, PoseSample, PoseTrajectory, Turn
 from cdpr_control.robot import Robot
+from cdpr_control.rotation import difference, from_rotation_vector, normalised, product
 from cdpr_control.safe_pose import tension_margin_n
 from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError, LoweredFloor,
                                                TensionDistribution, make_tension_distribution)
@@ -59,7 +65,7 @@ from .config import RecoveryConfig
 from .planning import PlanAtOnce
 from .recovery import RecoveryInfeasible, safe_pose_for, table_reference
 
-# Least tensions (N) of two tries this close count as equal: the first (faster) is kept.
+# Least tensions (N) of two tries this close count as equal (best_of says which is kept).
 LEAST_TENSION_RESOLUTION_N = 0.01
 
 
@@ -72,6 +78,24 @@ def check_held(robot: Robot, attached: np.ndarray, position_m, orientation) -> N
             f'{robot.tension_max_n:g}] N hold the platform where it is (p = '
             f'({", ".join(f"{value:.3f}" for value in position_m)}) m): a cable goes slack whatever the drives '
             f'do, and no recovery from there is built for a platform (docs/platform.md)')
+
+
+def brake_from(state: PoseSample, duration_s: float, rest_m, rest_orientation, period_s: float) -> PoseTrajectory:
+    """A brake from `state` (its acceleration and angular acceleration taken over) to rest
+    at (`rest_m`, `rest_orientation`) over `duration_s`, the orientation about ω's axis
+    (BrakedTurn; its turn after the brake, sampled at its start only, is the move's)."""
+    path = HermiteQuintic(state.position_m, state.velocity_m_s, rest_m, np.zeros(3), duration_s,
+                          state.acceleration_m_s2)
+    return PoseTrajectory(path, BrakedTurn(state.orientation, state.angular_velocity_rad_s, duration_s,
+                                           rest_orientation, period_s, state.angular_acceleration_rad_s2,
+                                           difference(rest_orientation, state.orientation)))
+
+
+def joined(first: PoseReferenceTable, rows: int, rest: PoseReferenceTable) -> PoseReferenceTable:
+    """`first`'s first `rows` rows, then `rest`'s (its first row the state `first` has there)."""
+    return PoseReferenceTable(first.period_s, *(np.concatenate([getattr(first, field.name)[:rows],
+                                                                getattr(rest, field.name)])
+                                                for field in dataclasses.fields(first)[1:]))
 
 
 class PoseRecovery:
@@ -104,38 +128,94 @@ class PoseRecovery:
         self.start_tick = start_tick
         self.phase_ticks = {RECOVERY_MOVE: start_tick}
         self.timed_out = False
-        self.brake, note = self.plan_brake(np.asarray(position_m, dtype=float), orientation,
-                                           np.asarray(velocity_m_s, dtype=float),
-                                           np.asarray(angular_velocity_rad_s, dtype=float))
-        self.notes = [note] if note else []
+        self.planner = planner or PlanAtOnce()
+        self.notes: list[str] = []
+        self.brake, self.continuation = self.plan_brake(
+            np.asarray(position_m, dtype=float), orientation, np.asarray(velocity_m_s, dtype=float),
+            np.asarray(angular_velocity_rad_s, dtype=float))
         self.ease_in(np.asarray(command_nm, dtype=float))
-        # the brake's last row: its rest, where the move starts
-        self.brake_end_tick = start_tick + len(self.brake) - 1
-        self.planned_move = (planner or PlanAtOnce()).submit(self.plan_move, self.brake.position_m[-1],
-                                                             self.brake.orientation[-1])
+        # the brake's last row (its rest, where the move starts), once the brake is settled
+        self.brake_end_tick: int | None = None
+        self.planned_move = None
         self.move: PoseReferenceTable | None = None
         self.move_start_tick: int | None = None
+        self.settle_brake(start_tick)
 
-    def plan_brake(self, position_m, orientation, velocity_m_s,
-                   angular_velocity_rad_s) -> tuple[PoseReferenceTable, str]:
-        """The brake's joint references per tick (module docstring), its last row at rest,
-        and a note where it cannot keep the margin: over brake_s(|v|), then over that
-        shortened `replan_slowdown` times, up to `replan_attempts` times; each a whole
-        number of periods."""
+    def plan_brake(self, position_m, orientation, velocity_m_s, angular_velocity_rad_s):
+        """The brake's joint references per tick (module docstring), its last row at rest:
+        over brake_s(|v|), then over that shortened `replan_slowdown` times, up to
+        `replan_attempts` times; each a whole number of periods. The first
+        `committed_brake_s` of the first at once, so the drives take over within a tick
+        or two, and the rest of every try from where they end handed to the planner (a
+        Future: `continue_brake`); every try at once where there is no time to commit
+        (`committed_brake_s` 0, or as long as the shortest brake) or the committed rows
+        are held by no tensions."""
         config = self.config
         brake_s = config.brake_s(float(np.linalg.norm(velocity_m_s)))
         gravity = np.linalg.norm(self.robot.gravity_m_s2)
         up = -self.robot.gravity_m_s2 / gravity if gravity > 0.0 else np.zeros(3)
-        brakes = []
+        naming = PoseSample(position_m, normalised(orientation), velocity_m_s, angular_velocity_rad_s,
+                            config.brake_lift_m_s2 * up, np.zeros(3))
+        rests = []
         for attempt in range(config.replan_attempts + 1):
             duration_s = math.ceil(brake_s / config.replan_slowdown ** attempt / self.period_s) * self.period_s
-            rest = position_m + 0.5 * duration_s * velocity_m_s
-            path = HermiteQuintic(position_m, velocity_m_s, rest, np.zeros(3), duration_s,
-                                  config.brake_lift_m_s2 * up)
-            # the turn after the brake is the move's: of it only its start, the rest, is sampled
-            brakes.append(PoseTrajectory(path, BrakedTurn(orientation, angular_velocity_rad_s, duration_s,
-                                                          orientation, self.period_s)))
-        return self.best_of(brakes, 'the brake')
+            # a braked motion goes on by half its speed times the brake's time
+            rests.append((duration_s, position_m + 0.5 * duration_s * velocity_m_s,
+                          product(from_rotation_vector(0.5 * duration_s * angular_velocity_rad_s), naming.orientation)))
+        tries = [brake_from(naming, *rest, self.period_s) for rest in rests]
+        committed = round(config.committed_brake_s / self.period_s)
+        if 0 < committed < round(rests[-1][0] / self.period_s) - 1:
+            prefix = tabulate_pose_references(self.robot, self.lowered, tries[:1], self.period_s, self.attached,
+                                              rows=committed + 1)[0]
+            if not isinstance(prefix, InfeasibleTensionError):
+                self.switch_tick = self.start_tick + committed
+                self.committed_end = (tries[0].sample(committed * self.period_s), rests, committed)
+                return prefix, self.planner.submit(self.continue_brake, *self.committed_end)
+        table, note = self.best_of(tries, 'the brake')
+        self.notes += [note] if note else []
+        return table, None
+
+    def continue_brake(self, committed_end: PoseSample, rests, committed: int, tries: int | None = None):
+        """The brake's rows from its `committed` first on, planned from where they end
+        (`committed_end`, the first try's) towards each try's rest over what is left of
+        its time (the first `tries` of them): the first try's own rest of the way among
+        them, so the tries and the choice are the module docstring's; and a note."""
+        elapsed_s = committed * self.period_s
+        return self.best_of([brake_from(committed_end, duration_s - elapsed_s, position, orientation,
+                                        self.period_s) for duration_s, position, orientation in rests[:tries]],
+                            'the brake')
+
+    def settle_brake(self, needed_tick: int) -> None:
+        """Once the brake's rows after its committed ones are planned, they follow those;
+        where a reference of the tick `needed_tick` or later is wanted first (rows sent
+        out cannot be taken back), the first try's rest of the way is planned here and
+        now (a few ms, the drives still on the committed rows sent ahead), the note
+        saying so. Then the move is handed to the planner, from the brake's rest."""
+        if self.continuation is not None:
+            if self.continuation.done():
+                rest, note = self.continuation.result()
+            elif needed_tick >= self.switch_tick:
+                rest, note = self.continue_brake(*self.committed_end, tries=1)
+                note = (f'the brake\'s tries were not planned by tick {self.switch_tick}: braked as first planned'
+                        + (f'; {note}' if note else ''))
+            else:
+                return
+            self.continuation = None
+            committed = self.switch_tick - self.start_tick
+            self.brake = joined(self.brake, committed, rest)
+            if not note and not self.keeps_margin(self.brake):
+                note = (f'the brake cannot keep the planned tension margin in its first {committed} ticks, '
+                        f'planned at once: the least tension {self.brake.tension_n[:, self.attached].min():.2f} N')
+            self.notes += [note] if note else []
+        if self.planned_move is None:
+            self.brake_end_tick = self.start_tick + len(self.brake) - 1
+            self.planned_move = self.planner.submit(self.plan_move, self.brake.position_m[-1],
+                                                    self.brake.orientation[-1])
+
+    def keeps_margin(self, table) -> bool:
+        """Whether a table's tensions all keep the planned margin (False for an error)."""
+        return (not isinstance(table, InfeasibleTensionError)
+                and table.tension_n[:, self.attached].min() >= self.margin.tension_min_n - BOUND_TOLERANCE_N)
 
     def plan_move(self, position_m, orientation) -> tuple[PoseReferenceTable, str]:
         """The move's joint references per tick from rest at (p, q) to the safe pose, its
@@ -190,7 +270,8 @@ class PoseRecovery:
         pass."""
         first = tabulate_pose_references(self.robot, self.lowered, tries[:1], self.period_s, self.attached)
         yield first[0]
-        yield from tabulate_pose_references(self.robot, self.lowered, tries[1:], self.period_s, self.attached)
+        if len(tries) > 1:
+            yield from tabulate_pose_references(self.robot, self.lowered, tries[1:], self.period_s, self.attached)
 
     def ease_in(self, command_nm: np.ndarray) -> None:
         """The first row the controller tracks (row 1: row 0 is the naming tick's, already
@@ -212,7 +293,7 @@ class PoseRecovery:
         """The move, once planned: its first row (the brake's rest) on the brake's last
         tick, or on tick + 1 where the plan came later (the platform held at rest till
         then). Raises what planning raised."""
-        if self.move is not None or not self.planned_move.done():
+        if self.move is not None or self.planned_move is None or not self.planned_move.done():
             return
         self.move, note = self.planned_move.result()
         self.move_start_tick = max(self.brake_end_tick, tick + 1)
@@ -237,6 +318,7 @@ class PoseRecovery:
         then nothing (the controller holds it at rest)."""
         if self.mode == SAFE_HOLD:
             return self.mode, None, None
+        self.settle_brake(tick + 1)
         self.take_move(tick)
         reference = self.reference_at(tick + 1)
         if reference is None:
@@ -247,13 +329,18 @@ class PoseRecovery:
 
     def planned_references(self, tick: int, count: int) -> list[tuple[int, JointReference]]:
         """(tick, joint reference) of the `count` ticks after tick + 1 that the plans
-        already fix (the brake's rows up to its rest; the move's once taken); none outside
-        RECOVERY_MOVE."""
+        already fix (the brake's rows up to its rest — settled first, as they are to be
+        sent —; the move's once taken); none outside RECOVERY_MOVE."""
         if self.mode != RECOVERY_MOVE:
             return []
+        self.settle_brake(tick + 1 + count)
+        self.take_move(tick)
+        # the brake's rows as far as they are settled, and its rest until the move is taken
+        last = (self.switch_tick - 1 if self.continuation is not None
+                else self.brake_end_tick if self.move is None else None)
         planned = []
         for later in range(tick + 2, tick + 2 + count):
-            if self.move is None and later > self.brake_end_tick:
+            if last is not None and later > last:
                 break
             reference = self.reference_at(later)
             if reference is None:
