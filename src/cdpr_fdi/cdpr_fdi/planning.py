@@ -1,11 +1,12 @@
 """Where a platform's move to its safe pose is planned: at once, or beside a realtime loop.
 
-A recovery brakes first and plans its move from where the brake brings the platform to
-rest (pose_recovery.py). The in-process engine and a lockstep graph plan the move at
-once: nothing moves meanwhile. A realtime supervisor cannot stop judging ticks and
-sending the brake's references for the 0.05–2 s a move can take to plan on this machine
-(docs/platform.md): it plans on a thread of its own while the brake runs, and the
-recovery holds the platform at rest if the plan is not ready when the brake ends.
+A recovery sends its brake's first ticks at the naming, and plans the rest of the brake
+(its tries), then the move from where the brake brings the platform to rest
+(pose_recovery.py). The in-process engine and a lockstep graph plan them at once:
+nothing moves meanwhile. A realtime supervisor cannot stop judging ticks and sending
+the brake's references for the up to ~25 ms and ~0.7 s they take to plan on this
+machine (docs/platform.md): it plans them on a thread of its own while the platform
+brakes.
 
 A planner's `submit(plan, *args)` returns a concurrent.futures.Future of plan(*args).
 """
