@@ -1,8 +1,11 @@
 """The platform through the node graph: lockstep, the loop's nodes with eight joints and
 the pose topics with the platform's orientation, equal to the in-process engine, through
 a cable's break, its detection and naming, and the first 0.7 s of its recovery in pose
-space (the move to the safe pose)."""
+space (the move to the safe pose); realtime, a break and the whole recovery, planned
+beside the loop (cdpr_fdi.planning)."""
 from __future__ import annotations
+
+import time
 
 import numpy as np
 import pytest
@@ -14,7 +17,7 @@ from cdpr_bringup.runs.metrics import fdi_summary_from_diagnostics
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.rotation import difference
 
-from conftest import CONFIG_DIR
+from conftest import CONFIG_DIR, GraphLog, timing_check
 
 pytestmark = pytest.mark.graph
 
@@ -47,3 +50,33 @@ def test_the_lockstep_graph_turns_the_platform_as_the_in_process_engine_does(tmp
     assert fdi_summary_from_diagnostics(diagnostics) == engine.fdi
     assert engine.fdi['broken_cables'] == [3] and engine.fdi['mode'] == 'RECOVERY_MOVE'
     assert engine.fdi['alarm_tick'] * scenario.period_s - FAILURE_S <= 2 * scenario.period_s
+
+
+@pytest.mark.realtime
+def test_in_the_realtime_graph_a_platforms_break_is_named_and_recovered_within_the_bounds(tmp_path):
+    """`make demo-6dof`'s break (cable 5, a quarter of the way up the tilting climb,
+    elastic plant) through the realtime graph: the brake's first ticks sent at the naming,
+    the rest of it and the move to the safe pose planned on the supervisor's planning
+    thread. Named right, the safe pose reached and held, every remaining cable within
+    [τ_min, τ_max] from the naming on (in-process: 4.97 N least)."""
+    scenario = build_scenario(ScenarioOptions(
+        config=str(CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'),
+        motions=str(CONFIG_DIR / 'crossed_platform_motions.yaml'), motion='climb-tilt', fidelity='elastic',
+        fail_cables=[5], fail_at_fraction=0.25))
+    bag, namespace, log = tmp_path / 'bag', '/cdpr_test_platform_realtime', GraphLog()
+    run_to_completion(graph_nodes(scenario.node_parameters('realtime'), str(bag)), namespace, timeout_s=120.0,
+                      log=log)
+    window = (log.plant_started_s(), time.monotonic())
+    fdi = fdi_summary_from_diagnostics(read_messages(bag, ['/diagnostics'])['/diagnostics'])
+    # whatever the machine's speed: the cable named, the recovery ended holding the safe pose
+    assert fdi['broken_cables'] == [5] and fdi['mode'] == 'SAFE_HOLD', fdi
+    recording = recording_from_bag(bag, namespace, orientations=True)
+    named = np.searchsorted(recording.time_s, fdi['identified_tick'] * scenario.period_s) + 1
+    tension = recording.true_tension_n[named:][:, scenario.robot.cable_mask([4])]
+    robot = scenario.robot
+    with timing_check(log, window, 'realtime platform recovery: the cables within their bounds'):
+        assert robot.tension_min_n <= tension.min() and tension.max() <= robot.tension_max_n, (
+            tension.min(), tension.max())
+    with timing_check(log, window, 'realtime platform recovery: the safe pose reached'):
+        assert np.linalg.norm(recording.true_position_m[-1] - fdi['safe_point_m']) <= (
+            scenario.recovery.reached_tolerance_m)
