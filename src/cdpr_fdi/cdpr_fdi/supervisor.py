@@ -93,8 +93,8 @@ class Supervisor:
 
     def __init__(self, robot: Robot, fdi: FdiConfig, recovery: RecoveryConfig,
                  distribution: TensionDistribution, period_s: float, planner=None):
-        """`planner` plans a platform's move to its safe pose (planning.py: at once when
-        None; a realtime node's on a thread of its own)."""
+        """`planner` plans the rest of a platform's brake and its move to the safe pose
+        (planning.py: at once when None; a realtime node's on a thread of its own)."""
         self.robot = robot
         self.planner = planner
         self.fdi = fdi

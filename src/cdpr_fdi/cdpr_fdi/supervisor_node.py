@@ -53,7 +53,7 @@ class SupervisorNode(CdprNode):
         self.origin_wall_ns = 0    # when the first tick was judged (monotonic ns)
         fdi, recovery = settled_fdi(settings, self.robot)
         distribution = configured_tension_distribution(control, self.robot)
-        # realtime, a platform's move is planned beside the loop, not in the tick (planning.py)
+        # realtime, a platform's recovery is planned beside the loop, not in the tick (planning.py)
         self.supervisor = Supervisor(self.robot, fdi, recovery, distribution, self.period_s,
                                      PlanInBackground() if self.clock_mode == 'realtime' else PlanAtOnce())
         self.names = contract.joint_names(self.robot.cable_count)

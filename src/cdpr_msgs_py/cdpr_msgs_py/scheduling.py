@@ -63,12 +63,11 @@ def apply_scheduling(realtime_priority: int, nice: int) -> tuple[bool, str]:
     return not refused, '; '.join(done + refused) or 'normal scheduling'
 
 
-def time_sharing_for_this_thread() -> bool:
+def time_sharing_for_this_thread() -> None:
     """Put the calling thread (not the process: Linux schedules threads) under the normal
     time-sharing policy: a worker of a SCHED_FIFO node that must not take the cores from
-    the loop. False where the OS refused."""
+    the loop. Where the OS refuses, the thread keeps what it inherited."""
     try:
         os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
     except (OSError, AttributeError):
-        return False
-    return True
+        pass
