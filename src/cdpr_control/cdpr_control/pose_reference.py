@@ -28,11 +28,23 @@ def tabulate_pose_reference(robot: Robot, tension_distribution: TensionDistribut
     """Sample `trajectory` every `period_s` from its start to its end and compute IK and the
     feed-forward with the `attached` cables (all when None; a detached one's figures 0),
     every row at once; InfeasibleTensionError names the first pose no tensions hold."""
-    sample = trajectory.sample(np.arange(int(round(trajectory.duration_s / period_s)) + 1) * period_s)
+    sample = sampled(trajectory, period_s)
     dynamics = pose_dynamics.inverse_dynamics(robot, tension_distribution, *sample.motion, attached=attached)
-    return PoseReferenceTable(period_s, sample.position_m, sample.velocity_m_s, dynamics.joint_angle_rad,
-                              dynamics.joint_velocity_rad_s, dynamics.torque_nm, sample.orientation,
-                              sample.angular_velocity_rad_s, dynamics.tension_n)
+    return table_of(period_s, sample, dynamics, slice(None))
+
+
+def sampled(trajectory: PoseTrajectory, period_s: float, rows: int | None = None):
+    """The trajectory's PoseSample every `period_s` from its start to its end (its first
+    `rows` samples where given)."""
+    count = int(round(trajectory.duration_s / period_s)) + 1
+    return trajectory.sample(np.arange(count if rows is None else min(count, rows)) * period_s)
+
+
+def table_of(period_s: float, sample, dynamics, rows: slice) -> PoseReferenceTable:
+    """The table of `sample`'s poses and the `rows` of their inverse dynamics."""
+    return PoseReferenceTable(period_s, sample.position_m, sample.velocity_m_s, dynamics.joint_angle_rad[rows],
+                              dynamics.joint_velocity_rad_s[rows], dynamics.torque_nm[rows], sample.orientation,
+                              sample.angular_velocity_rad_s, dynamics.tension_n[rows])
 
 
 def tabulate_pose_references(robot: Robot, tension_distribution: TensionDistribution, trajectories: list,
@@ -41,24 +53,19 @@ def tabulate_pose_references(robot: Robot, tension_distribution: TensionDistribu
     given), in one pass over all their rows (what each costs apart is mostly numpy's
     per-call time on tables of a few hundred rows); for a trajectory with a pose no
     tensions hold, in its place the InfeasibleTensionError naming the first."""
-    samples = [trajectory.sample(np.arange(min(int(round(trajectory.duration_s / period_s)) + 1,
-                                               rows or np.iinfo(int).max)) * period_s)
-               for trajectory in trajectories]
+    samples = [sampled(trajectory, period_s, rows) for trajectory in trajectories]
     motion = [np.concatenate(figures) for figures in zip(*(sample.motion for sample in samples))]
     dynamics = pose_dynamics.inverse_dynamics(robot, tension_distribution, *motion, attached=attached,
                                               nan_where_infeasible=True)
     tables, start = [], 0
     for sample in samples:
-        rows = slice(start, start + len(sample.position_m))
-        start = rows.stop
-        missing = np.flatnonzero(np.isnan(dynamics.tension_n[rows]).any(axis=-1))
+        part = slice(start, start + len(sample.position_m))
+        start = part.stop
+        missing = np.flatnonzero(np.isnan(dynamics.tension_n[part]).any(axis=-1))
         if missing.size:
             tables.append(InfeasibleTensionError(
                 f'no cable tensions above {tension_distribution.tension_min_n:g} N pull the wrench',
                 sample.position_m[missing[0]], int(missing[0]), sample.orientation[missing[0]]))
             continue
-        tables.append(PoseReferenceTable(period_s, sample.position_m, sample.velocity_m_s,
-                                         dynamics.joint_angle_rad[rows], dynamics.joint_velocity_rad_s[rows],
-                                         dynamics.torque_nm[rows], sample.orientation,
-                                         sample.angular_velocity_rad_s, dynamics.tension_n[rows]))
+        tables.append(table_of(period_s, sample, dynamics, part))
     return tables
