@@ -13,7 +13,7 @@ from cdpr_control.config import ConfigError, Section
 from cdpr_control.dynamics import direct_dynamics as point_mass_direct_dynamics
 from cdpr_control.kinematics import KinematicsError, structure_matrix
 from cdpr_control.robot import Platform, load_robot, robot_from_section
-from cdpr_control.pose_trajectories import BrakedTurn
+from cdpr_control.pose_trajectories import BrakedTurn, Turn
 from cdpr_control.rotation import (IDENTITY, conjugate, difference, from_axis_angle, from_rotation_vector,
                                    normalised, product, rotation_matrix, to_rotation_vector)
 from cdpr_control.tension_distribution import InfeasibleTensionError, LoweredFloor, make_tension_distribution
@@ -319,28 +319,36 @@ def test_a_lowered_floor_keeps_the_least_tension_as_high_as_any_tensions_allow(r
             assert best < robot.tension_min_n + 1e-7
 
 
-def test_a_braked_turn_takes_over_the_spin_and_turns_to_its_goal_at_rest():
+def test_a_braked_turn_takes_over_the_spin_and_a_turn_from_its_rest_reaches_the_goal():
     """From q_0 turning at ω_0: ω and α are the derivatives of the orientation (finite
-    differences), ω(0) = ω_0, rest after `brake_s` turned on by ω_0 brake_s / 2, then the
-    goal reached at rest; nothing jumps where the brake ends."""
+    differences), ω(0) = ω_0, rest after `brake_s` turned on by ω_0 brake_s / 2 and at
+    rest after; a brake taken over under way starts with its α_0 and rests turned on by
+    what it is given; the move's turn from that rest (Turn.between) reaches the goal at
+    rest, with no jump where the brake ends."""
     start = from_axis_angle([0.3, -0.2, 1.0], 0.4)
     spin = np.array([0.4, -0.3, 0.2])
     goal = from_axis_angle([1.0, 0.5, 0.0], 0.3)
-    turn = BrakedTurn(start, spin, 0.6, goal, 1.5)
-    times = np.linspace(0.0, 2.3, 461)
-    orientation, omega, alpha = turn.sample(times)
+    brake = BrakedTurn(start, spin, 0.6)
+    times = np.linspace(0.0, 0.8, 161)
+    orientation, omega, alpha = brake.sample(times)
     np.testing.assert_allclose(orientation[0], start, atol=1e-12)
     np.testing.assert_allclose(omega[0], spin, atol=1e-12)
     step = times[1] - times[0]
     rates = np.array([to_rotation_vector(product(later, conjugate(earlier)))
                       for earlier, later in zip(orientation[:-2], orientation[2:])]) / (2.0 * step)
     np.testing.assert_allclose(rates, omega[1:-1], atol=1e-4)
-    # α jumps in slope where the brake and the turn end: no central difference across them
-    smooth = (np.abs(times[1:-1] - 0.6) > step) & (np.abs(times[1:-1] - 2.1) > step)
+    # α jumps in slope where the brake ends: no central difference across it
+    smooth = np.abs(times[1:-1] - 0.6) > step
     np.testing.assert_allclose(((omega[2:] - omega[:-2]) / (2.0 * step))[smooth], alpha[1:-1][smooth], atol=2e-3)
-    rest = turn.sample(0.6)
+    rest = brake.sample(0.6)
     assert np.allclose(rest[1], 0.0) and np.allclose(rest[2], 0.0, atol=1e-9)
     assert np.linalg.norm(difference(rest[0], start) - 0.3 * spin) < 1e-12
+    assert np.allclose(orientation[times > 0.6], rest[0]) and np.allclose(omega[times > 0.6], 0.0)
+    under_way = BrakedTurn(start, spin, 0.4, -1.5 * spin, 0.05 * spin)
+    np.testing.assert_allclose(under_way.sample(0.0)[2], -1.5 * spin, atol=1e-12)
+    assert np.linalg.norm(difference(under_way.sample(0.4)[0], start) - 0.05 * spin) < 1e-12
+    turn = Turn.between(rest[0], goal, 1.5, 0.6)
+    np.testing.assert_allclose(turn.sample(0.6)[0], rest[0], atol=1e-12)
     end = turn.sample(2.1)
     assert np.linalg.norm(difference(end[0], goal)) < 1e-12 and np.allclose(end[1], 0.0)
 

@@ -73,34 +73,26 @@ class Turn:
 
 
 class BrakedTurn:
-    """A recovery's orientation: from `start` turning at ω_0 (rad/s, world frame), brought
-    to rest about ω_0's axis over `brake_s` by the Hermite quintic (turned on by ω_0 brake_s
-    / 2, as a path braked by HermiteQuintic goes on by half its speed times that time), then
-    turned to `goal` about a fixed axis over `turn_s` with the rest-to-rest law.
-
-    A brake already under way is taken over with its angular acceleration α_0 and turned on
-    by `turned_rad` (φ, rad) instead; along ω_0's axis, as such a brake's are. The rotation
-    vector φ(t) of the brake then keeps ω_0's direction, so ω = φ̇ and α = φ̈ exactly; the
-    two parts do not overlap in time, so their rates add.
+    """A recovery's orientation braked: from `start` turning at ω_0 (rad/s, world frame),
+    brought to rest about ω_0's axis over `brake_s` by the Hermite quintic, turned on by
+    ω_0 brake_s / 2 (as a path braked by HermiteQuintic goes on by half its speed times
+    that time), then at rest. A brake already under way is taken over with its angular
+    acceleration α_0 and turned on by `turned_rad` (φ, rad) instead, along ω_0's axis as
+    such a brake's are. The rotation vector φ(t) keeps ω_0's direction, so ω = φ̇ and
+    α = φ̈ exactly.
     """
 
-    def __init__(self, start, angular_velocity_rad_s, brake_s: float, goal, turn_s: float,
-                 angular_acceleration_rad_s2=(0.0, 0.0, 0.0), turned_rad=None):
+    def __init__(self, start, angular_velocity_rad_s, brake_s: float, angular_acceleration_rad_s2=(0.0, 0.0, 0.0),
+                 turned_rad=None):
         spin = np.asarray(angular_velocity_rad_s, dtype=float)
         self.start = normalised(start)
         turned = 0.5 * brake_s * spin if turned_rad is None else np.asarray(turned_rad, dtype=float)
         self.brake = HermiteQuintic(np.zeros(3), spin, turned, np.zeros(3), brake_s, angular_acceleration_rad_s2)
-        self.turn = Turn.between(product(from_rotation_vector(self.brake.goal_m), self.start), goal, turn_s, brake_s)
 
     def sample(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(q, ω, α) at time t (s) of the motion; of each time of an array t (n × 4, n × 3)."""
-        braked, brake_velocity, brake_acceleration = self.brake.sample(t)
-        turned, turn_velocity, turn_acceleration = self.turn.sample(t)
-        # each part rests while the other moves: the brake's end is the turn's start
-        braking = np.asarray(t) < self.turn.delay_s
-        orientation = np.where(braking[..., None], normalised(product(from_rotation_vector(braked), self.start)),
-                               turned)
-        return orientation, brake_velocity + turn_velocity, brake_acceleration + turn_acceleration
+        braked, angular_velocity, angular_acceleration = self.brake.sample(t)
+        return normalised(product(from_rotation_vector(braked), self.start)), angular_velocity, angular_acceleration
 
 
 class PoseTrajectory:

@@ -80,14 +80,14 @@ def check_held(robot: Robot, attached: np.ndarray, position_m, orientation) -> N
             f'do, and no recovery from there is built for a platform (docs/platform.md)')
 
 
-def brake_from(state: PoseSample, duration_s: float, rest_m, rest_orientation, period_s: float) -> PoseTrajectory:
+def brake_from(state: PoseSample, duration_s: float, rest_m, rest_orientation) -> PoseTrajectory:
     """A brake from `state` (its acceleration and angular acceleration taken over) to rest
     at (`rest_m`, `rest_orientation`) over `duration_s`, the orientation about ω's axis
-    (BrakedTurn; its turn after the brake, sampled at its start only, is the move's)."""
+    (BrakedTurn)."""
     path = HermiteQuintic(state.position_m, state.velocity_m_s, rest_m, np.zeros(3), duration_s,
                           state.acceleration_m_s2)
     return PoseTrajectory(path, BrakedTurn(state.orientation, state.angular_velocity_rad_s, duration_s,
-                                           rest_orientation, period_s, state.angular_acceleration_rad_s2,
+                                           state.angular_acceleration_rad_s2,
                                            difference(rest_orientation, state.orientation)))
 
 
@@ -162,7 +162,7 @@ class PoseRecovery:
             # a braked motion goes on by half its speed times the brake's time
             rests.append((duration_s, position_m + 0.5 * duration_s * velocity_m_s,
                           product(from_rotation_vector(0.5 * duration_s * angular_velocity_rad_s), naming.orientation)))
-        tries = [brake_from(naming, *rest, self.period_s) for rest in rests]
+        tries = [brake_from(naming, *rest) for rest in rests]
         committed = round(config.committed_brake_s / self.period_s)
         if 0 < committed < round(rests[-1][0] / self.period_s) - 1:
             prefix = tabulate_pose_references(self.robot, self.lowered, tries[:1], self.period_s, self.attached,
@@ -181,8 +181,8 @@ class PoseRecovery:
         its time (the first `tries` of them): the first try's own rest of the way among
         them, so the tries and the choice are the module docstring's; and a note."""
         elapsed_s = committed * self.period_s
-        return self.best_of([brake_from(committed_end, duration_s - elapsed_s, position, orientation,
-                                        self.period_s) for duration_s, position, orientation in rests[:tries]],
+        return self.best_of([brake_from(committed_end, duration_s - elapsed_s, position, orientation)
+                             for duration_s, position, orientation in rests[:tries]],
                             'the brake')
 
     def settle_brake(self, needed_tick: int) -> None:
