@@ -98,6 +98,38 @@ def test_sched_fifo_reaches_every_thread_exactly_where_the_kernel_grants_it():
         assert all(policy != os.SCHED_FIFO for policy, _ in settings)
 
 
+def workers_in_child(results) -> None:
+    """The scheduling of a worker started by a SCHED_FIFO 20 thread, and of one started
+    by a time-sharing thread, each after below_the_creating_thread."""
+    def worker(out):
+        scheduling.below_the_creating_thread()
+        out.append((os.sched_getscheduler(0), os.sched_getparam(0).sched_priority))
+
+    seen = []
+    for policy, priority in ((os.SCHED_OTHER, 0), (os.SCHED_FIFO, 20)):
+        os.sched_setscheduler(0, policy, os.sched_param(priority))
+        thread = threading.Thread(target=worker, args=(seen,))
+        thread.start()
+        thread.join()
+    results.put(seen)
+
+
+def test_a_planning_worker_runs_just_below_the_thread_that_started_it():
+    """A realtime supervisor's urgent planning thread (cdpr_fdi.planning): one SCHED_FIFO
+    priority below its node's, so the node's thread takes the core back whenever it has
+    work; under time-sharing it stays there."""
+    if not fifo_granted(20):
+        pytest.skip('SCHED_FIFO is not granted here: nothing to place below')
+    context = multiprocessing.get_context('fork')
+    results = context.Queue()
+    child = context.Process(target=workers_in_child, args=(results,))
+    child.start()
+    seen = results.get(timeout=30)
+    child.join(timeout=30)
+    assert child.exitcode == 0
+    assert seen == [(os.SCHED_OTHER, 0), (os.SCHED_FIFO, 19)]
+
+
 def test_a_refusal_leaves_normal_scheduling_and_says_how_to_allow_it(monkeypatch):
     def refuse(*_args):
         raise PermissionError(1, 'Operation not permitted')

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from concurrent.futures import Future
 
 import numpy as np
 
@@ -168,40 +169,57 @@ class PoseRecovery:
             prefix = tabulate_pose_references(self.robot, self.lowered, tries[:1], self.period_s, self.attached,
                                               rows=committed + 1)[0]
             if not isinstance(prefix, InfeasibleTensionError):
-                self.switch_tick = self.start_tick + committed
-                self.committed_end = (tries[0].sample(committed * self.period_s), rests, committed)
-                return prefix, self.planner.submit(self.continue_brake, *self.committed_end)
+                self.committed_ticks = committed
+                elapsed_s = committed * self.period_s
+                committed_end = tries[0].sample(elapsed_s)
+                self.rest_tries = [brake_from(committed_end, duration_s - elapsed_s, position, orientation)
+                                   for duration_s, position, orientation in rests]
+                self.first_rest = Future()
+                return prefix, self.planner.submit(self.continue_brake, self.rest_tries, self.first_rest,
+                                                   urgent=True)
         table, note = self.best_of(tries, 'the brake')
         self.notes += [note] if note else []
         return table, None
 
-    def continue_brake(self, committed_end: PoseSample, rests, committed: int, tries: int | None = None):
-        """The brake's rows from its `committed` first on, planned from where they end
-        (`committed_end`, the first try's) towards each try's rest over what is left of
-        its time (the first `tries` of them): the first try's own rest of the way among
-        them, so the tries and the choice are the module docstring's; and a note."""
-        elapsed_s = committed * self.period_s
-        return self.best_of([brake_from(committed_end, duration_s - elapsed_s, position, orientation)
-                             for duration_s, position, orientation in rests[:tries]],
-                            'the brake')
+    @property
+    def switch_tick(self) -> int:
+        """The first tick of the brake's rows planned after the naming."""
+        return self.start_tick + self.committed_ticks
 
-    def settle_brake(self, needed_tick: int) -> None:
-        """Once the brake's rows after its committed ones are planned, they follow those;
-        where a reference of the tick `needed_tick` or later is wanted first (rows sent
-        out cannot be taken back), the first try's rest of the way is planned here and
-        now (a few ms, the drives still on the committed rows sent ahead), the note
-        saying so. Then the move is handed to the planner, from the brake's rest."""
+    def continue_brake(self, tries: list[PoseTrajectory], first_rest: Future):
+        """The brake's rows from its committed first ones on (the `tries`: from where those
+        end, the first try's, towards each try's rest over what is left of its time; the
+        first try's own rest of the way among them, so the tries and the choice are the
+        module docstring's), and a note. The first try's table goes to `first_rest` as
+        soon as it is tabulated: the brake to keep should the others come too late."""
+        return self.best_of(tries, 'the brake', tables=self.tabulated_tries(tries, first_rest))
+
+    def settle_brake(self, needed_tick: int, due_tick: int | None = None) -> None:
+        """Once the brake's rows after its committed ones are planned, they follow those.
+        Where a reference of the tick `needed_tick` or later is wanted first (rows sent out
+        cannot be taken back): the tries are waited for until the drives are about to
+        need those rows (`due_tick`, the first tick whose row may be wanted before the
+        next call; `needed_tick` where not given), then the first try's rest of the way is
+        kept, as tabulated beside them, or planned here and now (a few ms, the drives
+        still on the committed rows sent ahead) where it is not ready; the note says so.
+        Then the move is handed to the planner, from the brake's rest."""
         if self.continuation is not None:
             if self.continuation.done():
                 rest, note = self.continuation.result()
             elif needed_tick >= self.switch_tick:
-                rest, note = self.continue_brake(*self.committed_end, tries=1)
+                if self.first_rest.done():
+                    if (needed_tick if due_tick is None else due_tick) < self.switch_tick:
+                        return
+                    tables = iter([self.first_rest.result()])
+                else:
+                    tables = self.tabulated_tries(self.rest_tries[:1])
+                rest, note = self.best_of(self.rest_tries[:1], 'the brake', tables=tables)
                 note = (f'the brake\'s tries were not planned by tick {self.switch_tick}: braked as first planned'
                         + (f'; {note}' if note else ''))
             else:
                 return
             self.continuation = None
-            committed = self.switch_tick - self.start_tick
+            committed = self.committed_ticks
             self.brake = joined(self.brake, committed, rest)
             if not note and not self.keeps_margin(self.brake):
                 note = (f'the brake cannot keep the planned tension margin in its first {committed} ticks, '
@@ -232,17 +250,17 @@ class PoseRecovery:
             moves.append(PoseTrajectory(path, Turn.between(orientation, self.safe_orientation, duration_s)))
         return self.best_of(moves, 'the move to the safe pose', slowest_on_ties=True)
 
-    def best_of(self, tries: list[PoseTrajectory], part: str,
-                slowest_on_ties: bool = False) -> tuple[PoseReferenceTable, str]:
+    def best_of(self, tries: list[PoseTrajectory], part: str, slowest_on_ties: bool = False,
+                tables=None) -> tuple[PoseReferenceTable, str]:
         """The table of the first try whose tensions keep the planned margin; else of the
         try whose least tension is highest with the margin lowered where a pose needs it
         (of equals, the first, or with `slowest_on_ties` the last); else of the last try
         with the floored least-squares tensions; with a note saying which where it is not
-        the first kind ('' where it is). The first try is tabulated alone (it mostly keeps
-        the margin), the others together."""
+        the first kind ('' where it is). The tries' `tables` (tabulated_tries', where not
+        given) are taken one by one, as far as needed."""
         floor = self.margin.tension_min_n - BOUND_TOLERANCE_N
         best, best_least, short = None, -np.inf, ''
-        for table in self.tabulated_tries(tries):
+        for table in self.tabulated_tries(tries) if tables is None else tables:
             if isinstance(table, InfeasibleTensionError):
                 short = short or str(table)
                 continue
@@ -264,11 +282,13 @@ class PoseRecovery:
                 f'{part} cannot keep the planned tension margin ({short}); no try keeps every cable at '
                 f'{self.robot.tension_min_n:g} N: the last planned nearest the bounds')
 
-    def tabulated_tries(self, tries: list[PoseTrajectory]):
+    def tabulated_tries(self, tries: list[PoseTrajectory], first_table: Future | None = None):
         """Each try's table with the lowered floor (or the error naming where not even
-        τ_min holds): the first alone, the others, if it does not keep the margin, in one
-        pass."""
+        τ_min holds): the first alone (also handed to `first_table`), the others, if it
+        does not keep the margin, in one pass."""
         first = tabulate_pose_references(self.robot, self.lowered, tries[:1], self.period_s, self.attached)
+        if first_table is not None:
+            first_table.set_result(first[0])
         yield first[0]
         if len(tries) > 1:
             yield from tabulate_pose_references(self.robot, self.lowered, tries[1:], self.period_s, self.attached)
@@ -327,13 +347,14 @@ class PoseRecovery:
             reference = table_reference(self.move, len(self.move) - 1)
         return self.mode, None, reference
 
-    def planned_references(self, tick: int, count: int) -> list[tuple[int, JointReference]]:
+    def planned_references(self, tick: int, count: int, due_tick: int | None = None) -> list[tuple[int, JointReference]]:
         """(tick, joint reference) of the `count` ticks after tick + 1 that the plans
         already fix (the brake's rows up to its rest — settled first, as they are to be
-        sent —; the move's once taken); none outside RECOVERY_MOVE."""
+        sent, by `due_tick` (settle_brake) —; the move's once taken); none outside
+        RECOVERY_MOVE."""
         if self.mode != RECOVERY_MOVE:
             return []
-        self.settle_brake(tick + 1 + count)
+        self.settle_brake(tick + 1 + count, due_tick)
         self.take_move(tick)
         # the brake's rows as far as they are settled, and its rest until the move is taken
         last = (self.switch_tick - 1 if self.continuation is not None

@@ -385,11 +385,18 @@ class Supervisor:
         return PoseRecovery(self.robot, self.recovery_config, self.distribution, self.period_s, attached, tick,
                             position, orientation, twist[:3], twist[3:], command_nm, self.planner)
 
-    def planned_references(self, tick: int, count: int) -> list[tuple[int, JointReference]]:
+    def planned_references(self, tick: int, count: int, due_tick: int | None = None) -> list[tuple[int, JointReference]]:
         """(tick, joint reference) of the `count` ticks after tick + 1 that the recovery's
         move already fixes (none outside one): sent ahead, a realtime controller that runs
-        ahead of the supervisor finds its own tick's, not one 10 ticks old (supervisor_node)."""
-        return [] if self.recovery is None or self.mode == FAULT else self.recovery.planned_references(tick, count)
+        ahead of the supervisor finds its own tick's, not one 10 ticks old (supervisor_node).
+        `due_tick`: the first tick whose reference the drives may want before the next
+        call (a platform's brake waits for its tries till then; tick + 1 + count where not
+        given)."""
+        if self.recovery is None or self.mode == FAULT:
+            return []
+        if isinstance(self.recovery, PoseRecovery):
+            return self.recovery.planned_references(tick, count, due_tick)
+        return self.recovery.planned_references(tick, count)
 
     def reference_tensions(self, reference: JointReference) -> np.ndarray:
         """τ_d = (J θ̈_d + b θ̇_d − c_ID) / ρ, θ̈_d from the previous reference (N)."""

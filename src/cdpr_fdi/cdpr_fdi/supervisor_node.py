@@ -37,6 +37,9 @@ from .supervisor import Supervisor
 INPUTS = ('state', 'command', 'twin', 'reference')
 ACK_TIMEOUT = Duration(seconds=1.0)
 BUFFER_LENGTH = 512
+# A recovery's reference is due this many ticks after the plant's current one: the drives
+# want the next tick's, and it takes up to a tick to reach them.
+DUE_AHEAD_TICKS = 2
 
 
 class SupervisorNode(CdprNode):
@@ -141,8 +144,10 @@ class SupervisorNode(CdprNode):
             # at the naming leaves them queued)
             behind = (max(lag, self.origin_ns + time.monotonic_ns() - self.origin_wall_ns - stamp)
                       if self.clock_mode == 'realtime' else lag)
+            now = tick + behind // self.period_ns
             ahead = [(self.origin_ns + later * self.period_ns, reference) for later, reference
-                     in self.supervisor.planned_references(tick, self.lead + behind // self.period_ns)]
+                     in self.supervisor.planned_references(tick, self.lead + behind // self.period_ns,
+                                                           now + DUE_AHEAD_TICKS)]
             for at_ns, reference in [(following, verdict.reference)] + ahead:
                 if at_ns > self.reference_sent_ns:
                     self.recovery_reference.publish(joint_state(
