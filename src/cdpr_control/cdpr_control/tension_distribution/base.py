@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import copy
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -91,6 +92,12 @@ class TensionDistribution(ABC):
                 pass
         return tensions
 
+    def distribute_along(self, free: 'FreeDirection', structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+        """`distribute_each` of a stack whose cables leave one free direction, `free` (its
+        τ₀ and n): a method that takes its tensions along n takes them from there, not
+        found again."""
+        return self.distribute_each(structures, wrenches_n)
+
     def _outside_bounds(self, tensions: np.ndarray) -> np.ndarray:
         """Per row of a stack of tensions (n × k), whether one leaves [τ_min, τ_max]."""
         return ((tensions.min(axis=-1) < self.tension_min_n - BOUND_TOLERANCE_N)
@@ -137,22 +144,39 @@ def null_vectors(structures: np.ndarray) -> np.ndarray:
     return column / np.linalg.norm(column, axis=-1, keepdims=True)
 
 
-def free_direction(structures: np.ndarray, wrenches_n: np.ndarray, tension_min_n: float, tension_max_n: float):
-    """For each row of a stack whose cables leave one free direction (S n × d × (d + 1),
-    w n × d): τ₀ = S⁺ w, the unit n spanning the null space of S, and the least and
-    greatest λ (N) for which τ₀ + λ n keeps every cable within [tension_min_n,
-    tension_max_n] (either bound may be infinite; low > high where no λ does)."""
-    particular = minimum_norm(structures, wrenches_n)
-    null = null_vectors(structures)
-    with np.errstate(divide='ignore', invalid='ignore'):
-        to_min = (tension_min_n - particular) / null
-        to_max = (tension_max_n - particular) / null
-    rising, falling = null > 0.0, null < 0.0
-    low = np.where(rising, to_min, np.where(falling, to_max, -np.inf)).max(axis=-1)
-    high = np.where(rising, to_max, np.where(falling, to_min, np.inf)).min(axis=-1)
-    # a cable the free direction does not move must itself lie within the bounds
-    fixed = ~rising & ~falling & ((particular < tension_min_n) | (particular > tension_max_n))
-    return particular, null, np.where(fixed.any(axis=-1), np.inf, low), high
+@dataclass(frozen=True)
+class FreeDirection:
+    """Every τ with S τ = w, for each row of a stack whose cables leave one free direction
+    (S n × d × (d + 1) of full row rank, w n × d): τ₀ + λ n, with τ₀ = S⁺ w (n × k, N) and
+    n the unit vector spanning the null space of S (n × k, either sign). Found once for a
+    stack, it serves every method that takes its tensions along n (the bounded minimum
+    norm's interval, the lowered floor's largest floors)."""
+    particular: np.ndarray
+    null: np.ndarray
+
+    @classmethod
+    def of(cls, structures: np.ndarray, wrenches_n: np.ndarray) -> 'FreeDirection':
+        """InfeasibleTensionError where a row's cables span fewer than d directions."""
+        return cls(minimum_norm(structures, wrenches_n), null_vectors(structures))
+
+    def rows(self, index) -> 'FreeDirection':
+        """Those of the rows `index` picks."""
+        return FreeDirection(self.particular[index], self.null[index])
+
+    def interval(self, tension_min_n: float, tension_max_n: float) -> tuple[np.ndarray, np.ndarray]:
+        """Per row, the least and greatest λ (N) for which τ₀ + λ n keeps every cable within
+        [tension_min_n, tension_max_n] (either bound may be infinite; low > high where no
+        λ does)."""
+        particular, null = self.particular, self.null
+        with np.errstate(divide='ignore', invalid='ignore'):
+            to_min = (tension_min_n - particular) / null
+            to_max = (tension_max_n - particular) / null
+        rising, falling = null > 0.0, null < 0.0
+        low = np.where(rising, to_min, np.where(falling, to_max, -np.inf)).max(axis=-1)
+        high = np.where(rising, to_max, np.where(falling, to_min, np.inf)).min(axis=-1)
+        # a cable the free direction does not move must itself lie within the bounds
+        fixed = ~rising & ~falling & ((particular < tension_min_n) | (particular > tension_max_n))
+        return np.where(fixed.any(axis=-1), np.inf, low), high
 
 
 def floored_fit(structure: np.ndarray, wrench_n: np.ndarray, floor_n: float) -> np.ndarray:

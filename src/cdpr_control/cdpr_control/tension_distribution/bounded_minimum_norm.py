@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BOUND_TOLERANCE_N, InfeasibleTensionError, TensionDistribution, free_direction, minimum_norm
+from .base import BOUND_TOLERANCE_N, FreeDirection, InfeasibleTensionError, TensionDistribution, minimum_norm
 
 DIRECTION_TOLERANCE = 1e-12
 
@@ -54,7 +54,7 @@ class BoundedMinimumNorm(TensionDistribution):
                     else super().distribute_each)(structures, wrenches_n)
         outside = np.flatnonzero(self._outside_bounds(tensions))
         if outside.size and structures.shape[-1] - structures.shape[-2] == 1:
-            tensions[outside] = self._interval_projection(structures[outside], wrenches_n[outside],
+            tensions[outside] = self._interval_projection(FreeDirection.of(structures[outside], wrenches_n[outside]),
                                                           reference[outside])
             outside = outside[np.isnan(tensions[outside]).any(axis=-1)]
             if not first_infeasible_raises:
@@ -70,11 +70,23 @@ class BoundedMinimumNorm(TensionDistribution):
                 tensions[row] = np.nan
         return tensions
 
-    def _interval_projection(self, structures, wrenches_n, references):
+    def distribute_along(self, free: FreeDirection, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
+        """`distribute_each` from the stack's free direction: the closed form is τ₀ plus
+        the reference's share along n (τ_ref + S⁺(w − S τ_ref) = τ₀ + n nᵀ τ_ref), the
+        rows it leaves outside the bounds projected on their interval."""
+        reference = np.full(free.particular.shape, self.reference_tension_n)
+        tensions = free.particular + np.einsum('ij,ij->i', free.null, reference)[:, None] * free.null
+        outside = np.flatnonzero(self._outside_bounds(tensions))
+        if outside.size:
+            tensions[outside] = self._interval_projection(free.rows(outside), reference[outside])
+        return tensions
+
+    def _interval_projection(self, free: FreeDirection, references):
         """`_projection` of each row of a stack whose cables leave a null space of one
-        dimension, at once (NaN where none): there the polytope is an interval of z, and
-        the projection z_ref clipped to it."""
-        particular, null, low, high = free_direction(structures, wrenches_n, self.tension_min_n, self.tension_max_n)
+        dimension (`free`), at once (NaN where none): there the polytope is an interval
+        of z, and the projection z_ref clipped to it."""
+        particular, null = free.particular, free.null
+        low, high = free.interval(self.tension_min_n, self.tension_max_n)
         z = np.clip(np.einsum('ij,ij->i', null, references - particular), low, high)
         tensions = particular + z[:, None] * null
         held = (low <= high) & ~self._outside_bounds(tensions)

@@ -3,18 +3,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BOUND_TOLERANCE_N, InfeasibleTensionError, TensionDistribution, free_direction, minimum_norm
+from .base import BOUND_TOLERANCE_N, FreeDirection, InfeasibleTensionError, TensionDistribution, minimum_norm
 
 # Bisection steps of the largest floor where the cables leave a null space of two or more
 # dimensions: the floor to within (τ_floor − τ_lowest) / 2¹² of the best.
 FLOOR_BISECTIONS = 12
 
 
-def largest_floors(structures: np.ndarray, wrenches_n: np.ndarray, tension_max_n: float):
+def largest_floors(structures: np.ndarray, wrenches_n: np.ndarray, tension_max_n: float,
+                   free: FreeDirection | None = None):
     """Per row of a stack (S n × d × k, w n × d), the largest floor f (N) for which
     tensions within [f, τ_max] pull w, and those tensions (n × k); −inf and NaN where no
     tensions below τ_max pull it. Closed form where the cables leave a null space of at
-    most one dimension (a platform on seven cables, d = 6, k = 7); LinAlgError above.
+    most one dimension (a platform on seven cables, d = 6, k = 7; its FreeDirection
+    `free`, found here where not given); LinAlgError above.
 
     Every τ with S τ = w is τ₀ + λ n (τ₀ = S⁺ w, n spanning the null space): the least
     tension, min_i (τ₀_i + λ n_i), is concave in λ and peaks where two of the lines
@@ -29,7 +31,9 @@ def largest_floors(structures: np.ndarray, wrenches_n: np.ndarray, tension_max_n
                 np.where(held[:, None], particular, np.nan))
     if nullity > 1:
         raise np.linalg.LinAlgError(f'a null space of {nullity} dimensions has no closed form here')
-    particular, null, low, high = free_direction(structures, wrenches_n, -np.inf, tension_max_n)
+    free = FreeDirection.of(structures, wrenches_n) if free is None else free
+    particular, null = free.particular, free.null
+    low, high = free.interval(-np.inf, tension_max_n)
     with np.errstate(divide='ignore', invalid='ignore'):
         crossings = ((particular[:, None, :] - particular[:, :, None])
                      / (null[:, :, None] - null[:, None, :])).reshape(len(particular), -1)
@@ -67,12 +71,22 @@ class LoweredFloor(TensionDistribution):
         return tensions
 
     def distribute_each(self, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
-        tensions = self.within.distribute_each(structures, wrenches_n)
+        """`within`'s tensions, the rows it has none for lowered; where the cables leave one
+        free direction, found once for both (FreeDirection)."""
+        free = None
+        if structures.shape[-1] - structures.shape[-2] == 1:
+            try:
+                free = FreeDirection.of(structures, wrenches_n)
+            except InfeasibleTensionError:
+                pass   # a row whose cables span too little: each row on its own, as within does
+        tensions = (self.within.distribute_each(structures, wrenches_n) if free is None
+                    else self.within.distribute_along(free, structures, wrenches_n))
         lowered = np.flatnonzero(np.isnan(tensions).any(axis=-1))
         if not lowered.size:
             return tensions
         try:
-            floors, at_floor = largest_floors(structures[lowered], wrenches_n[lowered], self.tension_max_n)
+            floors, at_floor = largest_floors(structures[lowered], wrenches_n[lowered], self.tension_max_n,
+                                              None if free is None else free.rows(lowered))
         except np.linalg.LinAlgError:
             floors, at_floor = self._bisected(structures[lowered], wrenches_n[lowered])
         tensions[lowered] = np.where((floors >= self.tension_min_n - BOUND_TOLERANCE_N)[:, None], at_floor, np.nan)
