@@ -18,6 +18,7 @@ from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.rotation import difference
 from cdpr_control.tension_distribution import InfeasibleTensionError
 from cdpr_fdi.planning import PlanAtOnce, PlanInBackground
+from cdpr_fdi import pose_recovery
 from cdpr_fdi.pose_recovery import PoseRecovery
 from cdpr_fdi.recovery import safe_pose_for
 
@@ -172,6 +173,39 @@ def test_a_push_that_slackens_cables_taken_taut_names_none_and_raises_nothing():
                                           fidelity='rigid', pushes=[(2.0, 0.5, 0.0, 0.0, 60.0)], duration_s=6.0))
     fdi = run_inprocess(base).fdi
     assert fdi['broken_cables'] == [] and fdi['mode'] == 'NOMINAL', fdi
+
+
+class TriesTooLate:
+    """A planner (cdpr_fdi.planning) whose brake tries never come: only the committed
+    try's rest of the way, which a realtime supervisor's planning thread hands over
+    first; the move planned at once. `withheld` counts the tries held back."""
+
+    withheld = 0
+
+    def submit(self, plan, *args, urgent: bool = False) -> Future:
+        if not urgent:
+            return PlanAtOnce().submit(plan, *args)
+        tries, committed_try, first_rest = args
+        first_rest.set_result(next(plan.__self__.tabulated_tries(tries[committed_try:committed_try + 1])))
+        TriesTooLate.withheld += 1
+        return Future()
+
+
+def test_a_brake_whose_tries_come_too_late_keeps_every_cable_above_the_floor(monkeypatch):
+    """Cable 7 breaks half way round the circle (elastic plant, seed 0), the platform named
+    near the border: the seven cables cannot hold it where the brake as configured would
+    bring it to rest. In realtime the brake's tries came after the drives needed them
+    (78 ms against ~46 ms here), and the committed try's rest of the way was kept: the
+    brake as configured left a cable at 0.24 N, in the realtime graph at 0 N for 16 s.
+    Committed to the try whose rest the cables hold, every cable stays at τ_min or more
+    whether the tries come in time or not."""
+    run = broken_at_fraction('circle', 'elastic', 7, 0.5075097549640587, seed=0)
+    in_time, fdi = least_tension_after_naming(run)
+    assert fdi['mode'] == 'SAFE_HOLD' and in_time >= run.robot.tension_min_n, (in_time, fdi['mode'])
+    monkeypatch.setattr(pose_recovery, 'PlanAtOnce', TriesTooLate)
+    late, fdi = least_tension_after_naming(run)
+    assert TriesTooLate.withheld == 1
+    assert fdi['mode'] == 'SAFE_HOLD' and late >= run.robot.tension_min_n, (late, fdi['mode'])
 
 
 class PlannedWhenTold:

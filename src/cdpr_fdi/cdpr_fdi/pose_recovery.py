@@ -10,11 +10,14 @@ once (RECOVERY_MOVE), in two parts planned one after the other:
   break), the path starting with `brake_lift_m_s2` upward (every cable then pulls more
   than at rest, a margin for the ticks in which the drives take over), its first tick
   going `command_step_share` of the way from the torques commanded at the naming
-  (ease_in). Its first `committed_brake_s` as configured is planned and sent at once;
-  the rest of it from where that ends, as configured, then braking sooner and sooner,
-  by the planner (below) — a realtime supervisor's drives take over within a tick or
-  two, not once every try is planned; should the rest come later than the drives need
-  it, the brake as configured is kept;
+  (ease_in). The first `committed_brake_s` of one try is planned and sent at once — the
+  brake as configured where the cables left hold the platform at its rest, else the
+  try whose rest they hold best, else the shortest (try_to_commit) —; the rest of the
+  way towards every try's rest from where that ends, by the planner (below) — a
+  realtime supervisor's drives take over within a tick or two, not once every try is
+  planned; should the tries come later than the drives need them, the committed try's
+  rest of the way is kept, so that what the drives do hangs little on the planner's
+  speed (docs/platform.md);
 - the move, planned from the brake's rest by the `planner` (planning.py: at once, or on
   a thread while a realtime loop brakes): a straight quintic takes the position to the
   safe pose's while the orientation turns about a fixed axis with the same law; tried as
@@ -146,9 +149,9 @@ class PoseRecovery:
         """The brake's joint references per tick (module docstring), its last row at rest:
         over brake_s(|v|), then over that shortened `replan_slowdown` times, up to
         `replan_attempts` times; each a whole number of periods. The first
-        `committed_brake_s` of the first at once, so the drives take over within a tick
-        or two, and the rest of every try from where they end handed to the planner (a
-        Future: `continue_brake`); every try at once where there is no time to commit
+        `committed_brake_s` of one of them (try_to_commit) at once, so the drives take
+        over within a tick or two, and the rest of every try from where they end handed to
+        the planner (a Future: `continue_brake`); every try at once where there is no time to commit
         (`committed_brake_s` 0, or as long as the shortest brake) or the committed rows
         are held by no tensions."""
         config = self.config
@@ -166,33 +169,49 @@ class PoseRecovery:
         tries = [brake_from(naming, *rest) for rest in rests]
         committed = round(config.committed_brake_s / self.period_s)
         if 0 < committed < round(rests[-1][0] / self.period_s) - 1:
-            prefix = tabulate_pose_references(self.robot, self.lowered, tries[:1], self.period_s, self.attached,
+            self.committed_try = self.try_to_commit(rests)
+            first = tries[self.committed_try]
+            prefix = tabulate_pose_references(self.robot, self.lowered, [first], self.period_s, self.attached,
                                               rows=committed + 1)[0]
             if not isinstance(prefix, InfeasibleTensionError):
                 self.committed_ticks = committed
                 elapsed_s = committed * self.period_s
-                committed_end = tries[0].sample(elapsed_s)
+                committed_end = first.sample(elapsed_s)
                 self.rest_tries = [brake_from(committed_end, duration_s - elapsed_s, position, orientation)
                                    for duration_s, position, orientation in rests]
                 self.first_rest = Future()
-                return prefix, self.planner.submit(self.continue_brake, self.rest_tries, self.first_rest,
-                                                   urgent=True)
+                return prefix, self.planner.submit(self.continue_brake, self.rest_tries, self.committed_try,
+                                                   self.first_rest, urgent=True)
         table, note = self.best_of(tries, 'the brake')
         self.notes += [note] if note else []
         return table, None
+
+    def try_to_commit(self, rests) -> int:
+        """Of the brake's tries ((duration s, rest position, rest orientation) each), the one
+        whose first rows are sent at the naming and whose rest of the way is kept should
+        the others come too late: the first, where the cables left hold the platform at
+        its rest; else the one whose rest they hold with the largest static tension
+        margin; where they hold none, the shortest, which best_of would then plan with
+        the floored tensions."""
+        margins = [tension_margin_n(self.robot, position, orientation, self.attached)
+                   for _, position, orientation in rests]
+        if margins[0] > 0.0:
+            return 0
+        return int(np.argmax(margins)) if max(margins) > 0.0 else len(rests) - 1
 
     @property
     def switch_tick(self) -> int:
         """The first tick of the brake's rows planned after the naming."""
         return self.start_tick + self.committed_ticks
 
-    def continue_brake(self, tries: list[PoseTrajectory], first_rest: Future):
+    def continue_brake(self, tries: list[PoseTrajectory], committed_try: int, first_rest: Future):
         """The brake's rows from its committed first ones on (the `tries`: from where those
-        end, the first try's, towards each try's rest over what is left of its time; the
-        first try's own rest of the way among them, so the tries and the choice are the
-        module docstring's), and a note. The first try's table goes to `first_rest` as
-        soon as it is tabulated: the brake to keep should the others come too late."""
-        return self.best_of(tries, 'the brake', tables=self.tabulated_tries(tries, first_rest))
+        end, the committed try's, towards each try's rest over what is left of its time;
+        the committed try's own rest of the way among them, so the tries and the choice
+        are the module docstring's), and a note. The committed try's table is tabulated
+        first and goes to `first_rest` at once: the brake to keep should the others come
+        too late."""
+        return self.best_of(tries, 'the brake', tables=self.tabulated_tries(tries, first_rest, committed_try))
 
     def settle_brake(self, needed_tick: int, due_tick: int | None = None) -> None:
         """Once the brake's rows after its committed ones are planned, they follow those.
@@ -212,8 +231,9 @@ class PoseRecovery:
                         return
                     tables = iter([self.first_rest.result()])
                 else:
-                    tables = self.tabulated_tries(self.rest_tries[:1])
-                rest, note = self.best_of(self.rest_tries[:1], 'the brake', tables=tables)
+                    tables = self.tabulated_tries(self.rest_tries[self.committed_try:self.committed_try + 1])
+                rest, note = self.best_of(self.rest_tries[self.committed_try:self.committed_try + 1], 'the brake',
+                                          tables=tables)
                 note = (f'the brake\'s tries were not planned by tick {self.switch_tick}: braked as first planned'
                         + (f'; {note}' if note else ''))
             else:
@@ -282,16 +302,21 @@ class PoseRecovery:
                 f'{part} cannot keep the planned tension margin ({short}); no try keeps every cable at '
                 f'{self.robot.tension_min_n:g} N: the last planned nearest the bounds')
 
-    def tabulated_tries(self, tries: list[PoseTrajectory], first_table: Future | None = None):
+    def tabulated_tries(self, tries: list[PoseTrajectory], first_table: Future | None = None, first: int = 0):
         """Each try's table with the lowered floor (or the error naming where not even
-        τ_min holds): the first alone (also handed to `first_table`), the others, if it
-        does not keep the margin, in one pass."""
-        first = tabulate_pose_references(self.robot, self.lowered, tries[:1], self.period_s, self.attached)
+        τ_min holds), in the tries' order: tries[`first`] tabulated alone (and handed to
+        `first_table`), then the others in one pass — where the first try is it, only if
+        it does not keep the margin."""
+        alone = tabulate_pose_references(self.robot, self.lowered, tries[first:first + 1], self.period_s,
+                                         self.attached)[0]
         if first_table is not None:
-            first_table.set_result(first[0])
-        yield first[0]
-        if len(tries) > 1:
-            yield from tabulate_pose_references(self.robot, self.lowered, tries[1:], self.period_s, self.attached)
+            first_table.set_result(alone)
+        if first == 0:
+            yield alone
+        others = tries[:first] + tries[first + 1:]
+        if others:
+            tables = tabulate_pose_references(self.robot, self.lowered, others, self.period_s, self.attached)
+            yield from tables[:first] + ([alone] if first else []) + tables[first:]
 
     def ease_in(self, command_nm: np.ndarray) -> None:
         """The first row the controller tracks (row 1: row 0 is the naming tick's, already
