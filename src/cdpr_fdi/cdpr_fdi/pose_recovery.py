@@ -218,22 +218,23 @@ class PoseRecovery:
         Where a reference of the tick `needed_tick` or later is wanted first (rows sent out
         cannot be taken back): the tries are waited for until the drives are about to
         need those rows (`due_tick`, the first tick whose row may be wanted before the
-        next call; `needed_tick` where not given), then the first try's rest of the way is
-        kept, as tabulated beside them, or planned here and now (a few ms, the drives
-        still on the committed rows sent ahead) where it is not ready; the note says so.
+        next call; `needed_tick` where not given), then the committed try's rest of the
+        way is kept, as tabulated beside them, or planned here and now (a few ms, the
+        drives still on the committed rows sent ahead) where it is not ready; the note
+        says so.
         Then the move is handed to the planner, from the brake's rest."""
         if self.continuation is not None:
             if self.continuation.done():
                 rest, note = self.continuation.result()
             elif needed_tick >= self.switch_tick:
+                kept = self.rest_tries[self.committed_try:self.committed_try + 1]
                 if self.first_rest.done():
                     if (needed_tick if due_tick is None else due_tick) < self.switch_tick:
                         return
                     tables = iter([self.first_rest.result()])
                 else:
-                    tables = self.tabulated_tries(self.rest_tries[self.committed_try:self.committed_try + 1])
-                rest, note = self.best_of(self.rest_tries[self.committed_try:self.committed_try + 1], 'the brake',
-                                          tables=tables)
+                    tables = self.tabulated_tries(kept)
+                rest, note = self.best_of(kept, 'the brake', tables=tables)
                 note = (f'the brake\'s tries were not planned by tick {self.switch_tick}: braked as first planned'
                         + (f'; {note}' if note else ''))
             else:

@@ -184,9 +184,11 @@ class TabulatedMove:
             row = len(table) - 1
         return table_reference(table, row)
 
-    def planned_references(self, tick: int, count: int) -> list[tuple[int, JointReference]]:
+    def planned_references(self, tick: int, count: int, due_tick: int | None = None) -> list[tuple[int, JointReference]]:
         """(tick, joint reference) of the `count` ticks after tick + 1 that the move under
-        way already fixes, as far as its table goes; none outside RECOVERY_MOVE."""
+        way already fixes, as far as its table goes; none outside RECOVERY_MOVE. A point
+        mass's move is tabulated whole when it starts: nothing waits for `due_tick`
+        (PoseRecovery's does)."""
         if self.mode != RECOVERY_MOVE:
             return []
         start_tick, table = self.tabulated()

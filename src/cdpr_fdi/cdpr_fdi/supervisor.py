@@ -394,9 +394,7 @@ class Supervisor:
         given)."""
         if self.recovery is None or self.mode == FAULT:
             return []
-        if isinstance(self.recovery, PoseRecovery):
-            return self.recovery.planned_references(tick, count, due_tick)
-        return self.recovery.planned_references(tick, count)
+        return self.recovery.planned_references(tick, count, due_tick)
 
     def reference_tensions(self, reference: JointReference) -> np.ndarray:
         """τ_d = (J θ̈_d + b θ̇_d − c_ID) / ρ, θ̈_d from the previous reference (N)."""

@@ -144,10 +144,10 @@ class SupervisorNode(CdprNode):
             # at the naming leaves them queued)
             behind = (max(lag, self.origin_ns + time.monotonic_ns() - self.origin_wall_ns - stamp)
                       if self.clock_mode == 'realtime' else lag)
-            now = tick + behind // self.period_ns
+            behind_ticks = behind // self.period_ns
             ahead = [(self.origin_ns + later * self.period_ns, reference) for later, reference
-                     in self.supervisor.planned_references(tick, self.lead + behind // self.period_ns,
-                                                           now + DUE_AHEAD_TICKS)]
+                     in self.supervisor.planned_references(tick, self.lead + behind_ticks,
+                                                           tick + behind_ticks + DUE_AHEAD_TICKS)]
             for at_ns, reference in [(following, verdict.reference)] + ahead:
                 if at_ns > self.reference_sent_ns:
                     self.recovery_reference.publish(joint_state(
