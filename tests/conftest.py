@@ -95,6 +95,14 @@ def keep_running(graph, since_s: float, seconds: float, what: str) -> None:
         time.sleep(0.05)
 
 
+def assert_stopped_cleanly(codes: dict[str, int], log, but: str | None = None) -> None:
+    """Every node of a stopped graph (but `but`) exited 0; failing, the message ends with
+    the launcher's last lines, where a node killed after its grace left its stacks."""
+    unclean = {name: code for name, code in codes.items() if code != 0 and name != but}
+    assert codes.keys() - {but} and not unclean, (
+        f'exit codes after the stop: {codes}; the log\'s end:\n' + '\n'.join(list(log)[-80:]))
+
+
 def wait_until_the_plant_runs(lines, timeout_s: float) -> None:
     """Until a started graph's plant logs that it starts its run (the launcher's log
     lines gathered in `lines`, a list or a GraphLog): the start handshake is over, the

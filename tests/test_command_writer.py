@@ -33,8 +33,8 @@ from cdpr_msgs_py.runtime.subscriptions import message_info_callback
 from cdpr_msgs_py.sole_writer import Endpoint, SoleWriter
 from cdpr_msgs_py.stamps import stamp_to_ns
 
-from conftest import (MOTIONS, PAPER_ROBOT, GraphLog, keep_running, timing_check,
-                      wait_until_the_plant_runs)
+from conftest import (MOTIONS, PAPER_ROBOT, GraphLog, assert_stopped_cleanly, keep_running,
+                      timing_check, wait_until_the_plant_runs)
 from test_faults import START_TIMEOUT_S
 from test_graph import offline_verdict
 
@@ -255,7 +255,7 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
         keep_running(graph, written_s, AFTER_WRITE_S, 'the outside writers were done')
     finally:
         exit_codes = graph.stop()
-    assert set(exit_codes.values()) == {0}, f'exit codes after the stop: {exit_codes}'
+    assert_stopped_cleanly(exit_codes, log)
     assert not log.repeated_lines(), log.repeated_lines()
     # A lockstep run has no period to slip: nothing of it is ever excused.
     run_s, writes_s = (log.plant_started_s(), time.monotonic()), (writing_s, written_s)

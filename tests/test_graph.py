@@ -16,7 +16,8 @@ from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.graph.launcher import Graph, graph_nodes, node_environment, run_to_completion
 from cdpr_bringup.reports.report import run_settings, write_report
 from cdpr_bringup.reports.summary import bag_summary
-from cdpr_bringup.runs.metrics import fdi_summary_from_diagnostics, twin_kpis
+from cdpr_bringup.runs.metrics import (fdi_summary_from_diagnostics, fdi_summary_of,
+                                      last_true_position_of, twin_kpis, written_statuses)
 from cdpr_bringup.runs.settle import GRAPH_FORMS, ScenarioOptions, build_scenario
 
 from cdpr_msgs_py.dds import PROFILE_VARIABLE
@@ -34,8 +35,10 @@ def run(tmp_path, name, clock_mode='lockstep', log=QUIET, form='separate', **opt
     """A run of along-2 (or `options`' motion) as cdpr-scenario settles it, in graph
     `form`; its bag."""
     bag = tmp_path / name
+    (tmp_path / f'{name}_said').mkdir()
     run_to_completion(graph_nodes(settled_parameters(clock_mode, **dict({'motion': 'along-2'}, **options)),
-                                  str(bag), form=form), f'/cdpr_test_{name}', timeout_s=120.0, log=log)
+                                  str(bag), form=form, last_diagnostics=str(tmp_path / f'{name}_said')),
+                      f'/cdpr_test_{name}', timeout_s=120.0, log=log)
     return bag
 
 
@@ -75,6 +78,13 @@ def test_lockstep_graph_equals_the_inprocess_engine(lockstep_bags):
     diagnostics = read_messages(lockstep_bags[0], ['/diagnostics'])['/diagnostics']
     assert fdi_summary_from_diagnostics(diagnostics) == engine.fdi
     assert engine.fdi['broken_cables'] == [4] and engine.fdi['mode'] == 'SAFE_HOLD'
+    # what the nodes said as they stopped, whatever the recorder kept (cdpr-scenario's
+    # verdicts and final pose)
+    said = written_statuses(lockstep_bags[0].with_name('run0_said'))
+    assert fdi_summary_of(said['supervisor']) == engine.fdi
+    np.testing.assert_allclose(last_true_position_of(said['plant_simulator']),
+                               engine.true_position_m[-1], rtol=0, atol=1e-9)
+    assert int(said['plant_simulator']['states total']) == engine.time_s.size
 
 
 def test_lockstep_runs_are_bit_for_bit_repeatable_and_the_same_in_either_graph_form(lockstep_bags):

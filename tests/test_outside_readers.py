@@ -26,8 +26,8 @@ from cdpr_bringup.graph.launcher import Graph, graph_nodes, node_environment
 from cdpr_msgs_py.conversions import stamp_to_ns
 from cdpr_msgs_py.health import WARN
 
-from conftest import (GraphLog, in_private_shm, keep_running, private_shm_allowed,
-                      settled_parameters, timing_check)
+from conftest import (GraphLog, assert_stopped_cleanly, in_private_shm, keep_running,
+                      private_shm_allowed, settled_parameters, timing_check)
 from test_faults import START_TIMEOUT_S
 from test_graph import user_environment
 
@@ -113,8 +113,7 @@ def run_with_a_stopped_reader(tmp_path, clock_mode: str):
         if reader is not None:
             end(reader)
         codes = graph.stop()
-    assert set(codes.values()) == {0}, (f'exit codes after the stop: {codes}; the log\'s end:\n'
-                                        + '\n'.join(list(log)[-80:]))
+    assert_stopped_cleanly(codes, log)
     return namespace, bag, stopped_ns, stalled_s, log
 
 

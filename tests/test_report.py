@@ -18,7 +18,9 @@ from cdpr_bringup.reports import plots
 from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.bags.bag_io import BagWriter, recording_from_bag, write_recording
 from cdpr_bringup.runs.engine import run_inprocess
-from cdpr_bringup.runs.metrics import metrics_json, tracking_error_m, twin_kpis
+from cdpr_bringup.reports.summary import summary_lines
+from cdpr_bringup.runs.metrics import (metrics_json, missing_against_the_plant, tracking_error_m,
+                                      twin_kpis)
 from cdpr_bringup.reports.report import (SETTLED_RUN, load_run, main, run_of_recording, run_settings, write_report,
                                  write_run_report)
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
@@ -135,6 +137,38 @@ def test_scenario_and_report_compute_the_same_metrics_of_one_run(failure_run, tm
               if not (recomputed[key] == own[key] if own[key] is None or isinstance(own[key], (bool, str))
                       else recomputed[key] == pytest.approx(own[key], rel=1e-12, abs=1e-12))}
     assert not differ, differ
+
+
+def test_a_bag_that_lost_the_runs_last_seconds_changes_neither_where_the_run_ended_nor_what_is_said(
+        failure_run):
+    """A graph run's recorder that lags when the graph stops loses the last ticks, here
+    everything from 0.2 s after the detection on: the run's final pose then comes from the
+    plant's own last report and the ticks the bag lacks from the plant's count of its
+    states, and the summary says them (issue 26)."""
+    scenario, recording, _, _ = failure_run
+    whole = scenario_cli.metrics_of(scenario, recording, wall_time_s=1.0)
+    kept = recording.fdi['identified_tick'] + round(0.2 / scenario.period_s)
+    ticks = recording.time_s.size
+    cut = dataclasses.replace(recording, **{
+        field.name: getattr(recording, field.name)[:kept] for field in dataclasses.fields(recording)
+        if isinstance(getattr(recording, field.name), np.ndarray)})
+    held = {topic: kept for topic in ('joint_states', 'ground_truth/pose', 'ground_truth/tensions',
+                                      'effort_command')}
+    # the recorder's own count: no hole between its first tick and its last
+    cut.missing_ticks = missing_against_the_plant(dict.fromkeys(held, 0), ticks, held)
+    cut.last_true_position_m = recording.true_position_m[-1]
+    metrics = scenario_cli.metrics_of(scenario, cut, wall_time_s=1.0)
+    assert whole['recovery']['reached_safe_point'] is True
+    assert metrics['recovery']['final_error_m'] == whole['recovery']['final_error_m']
+    assert metrics['identified_cables'] == [4] and metrics['mode'] == 'SAFE_HOLD'
+    lost = ticks - kept
+    assert metrics['bag_missing_ticks'] == {'joint_states': lost, 'ground_truth/pose': lost,
+                                            'ground_truth/tensions': lost, 'effort_command': 0}
+    said = '\n'.join(summary_lines(metrics))
+    assert f'joint_states {lost}' in said and 'lacks ticks' in said
+    # the bag's last row alone would have said the safe point was not reached
+    alone = scenario_cli.metrics_of(scenario, dataclasses.replace(cut, last_true_position_m=None), 1.0)
+    assert alone['recovery']['reached_safe_point'] is False
 
 
 def test_the_report_of_a_run_in_memory_is_that_of_its_bag(failure_run, tmp_path):

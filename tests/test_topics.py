@@ -269,7 +269,8 @@ def clock_mode(request, tmp_path_factory):
     bag = tmp_path_factory.mktemp('bag') / 'bag'
     rclpy.init(args=['--ros-args', '-p', f'clock_mode:={request.param}',
                      '-p', f'config_file:={PAPER_ROBOT}', '-p', f'motions_file:={MOTIONS}',
-                     '-p', 'wait_for_supervisor:=true', '-p', f'bag_path:={bag}',
+                     '-p', 'wait_for_supervisor:=true', '-p', 'wait_for_recorder:=true',
+                     '-p', f'bag_path:={bag}',
                      '-p', 'matches:=["subscription:/never=1"]'])
     yield request.param
     rclpy.shutdown()

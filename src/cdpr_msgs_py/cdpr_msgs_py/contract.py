@@ -29,10 +29,14 @@ GROUND_TRUTH_TENSIONS = 'ground_truth/tensions'
 INJECT_FAILURE = 'inject_failure'
 MARKERS = 'markers'
 CLOCK = '/clock'
+RECORDER_PROGRESS = 'bag_recorder/progress'
 DIAGNOSTICS = '/diagnostics'
 # The plant simulator's /diagnostics key: {cable (1-based): instant it really parted (s)}
 # as JSON, ground truth for a run's failure_time_s.
 BROKEN_AT_KEY = 'plant broken_at_s'
+# The plant simulator's /diagnostics key: the true position (m) of the last state it
+# published, as JSON: where the run ended, whatever a recorder kept.
+LAST_TRUE_POSITION_KEY = 'plant last true position m'
 
 # The nodes of the graph, by executable. A hardware bridge takes the plant simulator's
 # place on its topics (docs/hardware.md).
@@ -79,7 +83,8 @@ class Reader:
     have matched (CdprNode.start_when_matched), so its start cannot wait for that one.
     `pacing`: the node waits for this topic before each answer, which it does only in
     lockstep and only when told the writer is there (the controller's
-    `wait_for_supervisor`); in realtime the wait would cost a third of the loop.
+    `wait_for_supervisor`, the plant simulator's `wait_for_recorder`); in realtime the
+    wait would cost a third of the loop.
     `simulated`: read by the plant simulator only, not by a hardware bridge in its place.
     `lockstep`: read in lockstep only (the plant learns from the residual which tick a
     mode applies to, for a run that ends at the engine's tick; in realtime it takes its
@@ -172,6 +177,10 @@ TOPICS = {topic.name: topic for topic in (
           (_RECORDER,), every_tick=True, lockstep=True, simulated=True),
     Topic(DIAGNOSTICS, 'diagnostic_msgs/msg/DiagnosticArray', Delivery.DIAGNOSTICS, None,
           (_RECORDER,)),
+    # The stamp of the newest tick the recorder has written: a lockstep plant runs no
+    # further ahead of it than its writers keep, so that the bag gets every tick.
+    Topic(RECORDER_PROGRESS, 'std_msgs/msg/Header', _LATCHED, BAG_RECORDER,
+          (Reader(PLANT_SIMULATOR, pacing=True, simulated=True),)),
 )}
 
 

@@ -21,7 +21,7 @@ import time
 from geometry_msgs.msg import PoseStamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Int32, String
+from std_msgs.msg import Header, Int32, String
 
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
@@ -29,11 +29,18 @@ from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, pose_stamped
 from cdpr_msgs_py.health import loop_problem
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
+from cdpr_msgs_py.stamps import stamp_to_ns
 
 from .plant import PlantConfig, PlantSimulator, settled_pushes
+from .recorder_pacing import RecorderPacing
 from .run_length import RunLength
 from .watchdog import BRAKING, CommandWatchdog
 from .tick_timing import TickTiming
+
+
+# How far ahead of the recorder a lockstep run may be (s of ticks): well within the
+# writers' history, and what a recorder catches up on within a node's drain at the end.
+RECORDER_LEAD_S = 0.5
 
 
 class PlantSimulatorNode(CdprNode):
@@ -66,6 +73,8 @@ class PlantSimulatorNode(CdprNode):
         self.timing = TickTiming(self.period_s, deadlines=self.clock_mode == 'realtime')
         self.started = False
         self.sent_at = 0.0
+        # The true position of the last state published (m).
+        self.last_true_position_m = self.plant.position_m.copy()
         # Until the first command arrives, hold the load.
         self.command = self.plant.holding_torque_nm()
         self.state = self.create_stream_publisher(JointState, contract.JOINT_STATES)
@@ -92,6 +101,23 @@ class PlantSimulatorNode(CdprNode):
                                'the only node whose inject_failure is obeyed'), required=False)
         else:
             self.create_subscription(Int32, contract.INJECT_FAILURE, self.refuse_injection, qos.STREAM)
+        # Lockstep with a recorder in the graph: no further ahead of it than its lead, so
+        # that its bag gets every tick (recorder_pacing).
+        wait_for_recorder = self.parameter(
+            'wait_for_recorder', False,
+            f'lockstep: run no further ahead of the graph\'s {contract.BAG_RECORDER} than recorder_lead_s')
+        lead_s = self.parameter('recorder_lead_s', RECORDER_LEAD_S,
+                                'lockstep, waiting for the recorder: how far ahead of it the run may be '
+                                '(s of ticks; less than the writers\' streams.history_s)',
+                                value_range=(0.0, None))
+        self.pacing = None
+        if wait_for_recorder and self.clock_mode == 'lockstep':
+            self.pacing = RecorderPacing(max(1, round(lead_s / self.period_s)))
+            self.create_sole_writer_subscription(Header, contract.RECORDER_PROGRESS, self.on_recorder_progress,
+                                                 qos.LATCHED, contract.BAG_RECORDER)
+        # A state held until the recorder catches up.
+        self.held = False
+        self.published_tick = -1
         self.timer = None
         self.watchdog = CommandWatchdog(plant_section.integer('command_timeout_cycles', minimum=1))
         settings.declare(self)
@@ -113,6 +139,8 @@ class PlantSimulatorNode(CdprNode):
                                                                    self.plant.orientation))
         self.truth_tensions.publish_if_subscribed(
             lambda: joint_state(self.names, stamp, effort=self.plant.tension_n))
+        self.last_true_position_m = self.plant.position_m.copy()
+        self.published_tick = self.tick
         self.sent_at = time.monotonic()
         self.diagnostics.count('states')
 
@@ -125,10 +153,12 @@ class PlantSimulatorNode(CdprNode):
     def current_facts(self) -> dict[str, str]:
         # Timing figures only when diagnostics go out: percentiles cost more than a tick.
         # The instants cables really parted (1-based), for the run's metrics: the field
-        # plant's electromagnet parts its cable after the failure it was told.
-        parted = {contract.BROKEN_AT_KEY: json.dumps({str(cable + 1): at for cable, at
-                                             in self.plant.broken_at_s.items()})}
-        return {**super().current_facts(), **self.timing.facts(), **parted}
+        # plant's electromagnet parts its cable after the failure it was told. And where
+        # the run ended, whatever a recorder kept.
+        run = {contract.BROKEN_AT_KEY: json.dumps({str(cable + 1): at for cable, at
+                                                  in self.plant.broken_at_s.items()}),
+               contract.LAST_TRUE_POSITION_KEY: json.dumps(self.last_true_position_m.tolist())}
+        return {**super().current_facts(), **self.timing.facts(), **run}
 
     def current_problems(self) -> tuple[list[str], list[str]]:
         window = self.timing.take_window()
@@ -150,7 +180,7 @@ class PlantSimulatorNode(CdprNode):
                 self.publish_state()
                 if self.clock_mode == 'realtime':
                     self.timer = self.create_timer(self.period_s, self.realtime_step)
-        elif self.clock_mode == 'lockstep' and time.monotonic() - self.sent_at > self.resend_s:
+        elif self.clock_mode == 'lockstep' and not self.held and time.monotonic() - self.sent_at > self.resend_s:
             self.resend_state()
 
     def on_command(self, message: JointState) -> None:
@@ -167,8 +197,23 @@ class PlantSimulatorNode(CdprNode):
             return
         self.command = joints.effort
         self.advance()
-        if not self.finished:
+        if self.finished:
+            return
+        if self.pacing is not None and not self.pacing.may_publish(self.tick):
+            self.held = True
+            self.diagnostics.count('states held for the recorder')
+            return
+        self.publish_state()
+
+    def on_recorder_progress(self, message: Header) -> None:
+        self.pacing.recorded(stamp_to_ns(message.stamp) // self.period_ns)
+        if self.held and self.pacing.may_publish(self.tick):
+            self.held = False
             self.publish_state()
+
+    def keeps_draining(self) -> bool:
+        """Waiting for the recorder, the run's end waits until it has the last state."""
+        return self.pacing is not None and not self.pacing.has_recorded(self.published_tick)
 
     def advance(self) -> None:
         self.plant.step(self.command, self.period_s)

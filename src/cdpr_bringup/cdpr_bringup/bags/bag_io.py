@@ -260,6 +260,7 @@ def recording_from_bag(bag: str | Path, namespace: str = '/cdpr', orientations: 
         true_position_m=points('ground_truth/pose'),
         true_tension_n=joints('ground_truth/tensions', 'effort'),
         residual_nm=joints('fdi/residual', 'effort') if found[names['fdi/residual']] else None,
+        ticks_held={key: len(found[name]) for key, name in names.items()},
         **turned,
     )
 

@@ -8,7 +8,9 @@ Messages are taken serialized (no decode/encode on the way) and stamped with the
 receive time. `effort_command` holds the commands of the graph's controller only
 (parameter `command_writer`, as the plant obeys): those of any other writer go to
 `effort_command/other_writers`, so that offline FDI and reports see what the motors
-obeyed. Per-cycle topics are subscribed reliable + keep-all, so none is lost.
+obeyed. Per-cycle topics are subscribed reliable + keep-all, so none is lost. The
+newest tick written goes out on `bag_recorder/progress` (at most every
+PROGRESS_PERIOD_S), which a lockstep plant waits for (cdpr_twin.recorder_pacing).
 On SIGINT/SIGTERM the node drains its queue, also while it is quiet as long as a writer
 of a per-tick topic is still there (at most runtime.spin.DRAIN_LIMIT_S), and closes the
 bag; if it is killed, the bag keeps every chunk flushed so far (at most
@@ -24,6 +26,7 @@ from __future__ import annotations
 import json
 import time
 
+from std_msgs.msg import Header
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
                                 QosTime)
 
@@ -31,6 +34,7 @@ from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
+from cdpr_msgs_py.conversions import ns_to_stamp
 from cdpr_msgs_py.stamps import ns_parts
 
 from .bag_io import MISSING_TICKS_KEY, BagWriter
@@ -41,6 +45,9 @@ from .tick_gaps import TickGaps, cdr_stamp_ns
 RECORDED = {topic.name: contract.message_class(topic.type)
             for topic in contract.topics_read_by(contract.BAG_RECORDER)}
 FLUSH_PERIOD_S = 0.5
+# How often the recorder says its newest tick written, at most (s): a lockstep plant
+# waiting for it runs no further ahead than its lead (cdpr_twin.recorder_pacing).
+PROGRESS_PERIOD_S = 0.02
 # The bag topic, beside effort_command, of the commands of writers other than the controller.
 OTHER_WRITERS = 'other_writers'
 
@@ -86,6 +93,12 @@ class BagRecorderNode(CdprNode):
         self.gaps: dict[int, tuple[str, TickGaps]] = {}
         # the per-tick topics' full names: stopping, the bag waits for their writers
         self.per_tick_names: list[str] = []
+        # the newest joint state written (its stamp, ns), and the last one said on
+        # RECORDER_PROGRESS, when (monotonic s)
+        self.newest_state_ns = self.said_state_ns = -1
+        self.said_at = 0.0
+        self.progress = self.create_publisher(Header, contract.RECORDER_PROGRESS,
+                                              qos.of_readers(contract.RECORDER_PROGRESS))
         command_writer = self.parameter('command_writer', 'controller',
                                         'the node whose effort_command is recorded as such; any '
                                         f'other writer\'s goes to effort_command/{OTHER_WRITERS}')
@@ -127,15 +140,27 @@ class BagRecorderNode(CdprNode):
         return name[len(prefix):]
 
     def writer_for(self, connection):
-        gaps = self.gaps.get(connection.id, (None, None))[1]
+        topic, gaps = self.gaps.get(connection.id, (None, None))
 
         def write(data: bytes) -> None:
             self.writer.write(connection, self.receipt_ns(), data)
             self.recorded += 1
             self.diagnostics.count('messages')
             if gaps is not None:
-                gaps.seen(cdr_stamp_ns(data))
+                stamp_ns = cdr_stamp_ns(data)
+                gaps.seen(stamp_ns)
+                if topic == contract.JOINT_STATES:
+                    self.newest_state_ns = max(self.newest_state_ns, stamp_ns)
+                    self.say_progress()
         return write
+
+    def say_progress(self) -> None:
+        """The newest joint state written, on RECORDER_PROGRESS, at most every
+        PROGRESS_PERIOD_S."""
+        now = time.monotonic()
+        if self.newest_state_ns > self.said_state_ns and now - self.said_at >= PROGRESS_PERIOD_S:
+            self.progress.publish(Header(stamp=ns_to_stamp(self.newest_state_ns)))
+            self.said_state_ns, self.said_at = self.newest_state_ns, now
 
     def missing_ticks(self) -> dict[str, int]:
         """Per per-tick topic that has messages, the ticks it lacks so far."""
@@ -146,14 +171,18 @@ class BagRecorderNode(CdprNode):
         return {**super().current_facts(),
                 'missing ticks': ', '.join(f'{topic} {count}' for topic, count in missing.items()) or 'none'}
 
-    def awaits_writers(self) -> bool:
+    def keeps_draining(self) -> bool:
         """A writer of a per-tick topic still there may hold ticks this node has not had
         (it waits for their acknowledgement before it exits): a recorder behind a loaded
         machine, quiet a moment, must not close the bag before them."""
         return any(self.count_publishers(name) for name in self.per_tick_names)
 
+    def drain_step(self) -> None:
+        self.say_progress()
+
     def idle(self) -> None:
         super().idle()
+        self.say_progress()
         now = time.monotonic()
         if now - self.last_flush >= self.flush_period_s:
             self.writer.flush()

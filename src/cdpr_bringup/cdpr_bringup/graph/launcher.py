@@ -281,9 +281,12 @@ def run_until_stopped(nodes: list[NodeSpec], namespace: str, log=print) -> None:
 
 
 def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
-                supervised: bool = True, plant: bool = True, form: str = 'separate') -> list[NodeSpec]:
+                supervised: bool = True, plant: bool = True, form: str = 'separate',
+                last_diagnostics: str | None = None) -> list[NodeSpec]:
     """The closed loop: generator, controller, twin, supervisor, plant, a recorder and the
-    markers, each with its settled parameters (Scenario.node_parameters).
+    markers, each with its settled parameters (Scenario.node_parameters). With
+    `last_diagnostics` (a folder) each node writes its last /diagnostics status there as
+    it stops, into NODE.json.
 
     Each node gets the `matches` its per-cycle endpoints must reach before it subscribes
     to its tick (CdprNode.start_when_matched); the plant starts when all have. Without
@@ -298,7 +301,7 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
         specs.append(('cdpr_bringup', 'bag_recorder', {'bag_path': bag_path}))
     specs.append(('cdpr_fdi', 'markers', {}))
     if plant:
-        specs.append(('cdpr_twin', 'plant_simulator', {}))
+        specs.append(('cdpr_twin', 'plant_simulator', {'wait_for_recorder': bag_path is not None}))
     realtime = parameters['controller']['clock_mode'] == 'realtime'
     # Without the plant a hardware bridge keeps its end of the handshake: it reads the
     # commands and writes the states, but not what only a simulation has.
@@ -309,7 +312,9 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
     # node died declaring one), and the node's default is to wait for nothing.
     nodes = [NodeSpec(package, executable, dict(parameters[executable], **extra,
                                                 **({'matches': handshake[executable]}
-                                                   if handshake[executable] else {})))
+                                                   if handshake[executable] else {}),
+                                                **({'last_diagnostics_path': f'{last_diagnostics}/{executable}.json'}
+                                                   if last_diagnostics is not None else {})))
              for package, executable, extra in specs]
     return composed(nodes) if form == 'composed' else nodes
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -10,10 +11,14 @@ from cdpr_control.pose_kinematics import end_effector_positions
 from cdpr_control.rotation import difference
 from cdpr_control.robot import Robot
 from cdpr_fdi.config import FdiConfig, RecoveryConfig
-from cdpr_msgs_py.contract import BROKEN_AT_KEY, SAFE_HOLD
+from cdpr_msgs_py.contract import (BROKEN_AT_KEY, GROUND_TRUTH_POSE, GROUND_TRUTH_TENSIONS,
+                                   JOINT_STATES, LAST_TRUE_POSITION_KEY, PLANT_SIMULATOR,
+                                   SAFE_HOLD, SUPERVISOR)
 
 from .recording import Recording
 
+# The per-tick topics the plant simulator writes with every state it publishes.
+PER_STATE_TOPICS = (JOINT_STATES, GROUND_TRUTH_POSE, GROUND_TRUTH_TENSIONS)
 PAPER_KPI = {'K_c_m': 0.0143, 'K_j_rad': 0.0583, 'K_t_nm': 0.1566}
 
 
@@ -91,6 +96,9 @@ class KnownRun:
     reached_tolerance_m: float | None  # distance to SP that counts as reached
     supervisor: dict                  # its last summary (Supervisor.summary()); {}: none
     wall_time_s: float
+    # where the run ended as the plant reported it, whatever a recorder kept; None: the
+    # last of position_m
+    final_position_m: np.ndarray | None = None
 
     @property
     def event_time_s(self) -> float | None:
@@ -118,8 +126,9 @@ def metrics_json(run: KnownRun) -> dict:
     detection, failure = run.detection_time_s, run.failure_time_s
     nominal = slice(0, ticks_before(run.recording, run.event_time_s))
     tensions_after = run.tension_n[nominal.stop:]
+    final = run.position_m[-1] if run.final_position_m is None else run.final_position_m
     final_error = (None if run.safe_point_m is None
-                   else float(np.linalg.norm(run.position_m[-1] - np.asarray(run.safe_point_m))))
+                   else float(np.linalg.norm(final - np.asarray(run.safe_point_m))))
     hold = run.phase_times_s.get(SAFE_HOLD)
     failure_known = failure is not None or run.true_broken_cables is not None
     return {
@@ -160,28 +169,69 @@ def metrics_json(run: KnownRun) -> dict:
     }
 
 
-def broken_at_from_diagnostics(messages) -> dict[int, float] | None:
+def last_statuses(messages) -> dict[str, dict[str, str]]:
+    """Per node (the last part of its name), the key-values of its last status among
+    /diagnostics messages."""
+    return {status.name.rsplit('/', 1)[-1]: {value.key: value.value for value in status.values}
+            for _, message in messages for status in message.status}
+
+
+def written_statuses(folder: str | Path) -> dict[str, dict[str, str]]:
+    """Per node, the key-values of the last status it wrote into `folder` as it stopped
+    (CdprNode's `last_diagnostics_path`, NODE.json); a node that wrote none (killed) or
+    whose file cannot be read is left out."""
+    statuses = {}
+    for path in Path(folder).glob('*.json'):
+        try:
+            statuses[path.stem] = json.loads(path.read_text())['values']
+        except (OSError, ValueError, KeyError):
+            continue
+    return statuses
+
+
+def broken_at_of(plant: dict[str, str] | None) -> dict[int, float] | None:
     """0-based cable → the instant (s) the plant really parted it, from the plant
-    simulator's last /diagnostics (None when it never said)."""
-    broken = None
-    for _, message in messages:
-        for status in message.status:
-            if status.name.endswith('/plant_simulator'):
-                for value in status.values:
-                    if value.key == BROKEN_AT_KEY:
-                        broken = {int(cable) - 1: float(at)
-                                  for cable, at in json.loads(value.value).items()}
-    return broken
+    simulator's status key-values (None when it never said)."""
+    if plant is None or BROKEN_AT_KEY not in plant:
+        return None
+    return {int(cable) - 1: float(at) for cable, at in json.loads(plant[BROKEN_AT_KEY]).items()}
+
+
+def last_true_position_of(plant: dict[str, str] | None) -> np.ndarray | None:
+    """The true position (m) of the last state the plant simulator published, from its
+    status key-values (None when it never said)."""
+    if plant is None or LAST_TRUE_POSITION_KEY not in plant:
+        return None
+    return np.array(json.loads(plant[LAST_TRUE_POSITION_KEY]), dtype=float)
+
+
+def fdi_summary_of(supervisor: dict[str, str] | None) -> dict:
+    """The supervisor's summary (Supervisor.summary()) from its status key-values (its
+    `fdi *` keys); {} without them."""
+    return {key[len('fdi '):]: json.loads(value) for key, value in (supervisor or {}).items()
+            if key.startswith('fdi ')}
+
+
+def broken_at_from_diagnostics(messages) -> dict[int, float] | None:
+    """broken_at_of the plant simulator's last status among /diagnostics messages."""
+    return broken_at_of(last_statuses(messages).get(PLANT_SIMULATOR))
 
 
 def fdi_summary_from_diagnostics(messages) -> dict:
-    """The supervisor's last summary among /diagnostics messages (its `fdi *` key-values)."""
-    summary = {}
-    for _, message in messages:
-        for status in message.status:
-            if status.name.endswith('/supervisor'):
-                facts = {value.key[len('fdi '):]: json.loads(value.value)
-                         for value in status.values if value.key.startswith('fdi ')}
-                if facts:
-                    summary = facts
-    return summary
+    """fdi_summary_of the supervisor's last status among /diagnostics messages."""
+    return fdi_summary_of(last_statuses(messages).get(SUPERVISOR))
+
+
+def missing_against_the_plant(counted: dict[str, int] | None, states_total: int | None,
+                              held: dict[str, int]) -> dict[str, int] | None:
+    """The ticks each per-tick topic lacks in a bag: its recorder's count of the holes
+    (`counted`), and on the topics the plant writes with every state at least the
+    plant's own count of its states less the ticks the bag holds (`held`, per topic) —
+    which also counts the ticks after the recorder's last, which it cannot."""
+    if states_total is None:
+        return counted
+    missing = dict(counted or {})
+    for topic in PER_STATE_TOPICS:
+        if topic in held:
+            missing[topic] = max(missing.get(topic, 0), states_total - held[topic])
+    return missing

@@ -34,9 +34,16 @@ class Recording:
     # electromagnet makes later than the failure it was told (a simulation's ground
     # truth; None when unknown, as in a bag).
     broken_at_s: dict[int, float] | None = None
-    # A bag's recorder's count of the ticks each per-tick topic lacks (bag_io.missing_ticks);
-    # None where nothing was counted (an in-process run loses nothing).
+    # The ticks each per-tick topic lacks in a bag: its recorder's count
+    # (bag_io.missing_ticks), or more where the plant's own count of states says so
+    # (metrics.missing_against_the_plant); None where nothing was counted (an in-process
+    # run loses nothing).
     missing_ticks: dict[str, int] | None = None
+    # A bag's: per topic read (relative name), how many ticks it holds.
+    ticks_held: dict[str, int] | None = None
+    # A graph run's: the true position (m) of the plant's last state as the plant
+    # reported it, which a bag that lost its last ticks does not hold; None: unknown.
+    last_true_position_m: np.ndarray | None = None
     # A platform's orientations (unit quaternions, a row per cycle): the plant's true one,
     # the twin's and the reference's; None for a point mass.
     true_orientation: np.ndarray | None = None

@@ -1,7 +1,9 @@
 """cdpr-scenario: one run of a named motion, through the node graph or in-process.
 
 Writes into --out: run.yaml (the run as settled: every setting it used), bag/ (graph engine:
-every /cdpr topic), metrics.json (docs/design.md §7) and plots/, and prints the detection, identification and recovery figures and the
+every /cdpr topic), last_diagnostics/ (graph engine: each node's last /diagnostics status,
+written as it stopped; a graph run's verdicts and final pose are read from there, so that
+a recorder that lost the run's last ticks cannot change them), metrics.json (docs/design.md §7) and plots/, and prints the detection, identification and recovery figures and the
 twin-vs-robot KPIs next to the paper's.
 
 The node graph (rclpy) and the bag and plot stack (rosbags, matplotlib) are imported by
@@ -22,18 +24,21 @@ from pathlib import Path
 import yaml
 
 from cdpr_fdi.markers import Frame
-from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
+from cdpr_msgs_py.contract import DEFAULT_NAMESPACE, PLANT_SIMULATOR, SUPERVISOR
 from cdpr_twin.plant import FIDELITIES
 
 from ..cli import INTERRUPTED_EXIT_CODE, command
 from ..runs.engine import run_inprocess
-from ..runs.metrics import (KnownRun, RunSettings, broken_at_from_diagnostics,
-                      fdi_summary_from_diagnostics, metrics_json)
+from ..runs.metrics import (KnownRun, RunSettings, broken_at_of, fdi_summary_of, last_statuses,
+                           last_true_position_of, metrics_json, missing_against_the_plant,
+                           written_statuses)
 from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, SETTLED_RUN
 from ..reports.summary import summary_lines
 from ..runs.settle import ScenarioOptions, add_graph_form_option, add_push_option, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
+# The folder of --out where each node of a graph run writes its last /diagnostics status.
+LAST_DIAGNOSTICS = 'last_diagnostics'
 # How long the report's drawer may take beyond the bag, per control tick and fixed (s):
 # ~0.3 ms a tick on a 2-core machine, with a margin of 20x for a loaded one.
 DRAW_LIMIT_S_PER_TICK = 6e-3
@@ -81,11 +86,14 @@ def run_graph(args, scenario, out: Path):
     from ..bags.bag_io import missing_ticks, read_messages, recording_from_bag
     from ..graph.launcher import GraphError, graph_nodes, run_to_completion
     bag = out / 'bag'
+    statuses = out / LAST_DIAGNOSTICS
+    statuses.mkdir()
     log = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
     timeout = RUN_TIMEOUT_FACTOR * scenario.cycles * scenario.period_s + 30.0
     interrupted = False
     try:
-        run_to_completion(graph_nodes(scenario.node_parameters(args.clock), str(bag), form=args.graph_form),
+        run_to_completion(graph_nodes(scenario.node_parameters(args.clock), str(bag), form=args.graph_form,
+                                      last_diagnostics=str(statuses)),
                           args.namespace, timeout, log)
     except KeyboardInterrupt:
         interrupted = True
@@ -100,10 +108,17 @@ def run_graph(args, scenario, out: Path):
         if interrupted:
             return None, True
         raise
-    diagnostics = read_messages(bag, ['/diagnostics'])['/diagnostics']
-    recording.fdi = fdi_summary_from_diagnostics(diagnostics)
-    recording.broken_at_s = broken_at_from_diagnostics(diagnostics)
-    recording.missing_ticks = missing_ticks(bag)
+    # What each node said as it stopped, which no recorder can have lost; the bag's last
+    # /diagnostics of a node that wrote nothing (killed).
+    said = {**last_statuses(read_messages(bag, ['/diagnostics'])['/diagnostics']),
+            **written_statuses(statuses)}
+    plant = said.get(PLANT_SIMULATOR)
+    recording.fdi = fdi_summary_of(said.get(SUPERVISOR))
+    recording.broken_at_s = broken_at_of(plant)
+    recording.last_true_position_m = last_true_position_of(plant)
+    states = None if plant is None or 'states total' not in plant else int(plant['states total'])
+    recording.missing_ticks = missing_against_the_plant(missing_ticks(bag), states,
+                                                        recording.ticks_held)
     return recording, interrupted
 
 
@@ -144,7 +159,7 @@ def metrics_of(scenario, recording, wall_time_s: float, interrupted: bool = Fals
                        for mode, tick in (supervisor.get('phase_ticks') or {}).items()},
         safe_point_m=supervisor.get('safe_point_m'),
         reached_tolerance_m=scenario.recovery.reached_tolerance_m, supervisor=supervisor,
-        wall_time_s=wall_time_s)))
+        wall_time_s=wall_time_s, final_position_m=recording.last_true_position_m)))
     detection = metrics['detection_time_s']
     metrics['failure_signal_time_s'] = signal
     metrics['detection_delay_from_signal_ms'] = (None if detection is None or signal is None
@@ -177,8 +192,9 @@ def run_scenario(args) -> int:
                               pushes=[tuple(push) for push in args.push])
     scenario = build_scenario(options)
     out = Path(args.out)
-    if (out / 'bag').exists():
-        shutil.rmtree(out / 'bag')
+    for earlier in (out / 'bag', out / LAST_DIAGNOSTICS):
+        if earlier.exists():
+            shutil.rmtree(earlier)
     out.mkdir(parents=True, exist_ok=True)
     (out / SETTLED_RUN).write_text(yaml.safe_dump(scenario.settings.data, sort_keys=False))
     if args.engine == 'graph':

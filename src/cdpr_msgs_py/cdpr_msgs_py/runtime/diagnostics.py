@@ -14,6 +14,7 @@ from ..health import ERROR, OK, WARN, Health, HealthLimits
 # cable) is logged at most once per this long (s); /diagnostics counts every one.
 LOG_THROTTLE_S = 1.0
 LEVELS = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR}
+LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
 
 
 class Diagnostics:
@@ -33,6 +34,9 @@ class Diagnostics:
         self.error = ''
         self.health = Health(HealthLimits())
         self.level = OK   # of the last status published
+        # The last status published, as last_status() gives it.
+        self.last_values: dict[str, str] = {}
+        self.last_message = ''
         self.activity = 0
         self.period_s = period_s
         self.last_publish = time.monotonic()
@@ -99,8 +103,15 @@ class Diagnostics:
         pairs += [(f'publish failed {key}', str(value)) for key, value in self.publish_failures.items()]
         pairs += list({**self.facts, **self.node.current_facts()}.items())
         status.values = [KeyValue(key=k, value=v) for k, v in pairs]
+        self.last_values, self.last_message = dict(pairs), text
         message = DiagnosticArray()
         message.header.stamp = self.node.get_clock().now().to_msg()
         message.status = [status]
         self.publisher.publish(message)
         self.window.clear()
+
+    def last_status(self) -> dict:
+        """The status last published, as JSON-able values: the node's `name`, `level`
+        (OK, WARN, ERROR), `message` and its key-`values` (texts)."""
+        return {'name': self.node.get_fully_qualified_name(), 'level': LEVEL_NAMES[self.level],
+                'message': self.last_message, 'values': self.last_values}

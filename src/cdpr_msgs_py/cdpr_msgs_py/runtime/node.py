@@ -2,8 +2,10 @@
 watched publishers, sole-writer subscriptions, the start handshake, idle and close hooks."""
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import fields
+from pathlib import Path
 
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
@@ -54,6 +56,10 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
         self.match_requirements = parse_matches(self.parameter(
             'matches', [''], "the endpoints to match before subscribing to the tick "
             "('publisher:TOPIC=N', 'subscription:TOPIC=N'; cdpr-graph sets them)"))
+        self.last_diagnostics_path = self.parameter(
+            'last_diagnostics_path', '', "a file (JSON) this node writes its last /diagnostics "
+            "status into as it stops, where a launcher reads what the node did whatever a "
+            "recorder kept (cdpr-scenario sets it); '': none")
         self.schedule()
 
     def schedule(self) -> None:
@@ -158,14 +164,29 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
         self.diagnostics.maybe_publish()
         self.try_start()
 
-    def awaits_writers(self) -> bool:
-        """Whether, stopping, the node keeps draining though quiet: writers it reads are
-        still there and may still send what they hold (the recorder's case)."""
+    def write_last_diagnostics(self, path: Path) -> None:
+        """The status just published, as JSON into `path` (written whole or not at all)."""
+        partial = path.with_name(f'.{path.name}.partial')
+        try:
+            partial.write_text(json.dumps(self.diagnostics.last_status(), indent=1))
+            partial.replace(path)
+        except OSError as err:
+            self.get_logger().error(f'parameter last_diagnostics_path: cannot write {path}: {err}')
+
+    def keeps_draining(self) -> bool:
+        """Whether, stopping, the node keeps draining though quiet (at most
+        runtime.spin.DRAIN_LIMIT_S): what it waits for may still come (the recorder's
+        writers' last ticks; the recorder's progress, for a plant waiting for it)."""
         return False
+
+    def drain_step(self) -> None:
+        """Called after every spin while the node drains (timers no longer fire)."""
 
     def close(self) -> None:
         """Called once on the way out."""
         self.diagnostics.publish()
+        if self.last_diagnostics_path:
+            self.write_last_diagnostics(Path(self.last_diagnostics_path))
         # Samples a writer still holds go with its process: a reader that lags (the
         # recorder) would lose the last ticks. Wait until every reliable reader has them.
         deadline = time.monotonic() + ACKNOWLEDGE_LIMIT_S

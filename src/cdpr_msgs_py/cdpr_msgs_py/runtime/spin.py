@@ -117,8 +117,8 @@ def run_composed(node_classes, args=None) -> int:
     return 0
 
 def drain(executor, nodes) -> None:
-    """Spin until none of `nodes` has done anything for DRAIN_QUIET_S and none awaits a
-    writer (CdprNode.awaits_writers), at most DRAIN_LIMIT_S.
+    """Spin until none of `nodes` has done anything for DRAIN_QUIET_S and none keeps
+    draining (CdprNode.keeps_draining), at most DRAIN_LIMIT_S.
 
     Their timers first stop: what is queued is handled, nothing new is started (a timer
     that kept firing, the markers' frames, kept the node and the recorder busy for the
@@ -131,9 +131,11 @@ def drain(executor, nodes) -> None:
     seen = sum(node.diagnostics.activity for node in nodes)
     while rclpy.ok() and time.monotonic() < deadline:
         executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+        for node in nodes:
+            node.drain_step()
         activity = sum(node.diagnostics.activity for node in nodes)
         if activity != seen:
             seen = activity
             quiet_since = time.monotonic()
-        elif time.monotonic() - quiet_since > DRAIN_QUIET_S and not any(node.awaits_writers() for node in nodes):
+        elif time.monotonic() - quiet_since > DRAIN_QUIET_S and not any(node.keeps_draining() for node in nodes):
             break

@@ -1,0 +1,79 @@
+"""A lockstep plant runs no further ahead of its graph's recorder than a lead
+(cdpr_twin.recorder_pacing); the graph's side is tests/test_outside_readers.py and
+tests/test_graph.py."""
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import pytest
+
+from cdpr_bringup.bags.bag_io import missing_ticks, read_topics
+from cdpr_bringup.graph.launcher import Graph, graph_nodes
+from cdpr_bringup.runs.metrics import written_statuses
+from cdpr_twin.recorder_pacing import RecorderPacing
+
+from conftest import (GraphLog, assert_stopped_cleanly, keep_running, settled_parameters,
+                      wait_until_the_plant_runs)
+from test_faults import START_TIMEOUT_S
+
+# The run's limit (s of wall time): its 4 s of ticks, the stop and a loaded machine.
+RUN_TIMEOUT_S = 120.0
+
+
+def test_a_state_waits_while_the_recorder_is_more_than_the_lead_behind():
+    pacing = RecorderPacing(lead_ticks=3)
+    # nothing recorded yet: the first ticks of the lead go out
+    assert [pacing.may_publish(tick) for tick in range(4)] == [True, True, True, False]
+    pacing.recorded(5)
+    assert pacing.may_publish(8) and not pacing.may_publish(9)
+    # a report overtaken by a newer one changes nothing
+    pacing.recorded(2)
+    assert pacing.may_publish(8) and pacing.has_recorded(5) and not pacing.has_recorded(6)
+
+
+def test_a_lead_under_one_tick_is_refused():
+    with pytest.raises(ValueError, match='at least one tick'):
+        RecorderPacing(lead_ticks=0)
+
+
+# The writers keep HISTORY_S of ticks; the recorder is stopped for longer than that,
+# and the plant may be LEAD_S ahead of it.
+HISTORY_S, LEAD_S = 1.0, 0.2
+STOPPED_S = 2.5
+
+
+@pytest.mark.graph
+def test_a_lockstep_run_waits_for_a_stopped_recorder_and_its_bag_has_every_tick(tmp_path):
+    """The recorder suspended (SIGSTOP) for longer than the writers keep: a plant that
+    ran on would leave it a hole of ~STOPPED_S of ticks; held at the lead, the bag has
+    every state the plant published, and the run completes."""
+    parameters = settled_parameters('lockstep', motion='along-2', duration_s=4.0)
+    for node in parameters.values():
+        node['streams.history_s'] = HISTORY_S
+    parameters['plant_simulator']['recorder_lead_s'] = LEAD_S
+    bag, said = tmp_path / 'bag', tmp_path / 'said'
+    said.mkdir()
+    log = GraphLog()
+    graph = Graph(graph_nodes(parameters, str(bag), last_diagnostics=str(said)),
+                  '/cdpr_test_pacing', completion='plant_simulator', log=log)
+    try:
+        graph.start()
+        graph.wait_until_up()
+        wait_until_the_plant_runs(log, START_TIMEOUT_S)
+        recorder = graph.processes['bag_recorder'].pid
+        os.kill(recorder, signal.SIGSTOP)
+        try:
+            keep_running(graph, time.monotonic(), STOPPED_S, 'the recorder was suspended')
+        finally:
+            os.kill(recorder, signal.SIGCONT)
+        graph.wait(RUN_TIMEOUT_S)
+    finally:
+        codes = graph.stop()
+    assert_stopped_cleanly(codes, log)
+    plant = written_statuses(said)['plant_simulator']
+    states = read_topics(bag, ['/cdpr_test_pacing/joint_states'])['/cdpr_test_pacing/joint_states']
+    assert missing_ticks(bag) == dict.fromkeys(missing_ticks(bag), 0)
+    assert len(states) == int(plant['states total'])
+    assert int(plant['states held for the recorder total']) >= 1
