@@ -83,8 +83,7 @@ class Reader:
     have matched (CdprNode.start_when_matched), so its start cannot wait for that one.
     `pacing`: the node waits for this topic before each answer, which it does only in
     lockstep and only when told the writer is there (the controller's
-    `wait_for_supervisor`, the plant simulator's `wait_for_recorder`); in realtime the
-    wait would cost a third of the loop.
+    `wait_for_supervisor`); in realtime the wait would cost a third of the loop.
     `simulated`: read by the plant simulator only, not by a hardware bridge in its place.
     `lockstep`: read in lockstep only (the plant learns from the residual which tick a
     mode applies to, for a run that ends at the engine's tick; in realtime it takes its
@@ -177,10 +176,11 @@ TOPICS = {topic.name: topic for topic in (
           (_RECORDER,), every_tick=True, lockstep=True, simulated=True),
     Topic(DIAGNOSTICS, 'diagnostic_msgs/msg/DiagnosticArray', Delivery.DIAGNOSTICS, None,
           (_RECORDER,)),
-    # The stamp of the newest tick the recorder has written: a lockstep plant runs no
-    # further ahead of it than its writers keep, so that the bag gets every tick.
+    # The stamp of the newest tick the recorder has written: a plant told to wait for it
+    # (`wait_for_recorder`) runs no further ahead of it in lockstep, and at the end of a
+    # run in either mode waits until it has the last state, so that the bag gets every tick.
     Topic(RECORDER_PROGRESS, 'std_msgs/msg/Header', _LATCHED, BAG_RECORDER,
-          (Reader(PLANT_SIMULATOR, pacing=True, simulated=True),)),
+          (Reader(PLANT_SIMULATOR, simulated=True),)),
 )}
 
 

@@ -10,7 +10,10 @@ Obeys the commands of the graph's controller only (parameter `command_writer`), 
 hardware bridge must. A cable breaks on `inject_failure` only where the plant was
 started with `failure_injection` on, and only from the node `injection_writer` names:
 otherwise any terminal on the network could break a running robot's cable. A run's own
-failures are settled values (`run.failure_times_s`), which need no topic.
+failures are settled values (`run.failure_times_s`), which need no topic. With
+`wait_for_recorder` (set whenever the graph records) a lockstep run stays within
+`recorder_lead_s` of the recorder's newest tick, and the end of a run in either mode
+waits, at most a drain, until the recorder has the last state.
 """
 from __future__ import annotations
 
@@ -101,18 +104,20 @@ class PlantSimulatorNode(CdprNode):
                                'the only node whose inject_failure is obeyed'), required=False)
         else:
             self.create_subscription(Int32, contract.INJECT_FAILURE, self.refuse_injection, qos.STREAM)
-        # Lockstep with a recorder in the graph: no further ahead of it than its lead, so
-        # that its bag gets every tick (recorder_pacing).
+        # With a recorder in the graph: in lockstep no further ahead of it than its lead,
+        # and in either mode the run's end waits until it has the last state, so that its
+        # bag gets every tick (recorder_pacing).
         wait_for_recorder = self.parameter(
             'wait_for_recorder', False,
-            f'lockstep: run no further ahead of the graph\'s {contract.BAG_RECORDER} than recorder_lead_s')
+            f'lockstep: run no further ahead of the graph\'s {contract.BAG_RECORDER} than '
+            'recorder_lead_s; either mode: the end waits (at most a drain) until it has the last state')
         lead_s = self.parameter('recorder_lead_s', RECORDER_LEAD_S,
                                 'lockstep, waiting for the recorder: how far ahead of it the run may be '
                                 '(s of ticks; less than the writers\' streams.history_s)',
                                 value_range=(0.0, None))
-        self.pacing = None
-        if wait_for_recorder and self.clock_mode == 'lockstep':
-            self.pacing = RecorderPacing(max(1, round(lead_s / self.period_s)))
+        self.recorder = None
+        if wait_for_recorder:
+            self.recorder = RecorderPacing(max(1, round(lead_s / self.period_s)))
             self.create_sole_writer_subscription(Header, contract.RECORDER_PROGRESS, self.on_recorder_progress,
                                                  qos.LATCHED, contract.BAG_RECORDER)
         # A state held until the recorder catches up.
@@ -199,21 +204,21 @@ class PlantSimulatorNode(CdprNode):
         self.advance()
         if self.finished:
             return
-        if self.pacing is not None and not self.pacing.may_publish(self.tick):
+        if self.recorder is not None and not self.recorder.may_publish(self.tick):
             self.held = True
             self.diagnostics.count('states held for the recorder')
             return
         self.publish_state()
 
     def on_recorder_progress(self, message: Header) -> None:
-        self.pacing.recorded(stamp_to_ns(message.stamp) // self.period_ns)
-        if self.held and self.pacing.may_publish(self.tick):
+        self.recorder.recorded(stamp_to_ns(message.stamp) // self.period_ns)
+        if self.held and self.recorder.may_publish(self.tick):
             self.held = False
             self.publish_state()
 
     def keeps_draining(self) -> bool:
         """Waiting for the recorder, the run's end waits until it has the last state."""
-        return self.pacing is not None and not self.pacing.has_recorded(self.published_tick)
+        return self.recorder is not None and not self.recorder.has_recorded(self.published_tick)
 
     def advance(self) -> None:
         self.plant.step(self.command, self.period_s)
