@@ -1,6 +1,6 @@
-"""A lockstep plant runs no further ahead of its graph's recorder than a lead
-(cdpr_twin.recorder_pacing); the graph's side is tests/test_outside_readers.py and
-tests/test_graph.py."""
+"""A plant waits for its graph's recorder (cdpr_twin.recorder_pacing): in lockstep no
+further ahead of it than a lead, and at the end of a run in either mode until it has the
+last state."""
 from __future__ import annotations
 
 import os
