@@ -38,6 +38,35 @@ def test_a_lead_under_one_tick_is_refused():
         RecorderPacing(lead_ticks=0)
 
 
+def run_suspending_the_recorder(tmp_path, parameters: dict, namespace: str, after_s: float,
+                                while_suspended) -> tuple[dict, dict, object]:
+    """A graph run whose recorder is suspended (SIGSTOP) `after_s` after the plant's
+    first tick while `while_suspended(graph)` runs, then resumed, and the run completed;
+    (the plant's last status, the bag's joint states by stamp, the bag)."""
+    bag, said = tmp_path / 'bag', tmp_path / 'said'
+    said.mkdir()
+    log = GraphLog()
+    graph = Graph(graph_nodes(parameters, str(bag), last_diagnostics=str(said)), namespace,
+                  completion='plant_simulator', log=log)
+    try:
+        graph.start()
+        graph.wait_until_up()
+        wait_until_the_plant_runs(log, START_TIMEOUT_S)
+        time.sleep(after_s)
+        recorder = graph.processes['bag_recorder'].pid
+        os.kill(recorder, signal.SIGSTOP)
+        try:
+            while_suspended(graph)
+        finally:
+            os.kill(recorder, signal.SIGCONT)
+        graph.wait(RUN_TIMEOUT_S)
+    finally:
+        codes = graph.stop()
+    assert_stopped_cleanly(codes, log)
+    states = read_topics(bag, [f'{namespace}/joint_states'])[f'{namespace}/joint_states']
+    return written_statuses(said)['plant_simulator'], states, bag
+
+
 # The writers keep HISTORY_S of ticks; the recorder is stopped for longer than that,
 # and the plant may be LEAD_S ahead of it.
 HISTORY_S, LEAD_S = 1.0, 0.2
@@ -53,27 +82,9 @@ def test_a_lockstep_run_waits_for_a_stopped_recorder_and_its_bag_has_every_tick(
     for node in parameters.values():
         node['streams.history_s'] = HISTORY_S
     parameters['plant_simulator']['recorder_lead_s'] = LEAD_S
-    bag, said = tmp_path / 'bag', tmp_path / 'said'
-    said.mkdir()
-    log = GraphLog()
-    graph = Graph(graph_nodes(parameters, str(bag), last_diagnostics=str(said)),
-                  '/cdpr_test_pacing', completion='plant_simulator', log=log)
-    try:
-        graph.start()
-        graph.wait_until_up()
-        wait_until_the_plant_runs(log, START_TIMEOUT_S)
-        recorder = graph.processes['bag_recorder'].pid
-        os.kill(recorder, signal.SIGSTOP)
-        try:
-            keep_running(graph, time.monotonic(), STOPPED_S, 'the recorder was suspended')
-        finally:
-            os.kill(recorder, signal.SIGCONT)
-        graph.wait(RUN_TIMEOUT_S)
-    finally:
-        codes = graph.stop()
-    assert_stopped_cleanly(codes, log)
-    plant = written_statuses(said)['plant_simulator']
-    states = read_topics(bag, ['/cdpr_test_pacing/joint_states'])['/cdpr_test_pacing/joint_states']
+    plant, states, bag = run_suspending_the_recorder(
+        tmp_path, parameters, '/cdpr_test_pacing', 0.0,
+        lambda graph: keep_running(graph, time.monotonic(), STOPPED_S, 'the recorder was suspended'))
     assert missing_ticks(bag) == dict.fromkeys(missing_ticks(bag), 0)
     assert len(states) == int(plant['states total'])
     assert int(plant['states held for the recorder total']) >= 1
@@ -83,6 +94,7 @@ def test_a_lockstep_run_waits_for_a_stopped_recorder_and_its_bag_has_every_tick(
 # last tick to END_RESUMED_AFTER_S after it: longer than the writers wait for
 # acknowledgements on their way out (2 s), within that and the plant's drain (3 s more).
 END_RUN_S, END_STOPPED_BEFORE_S, END_RESUMED_AFTER_S = 6.0, 2.0, 3.0
+PERIOD_S = 0.002   # the paper robot's control period
 
 
 @pytest.mark.graph
@@ -91,27 +103,8 @@ def test_the_end_of_a_realtime_run_waits_until_its_recorder_has_the_last_state(t
     recorder, behind at the end, lost 975 of 3 001 states here — after its last, so
     its own count said none (docs/recording.md). Realtime, but nothing here is judged
     against the wall clock: a slow machine only makes the end come later."""
-    parameters = settled_parameters('realtime', motion='circle', duration_s=END_RUN_S)
-    bag, said = tmp_path / 'bag', tmp_path / 'said'
-    said.mkdir()
-    log = GraphLog()
-    graph = Graph(graph_nodes(parameters, str(bag), last_diagnostics=str(said)),
-                  '/cdpr_test_run_end', completion='plant_simulator', log=log)
-    try:
-        graph.start()
-        graph.wait_until_up()
-        wait_until_the_plant_runs(log, START_TIMEOUT_S)
-        time.sleep(END_RUN_S - END_STOPPED_BEFORE_S)
-        recorder = graph.processes['bag_recorder'].pid
-        os.kill(recorder, signal.SIGSTOP)
-        try:
-            time.sleep(END_STOPPED_BEFORE_S + END_RESUMED_AFTER_S)
-        finally:
-            os.kill(recorder, signal.SIGCONT)
-        graph.wait(RUN_TIMEOUT_S)
-    finally:
-        codes = graph.stop()
-    assert_stopped_cleanly(codes, log)
-    plant = written_statuses(said)['plant_simulator']
-    states = read_topics(bag, ['/cdpr_test_run_end/joint_states'])['/cdpr_test_run_end/joint_states']
-    assert len(states) == int(plant['states total']) > END_RUN_S / 0.002
+    plant, states, _ = run_suspending_the_recorder(
+        tmp_path, settled_parameters('realtime', motion='circle', duration_s=END_RUN_S),
+        '/cdpr_test_run_end', END_RUN_S - END_STOPPED_BEFORE_S,
+        lambda graph: time.sleep(END_STOPPED_BEFORE_S + END_RESUMED_AFTER_S))
+    assert len(states) == int(plant['states total']) > END_RUN_S / PERIOD_S
