@@ -94,7 +94,6 @@ def test_a_lockstep_run_waits_for_a_stopped_recorder_and_its_bag_has_every_tick(
 # last tick to END_RESUMED_AFTER_S after it: longer than the writers wait for
 # acknowledgements on their way out (2 s), within that and the plant's drain (3 s more).
 END_RUN_S, END_STOPPED_BEFORE_S, END_RESUMED_AFTER_S = 6.0, 2.0, 3.0
-PERIOD_S = 0.002   # the paper robot's control period
 
 
 @pytest.mark.graph
@@ -103,8 +102,9 @@ def test_the_end_of_a_realtime_run_waits_until_its_recorder_has_the_last_state(t
     recorder, behind at the end, lost 975 of 3 001 states here — after its last, so
     its own count said none (docs/recording.md). Realtime, but nothing here is judged
     against the wall clock: a slow machine only makes the end come later."""
+    parameters = settled_parameters('realtime', motion='circle', duration_s=END_RUN_S)
     plant, states, _ = run_suspending_the_recorder(
-        tmp_path, settled_parameters('realtime', motion='circle', duration_s=END_RUN_S),
-        '/cdpr_test_run_end', END_RUN_S - END_STOPPED_BEFORE_S,
+        tmp_path, parameters, '/cdpr_test_run_end', END_RUN_S - END_STOPPED_BEFORE_S,
         lambda graph: time.sleep(END_STOPPED_BEFORE_S + END_RESUMED_AFTER_S))
-    assert len(states) == int(plant['states total']) > END_RUN_S / PERIOD_S
+    period_s = parameters['plant_simulator']['control.period_s']
+    assert len(states) == int(plant['states total']) > END_RUN_S / period_s
