@@ -103,6 +103,14 @@ def assert_stopped_cleanly(codes: dict[str, int], log, but: str | None = None) -
         f'exit codes after the stop: {codes}; the log\'s end:\n' + '\n'.join(list(log)[-80:]))
 
 
+def start_until_the_plant_runs(graph, log, timeout_s: float) -> None:
+    """Start `graph` (its launcher logging into `log`) and wait until every node is up
+    and its plant has started its run."""
+    graph.start()
+    graph.wait_until_up()
+    wait_until_the_plant_runs(log, timeout_s)
+
+
 def wait_until_the_plant_runs(lines, timeout_s: float) -> None:
     """Until a started graph's plant logs that it starts its run (the launcher's log
     lines gathered in `lines`, a list or a GraphLog): the start handshake is over, the

@@ -34,7 +34,7 @@ from cdpr_msgs_py.sole_writer import Endpoint, SoleWriter
 from cdpr_msgs_py.stamps import stamp_to_ns
 
 from conftest import (MOTIONS, PAPER_ROBOT, GraphLog, assert_stopped_cleanly, keep_running,
-                      timing_check, wait_until_the_plant_runs)
+                      start_until_the_plant_runs, timing_check)
 from test_faults import START_TIMEOUT_S
 from test_graph import offline_verdict
 
@@ -245,9 +245,7 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
     graph = Graph(graph_nodes(parameters, str(bag)), namespace, completion='plant_simulator',
                   log=log)
     try:
-        graph.start()
-        graph.wait_until_up()
-        wait_until_the_plant_runs(log, START_TIMEOUT_S)
+        start_until_the_plant_runs(graph, log, START_TIMEOUT_S)
         writing_s = time.monotonic()
         sent = write(namespace)
         written_s = time.monotonic()

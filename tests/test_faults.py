@@ -21,8 +21,8 @@ import pytest
 from cdpr_bringup.bags.bag_io import read_messages, stamp_ns
 from cdpr_bringup.graph.launcher import Graph, GraphError, graph_nodes
 
-from conftest import (GraphLog, assert_stopped_cleanly, settled_parameters, timing_check,
-                      wait_until_the_plant_runs)
+from conftest import (GraphLog, assert_stopped_cleanly, settled_parameters,
+                      start_until_the_plant_runs, timing_check)
 
 pytestmark = [pytest.mark.graph, pytest.mark.realtime]
 RUN_BEFORE_KILL_S = 1.0
@@ -72,9 +72,7 @@ def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_pa
     graph = Graph(graph_nodes(parameters, str(bag)), namespace,
                   completion='plant_simulator', log=log)
     try:
-        graph.start()
-        graph.wait_until_up()
-        wait_until_the_plant_runs(log, START_TIMEOUT_S)
+        start_until_the_plant_runs(graph, log, START_TIMEOUT_S)
         time.sleep(RUN_BEFORE_KILL_S)
         assert not graph.check(), 'the graph runs before the kill'
         held = bag_holding_poses(bag, namespace, START_TIMEOUT_S) if victim == 'bag_recorder' else []

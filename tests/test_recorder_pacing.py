@@ -15,7 +15,7 @@ from cdpr_bringup.runs.metrics import written_statuses
 from cdpr_twin.recorder_pacing import RecorderPacing
 
 from conftest import (GraphLog, assert_stopped_cleanly, keep_running, settled_parameters,
-                      wait_until_the_plant_runs)
+                      start_until_the_plant_runs)
 from test_faults import START_TIMEOUT_S
 
 # The run's limit (s of wall time): its 4 s of ticks, the stop and a loaded machine.
@@ -49,9 +49,7 @@ def run_suspending_the_recorder(tmp_path, parameters: dict, namespace: str, afte
     graph = Graph(graph_nodes(parameters, str(bag), last_diagnostics=str(said)), namespace,
                   completion='plant_simulator', log=log)
     try:
-        graph.start()
-        graph.wait_until_up()
-        wait_until_the_plant_runs(log, START_TIMEOUT_S)
+        start_until_the_plant_runs(graph, log, START_TIMEOUT_S)
         time.sleep(after_s)
         recorder = graph.processes['bag_recorder'].pid
         os.kill(recorder, signal.SIGSTOP)
