@@ -19,8 +19,10 @@ from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.bags.bag_io import BagWriter, recording_from_bag, write_recording
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.reports.summary import summary_lines
+from cdpr_bringup.paths import LAST_DIAGNOSTICS
 from cdpr_bringup.runs.metrics import (metrics_json, missing_against_the_plant, tracking_error_m,
                                       twin_kpis)
+from cdpr_msgs_py.contract import LAST_TRUE_POSITION_KEY
 from cdpr_bringup.reports.report import (SETTLED_RUN, load_run, main, run_of_recording, run_settings, write_report,
                                  write_run_report)
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
@@ -139,19 +141,28 @@ def test_scenario_and_report_compute_the_same_metrics_of_one_run(failure_run, tm
     assert not differ, differ
 
 
-def test_a_bag_that_lost_the_runs_last_seconds_changes_neither_where_the_run_ended_nor_what_is_said(
-        failure_run):
-    """A graph run's recorder that lags when the graph stops loses the last ticks, here
-    everything from 0.2 s after the detection on: the run's final pose then comes from the
-    plant's own last report and the ticks the bag lacks from the plant's count of its
-    states, and the summary says them (issue 26)."""
-    scenario, recording, _, _ = failure_run
-    whole = scenario_cli.metrics_of(scenario, recording, wall_time_s=1.0)
-    kept = recording.fdi['identified_tick'] + round(0.2 / scenario.period_s)
-    ticks = recording.time_s.size
-    cut = dataclasses.replace(recording, **{
+def with_the_tail_lost(recording, kept: int):
+    """`recording` as a bag whose recorder lost every tick from `kept` on (it lagged when
+    the graph stopped): its first `kept` rows."""
+    return dataclasses.replace(recording, **{
         field.name: getattr(recording, field.name)[:kept] for field in dataclasses.fields(recording)
         if isinstance(getattr(recording, field.name), np.ndarray)})
+
+
+def kept_ticks(scenario, recording) -> int:
+    """A recorder that lost everything from 0.2 s after the detection on."""
+    return recording.fdi['identified_tick'] + round(0.2 / scenario.period_s)
+
+
+def test_a_bag_that_lost_the_runs_last_seconds_changes_neither_where_the_run_ended_nor_what_is_said(
+        failure_run):
+    """A graph run's recorder that lags when the graph stops loses the last ticks: the
+    run's final pose then comes from the plant's own last status and the ticks the bag
+    lacks from the plant's count of its states, and the summary says them (issue 26)."""
+    scenario, recording, _, _ = failure_run
+    whole = scenario_cli.metrics_of(scenario, recording, wall_time_s=1.0)
+    kept, ticks = kept_ticks(scenario, recording), recording.time_s.size
+    cut = with_the_tail_lost(recording, kept)
     held = {topic: kept for topic in ('joint_states', 'ground_truth/pose', 'ground_truth/tensions',
                                       'effort_command')}
     # the recorder's own count: no hole between its first tick and its last
@@ -169,6 +180,33 @@ def test_a_bag_that_lost_the_runs_last_seconds_changes_neither_where_the_run_end
     # the bag's last row alone would have said the safe point was not reached
     alone = scenario_cli.metrics_of(scenario, dataclasses.replace(cut, last_true_position_m=None), 1.0)
     assert alone['recovery']['reached_safe_point'] is False
+
+
+def test_the_report_of_a_run_folder_takes_the_nodes_last_statuses_beside_its_bag(failure_run, tmp_path):
+    """cdpr-report of a graph run's bag that lost the run's last seconds, in its
+    cdpr-scenario folder: the nodes' last statuses beside it (last_diagnostics/, as the
+    nodes write them) give where the run ended and the ticks the bag lacks, as
+    cdpr-scenario's metrics have them; from the bag alone, the safe point not reached."""
+    scenario, recording, _, _ = failure_run
+    kept, ticks = kept_ticks(scenario, recording), recording.time_s.size
+    bag = write_bag(with_the_tail_lost(recording, kept), tmp_path / 'bag')
+    settings = run_settings(bag, PAPER_ROBOT, coulomb_friction_nm=0.0)
+    alone = metrics_json(load_run(bag, settings).known)
+    said = tmp_path / LAST_DIAGNOSTICS
+    said.mkdir()
+    statuses = {'plant_simulator': {'states total': str(ticks), LAST_TRUE_POSITION_KEY: json.dumps(
+                    recording.true_position_m[-1].tolist())},
+                'supervisor': {f'fdi {key}': json.dumps(value) for key, value in recording.fdi.items()}}
+    for node, values in statuses.items():
+        (said / f'{node}.json').write_text(json.dumps({'values': values}))
+    run = load_run(bag, settings)
+    metrics = metrics_json(run.known)
+    whole = scenario_cli.metrics_of(scenario, recording, wall_time_s=1.0)
+    assert alone['recovery']['reached_safe_point'] is False
+    assert metrics['recovery']['reached_safe_point'] is True
+    assert metrics['recovery']['final_error_m'] == pytest.approx(whole['recovery']['final_error_m'], abs=1e-12)
+    assert run.recording.missing_ticks['joint_states'] == ticks - kept
+    assert any(f'joint_states {ticks - kept}' in note for note in run.notes)
 
 
 def test_the_report_of_a_run_in_memory_is_that_of_its_bag(failure_run, tmp_path):

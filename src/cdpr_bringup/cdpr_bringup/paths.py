@@ -12,6 +12,8 @@ DEFAULT_ROBOT = 'paper_robot.yaml'
 DEFAULT_MOTIONS = 'motions.yaml'
 # The settled run cdpr-scenario writes beside its bag.
 SETTLED_RUN = 'run.yaml'
+# The folder beside a graph run's bag where each node wrote its last /diagnostics status.
+LAST_DIAGNOSTICS = 'last_diagnostics'
 
 
 @lru_cache(maxsize=1)

@@ -25,6 +25,7 @@ from cdpr_msgs_py.stamps import NANOSECONDS
 from ..bags.bag_io import read_messages, read_topics, recording_from_bag
 from ..cli import command
 from ..paths import DEFAULT_ROBOT, config_file
+from ..runs.metrics import statuses_beside, take_statuses
 from .report import failure_of
 
 
@@ -75,8 +76,10 @@ def main(argv=None):
                      load_section(config, 'twin').integer('substeps', minimum=1), fdi,
                      load_recovery_config(config, robot),
                      configured_tension_distribution(control, robot), period)
-    failure_time, true_broken, source = failure_of(bag, recording_from_bag(bag, args.namespace),
-                                                   read_messages(bag, [contract.DIAGNOSTICS])[contract.DIAGNOSTICS])
+    recording = recording_from_bag(bag, args.namespace)
+    take_statuses(recording, statuses_beside(bag, read_messages(bag, [contract.DIAGNOSTICS])[contract.DIAGNOSTICS]),
+                  None)
+    failure_time, true_broken, source = failure_of(bag, recording)
 
     def time_of(tick):
         return None if tick is None else stamps[tick] / NANOSECONDS

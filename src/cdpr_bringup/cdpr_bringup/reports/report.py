@@ -37,8 +37,7 @@ from cdpr_msgs_py.stamps import NANOSECONDS
 from . import plots
 from ..bags.bag_io import missing_ticks, read_messages, recording_from_bag, stamp_ns
 from ..cli import command
-from ..runs.metrics import (KnownRun, RunSettings, broken_at_from_diagnostics, fdi_summary_from_diagnostics,
-                            metrics_json)
+from ..runs.metrics import KnownRun, RunSettings, metrics_json, statuses_beside, take_statuses
 from ..paths import DEFAULT_ROBOT, SETTLED_RUN, config_file
 from ..runs.recording import Recording, holes_said
 
@@ -182,7 +181,8 @@ class Run:
             identified_cables=self.identified_cables,
             mode=self.modes[-1][1] if self.modes else None, phase_times_s=phase_times,
             safe_point_m=self.safe_point_m, reached_tolerance_m=self.reached_tolerance_m,
-            supervisor=self.supervisor, wall_time_s=self.wall_time_s)
+            supervisor=self.supervisor, wall_time_s=self.wall_time_s,
+            final_position_m=self.recording.last_true_position_m)
 
 
 def load_run(bag: str | Path, settings: RunSettings,
@@ -217,9 +217,10 @@ def load_run(bag: str | Path, settings: RunSettings,
     if not recording.has_ground_truth:
         notes.append('no ground truth (real robot): end-effector from forward kinematics of the '
                      'measured angles, tensions only as estimated')
-    failure_time, true_broken, source = failure_of(bag, recording, found[contract.DIAGNOSTICS])
+    take_statuses(recording, statuses_beside(bag, found[contract.DIAGNOSTICS]), missing_ticks(bag))
+    failure_time, true_broken, source = failure_of(bag, recording)
     notes.append(source)
-    holes = holes_said(missing_ticks(bag))
+    holes = holes_said(recording.missing_ticks)
     if holes:
         notes.append(holes)
     bag_times = [t for t, _ in found[topics[contract.JOINT_STATES]]]
@@ -228,7 +229,7 @@ def load_run(bag: str | Path, settings: RunSettings,
         epsilon_nm=fdi.epsilon_nm, friction=fdi.friction, verdicts=verdicts, modes=modes,
         failure_time_s=failure_time, true_broken_cables=true_broken,
         wall_time_s=(bag_times[-1] - bag_times[0]) / NANOSECONDS,
-        supervisor=fdi_summary_from_diagnostics(found[contract.DIAGNOSTICS]), notes=notes), settings)
+        supervisor=recording.fdi, notes=notes), settings)
 
 
 def run_of_recording(recording: Recording, settings: RunSettings, failure_time_s: float | None,
@@ -306,11 +307,10 @@ def tick_time(clock: list[tuple[int, object]], following: bool):
     return to_tick
 
 
-def failure_of(bag: Path, recording: Recording,
-               diagnostics) -> tuple[float | None, list[int] | None, str]:
+def failure_of(bag: Path, recording: Recording) -> tuple[float | None, list[int] | None, str]:
     """(failure time s, broken cables 1-based, where that came from): metrics.json beside
-    the bag; else the instant the plant simulator parted a cable, as its /diagnostics in
-    the bag (`diagnostics`: (time, message) pairs) say; else the first tick from which a
+    the bag; else the instant the plant simulator parted a cable, as it said
+    (`recording.broken_at_s`, metrics.take_statuses); else the first tick from which a
     cable's true tension stays 0 to the end."""
     written = bag.parent / 'metrics.json'
     if written.exists():
@@ -318,10 +318,10 @@ def failure_of(bag: Path, recording: Recording,
         if 'failure_time_s' in metrics:
             return (metrics['failure_time_s'], metrics.get('true_broken_cables'),
                     f'failure time from {written}')
-    parted = broken_at_from_diagnostics(diagnostics)
+    parted = recording.broken_at_s
     if parted:
         return (min(parted.values()), sorted(cable + 1 for cable in parted),
-                'failure time: the instant the plant simulator parted the cable (its /diagnostics)')
+                'failure time: the instant the plant simulator parted the cable (its last status)')
     tension = recording.true_tension_n
     if not np.isfinite(tension).all():
         return None, None, 'failure time unknown (no metrics.json beside the bag, no ground truth)'

@@ -15,10 +15,13 @@ from cdpr_msgs_py.contract import (BROKEN_AT_KEY, GROUND_TRUTH_POSE, GROUND_TRUT
                                    JOINT_STATES, LAST_TRUE_POSITION_KEY, PLANT_SIMULATOR,
                                    SAFE_HOLD, SUPERVISOR)
 
+from ..paths import LAST_DIAGNOSTICS
 from .recording import Recording
 
-# The per-tick topics the plant simulator writes with every state it publishes.
+# The per-tick topics the plant simulator writes with every state it publishes, and the
+# key of its /diagnostics that counts those states.
 PER_STATE_TOPICS = (JOINT_STATES, GROUND_TRUTH_POSE, GROUND_TRUTH_TENSIONS)
+STATES_TOTAL_KEY = 'states total'
 PAPER_KPI = {'K_c_m': 0.0143, 'K_j_rad': 0.0583, 'K_t_nm': 0.1566}
 
 
@@ -212,14 +215,30 @@ def fdi_summary_of(supervisor: dict[str, str] | None) -> dict:
             if key.startswith('fdi ')}
 
 
-def broken_at_from_diagnostics(messages) -> dict[int, float] | None:
-    """broken_at_of the plant simulator's last status among /diagnostics messages."""
-    return broken_at_of(last_statuses(messages).get(PLANT_SIMULATOR))
-
-
 def fdi_summary_from_diagnostics(messages) -> dict:
     """fdi_summary_of the supervisor's last status among /diagnostics messages."""
     return fdi_summary_of(last_statuses(messages).get(SUPERVISOR))
+
+
+def statuses_beside(bag: Path, diagnostics) -> dict[str, dict[str, str]]:
+    """Per node, its last status's key-values: as it wrote it stopping, into
+    LAST_DIAGNOSTICS beside `bag` (cdpr-scenario's run folder), which no recorder can have
+    lost; else its last in the bag's /diagnostics (`diagnostics`: (time, message) pairs),
+    as for a node that wrote nothing (killed) or a bag recorded otherwise."""
+    return {**last_statuses(diagnostics), **written_statuses(Path(bag).parent / LAST_DIAGNOSTICS)}
+
+
+def take_statuses(recording: Recording, said: dict[str, dict[str, str]], counted: dict[str, int] | None) -> None:
+    """Into a bag's `recording`, what its nodes said (`said`, statuses_beside): the
+    supervisor's summary, the instants cables parted and where the run ended (the
+    plant's), and the ticks the bag lacks — its recorder's count (`counted`), and against
+    the plant's own count of states."""
+    plant = said.get(PLANT_SIMULATOR)
+    recording.fdi = fdi_summary_of(said.get(SUPERVISOR))
+    recording.broken_at_s = broken_at_of(plant)
+    recording.last_true_position_m = last_true_position_of(plant)
+    states = None if plant is None or STATES_TOTAL_KEY not in plant else int(plant[STATES_TOTAL_KEY])
+    recording.missing_ticks = missing_against_the_plant(counted, states, recording.ticks_held or {})
 
 
 def missing_against_the_plant(counted: dict[str, int] | None, states_total: int | None,

@@ -24,21 +24,17 @@ from pathlib import Path
 import yaml
 
 from cdpr_fdi.markers import Frame
-from cdpr_msgs_py.contract import DEFAULT_NAMESPACE, PLANT_SIMULATOR, SUPERVISOR
+from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 from cdpr_twin.plant import FIDELITIES
 
 from ..cli import INTERRUPTED_EXIT_CODE, command
 from ..runs.engine import run_inprocess
-from ..runs.metrics import (KnownRun, RunSettings, broken_at_of, fdi_summary_of, last_statuses,
-                           last_true_position_of, metrics_json, missing_against_the_plant,
-                           written_statuses)
-from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, SETTLED_RUN
+from ..runs.metrics import KnownRun, RunSettings, metrics_json, statuses_beside, take_statuses
+from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, LAST_DIAGNOSTICS, SETTLED_RUN
 from ..reports.summary import summary_lines
 from ..runs.settle import ScenarioOptions, add_graph_form_option, add_push_option, build_scenario
 
 RUN_TIMEOUT_FACTOR = 20.0
-# The folder of --out where each node of a graph run writes its last /diagnostics status.
-LAST_DIAGNOSTICS = 'last_diagnostics'
 # How long the report's drawer may take beyond the bag, per control tick and fixed (s):
 # ~0.3 ms a tick on a 2-core machine, with a margin of 20x for a loaded one.
 DRAW_LIMIT_S_PER_TICK = 6e-3
@@ -108,17 +104,8 @@ def run_graph(args, scenario, out: Path):
         if interrupted:
             return None, True
         raise
-    # What each node said as it stopped, which no recorder can have lost; the bag's last
-    # /diagnostics of a node that wrote nothing (killed).
-    said = {**last_statuses(read_messages(bag, ['/diagnostics'])['/diagnostics']),
-            **written_statuses(statuses)}
-    plant = said.get(PLANT_SIMULATOR)
-    recording.fdi = fdi_summary_of(said.get(SUPERVISOR))
-    recording.broken_at_s = broken_at_of(plant)
-    recording.last_true_position_m = last_true_position_of(plant)
-    states = None if plant is None or 'states total' not in plant else int(plant['states total'])
-    recording.missing_ticks = missing_against_the_plant(missing_ticks(bag), states,
-                                                        recording.ticks_held)
+    take_statuses(recording, statuses_beside(bag, read_messages(bag, ['/diagnostics'])['/diagnostics']),
+                  missing_ticks(bag))
     return recording, interrupted
 
 
