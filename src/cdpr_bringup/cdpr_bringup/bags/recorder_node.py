@@ -26,15 +26,15 @@ from __future__ import annotations
 import json
 import time
 
-from std_msgs.msg import Header
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
                                 QosTime)
+from std_msgs.msg import Header
 
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.conversions import ns_to_stamp
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
-from cdpr_msgs_py.conversions import ns_to_stamp
 from cdpr_msgs_py.stamps import ns_parts
 
 from .bag_io import MISSING_TICKS_KEY, BagWriter
@@ -151,12 +151,11 @@ class BagRecorderNode(CdprNode):
                 gaps.seen(stamp_ns)
                 if topic == contract.JOINT_STATES:
                     self.newest_state_ns = max(self.newest_state_ns, stamp_ns)
-                    self.say_progress()
         return write
 
     def say_progress(self) -> None:
         """The newest joint state written, on RECORDER_PROGRESS, at most every
-        PROGRESS_PERIOD_S."""
+        PROGRESS_PERIOD_S: called after every spin (idle, drain_step), not per message."""
         now = time.monotonic()
         if self.newest_state_ns > self.said_state_ns and now - self.said_at >= PROGRESS_PERIOD_S:
             self.progress.publish(Header(stamp=ns_to_stamp(self.newest_state_ns)))
