@@ -16,6 +16,7 @@ import numpy as np
 from cdpr_control.config import Section, load_config, load_section, load_yaml, with_defaults
 from cdpr_control.friction import FrictionModel
 from cdpr_control.robot import Robot
+from cdpr_control.steered_approach import ApproachGains
 from cdpr_control.trajectories import QUINTIC_PEAK_SPEED_RATIO
 
 from .detectors import DETECTORS
@@ -171,6 +172,11 @@ class RecoveryConfig:
     swing_damping_ratio: float
     safe_pose_turns_deg: tuple[float, ...]
     safe_pose_grid_m: float
+    approach_gains: ApproachGains
+    approach_turn_limit_deg: float
+    approach_limit_s: float
+    approach_arrival_m: float
+    approach_arrival_deg: float
 
     def brake_s(self, speed_m_s: float) -> float:
         """How long phase 2 takes to bring an end-effector moving at `speed_m_s` to rest."""
@@ -187,12 +193,15 @@ class RecoveryConfig:
         is at `position_m` moving at `velocity_m_s`: the tension phase and its settle time
         (the case outside the residual workspace), braking, the move to SP re-planned
         `replan_attempts` times (each `replan_slowdown` times longer), and the hold that
-        shows SP is kept. A run ends sooner when its recovery does (cdpr_twin.run_length)."""
+        shows SP is kept; a platform's steered approach (pose_approach.py) where that is
+        longer. A run ends sooner when its recovery does (cdpr_twin.run_length)."""
         brake = self.brake_s(float(np.linalg.norm(velocity_m_s)))
         rest = np.asarray(position_m) + 0.5 * brake * np.asarray(velocity_m_s)
         move = self.move_s(float(np.linalg.norm(np.asarray(safe_point_m) - rest)))
         slowest_move = move * self.replan_slowdown ** self.replan_attempts
-        return self.tension_phase_s + self.settle_timeout_s + brake + slowest_move + self.hold_after_s
+        # a platform the cables cannot hold where it is may be steered that long instead
+        return max(self.tension_phase_s + self.settle_timeout_s + brake + slowest_move,
+                   self.approach_limit_s) + self.hold_after_s
 
     @classmethod
     def from_section(cls, recovery: Section, robot: Robot) -> 'RecoveryConfig':
@@ -243,6 +252,14 @@ class RecoveryConfig:
             swing_damping_ratio=recovery.number('swing_damping_ratio', non_negative=True),
             safe_pose_turns_deg=tuple(turns.tolist()),
             safe_pose_grid_m=recovery.number('safe_pose_grid_m', positive=True),
+            approach_gains=ApproachGains(
+                position_frequency_rad_s=recovery.number('approach_frequency_rad_s', positive=True),
+                orientation_frequency_rad_s=recovery.number('approach_turn_frequency_rad_s', positive=True),
+                moment_weight=recovery.number('approach_moment_weight', positive=True)),
+            approach_turn_limit_deg=recovery.number('approach_turn_limit_deg', positive=True, maximum=180.0),
+            approach_limit_s=recovery.number('approach_limit_s', positive=True),
+            approach_arrival_m=recovery.number('approach_arrival_m', positive=True),
+            approach_arrival_deg=recovery.number('approach_arrival_deg', positive=True),
         )
 
 

@@ -35,15 +35,8 @@ the slowest move) is tabulated with the floored least-squares tensions on those 
 position control keeps the platform on its way. What each part gave up is said once
 (`take_notes`).
 
-Where no static tensions within the bounds hold the platform at its pose, a cable goes
-slack whatever the drives do: RecoveryInfeasible, so the supervisor holds the drums
-(FAULT) and says why. Neither of the two ways tried from there is kept
-(docs/platform.md): the point mass's phase 1, tensions carried in tension space with the
-joints let go, does not hold a platform's orientation (the crossed platform turned 90°
-within 0.23 s of the naming); position control with the floored tensions brought two
-runs in three to the safe pose with a cable slack for seconds, and turned the platform
-over in the third while its motors, whose paid-out lengths matched the safe pose, could
-not tell.
+Where no static tensions within the bounds hold the platform at its pose it cannot be
+braked to rest there: pose_approach.py steers it to its safe pose instead.
 """
 from __future__ import annotations
 
@@ -67,21 +60,10 @@ from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
 
 from .config import RecoveryConfig
 from .planning import PlanAtOnce
-from .recovery import RecoveryInfeasible, safe_pose_for, table_reference
+from .recovery import safe_pose_for, table_reference
 
 # Least tensions (N) of two tries this close count as equal (best_of says which is kept).
 LEAST_TENSION_RESOLUTION_N = 0.01
-
-
-def check_held(robot: Robot, attached: np.ndarray, position_m, orientation) -> None:
-    """RecoveryInfeasible unless static tensions of the `attached` cables within the
-    bounds hold the platform at rest at the pose (p, q)."""
-    if tension_margin_n(robot, position_m, orientation, attached) < 0.0:
-        raise RecoveryInfeasible(
-            f'no tensions of the {np.count_nonzero(attached)} cables left within [{robot.tension_min_n:g}, '
-            f'{robot.tension_max_n:g}] N hold the platform where it is (p = '
-            f'({", ".join(f"{value:.3f}" for value in position_m)}) m): a cable goes slack whatever the drives '
-            f'do, and no recovery from there is built for a platform (docs/platform.md)')
 
 
 def brake_from(state: PoseSample, duration_s: float, rest_m, rest_orientation) -> PoseTrajectory:
@@ -93,6 +75,19 @@ def brake_from(state: PoseSample, duration_s: float, rest_m, rest_orientation) -
     return PoseTrajectory(path, BrakedTurn(state.orientation, state.angular_velocity_rad_s, duration_s,
                                            state.angular_acceleration_rad_s2,
                                            difference(rest_orientation, state.orientation)))
+
+
+def ease_in(table: PoseReferenceTable, command_nm: np.ndarray, step_share: float, attached: np.ndarray,
+            drum_radius_m: float) -> None:
+    """The first row the controller tracks (row 1: row 0 is the naming tick's, already
+    commanded) takes `step_share` of the step from `command_nm` to its feed-forward, the
+    next row the rest: a step in torque rings elastic cables, and half of it rings them
+    half as much (docs/platform.md)."""
+    if len(table) < 2:
+        return
+    held = (1.0 - step_share) * (command_nm - table.feedforward_nm[1]) * attached
+    table.feedforward_nm[1] += held
+    table.tension_n[1] -= held / drum_radius_m
 
 
 def joined(first: PoseReferenceTable, rows: int, rest: PoseReferenceTable) -> PoseReferenceTable:
@@ -113,11 +108,9 @@ class PoseRecovery:
         """From the pose (p, q) and twist (v m/s, ω rad/s) the remaining (`attached`) cables
         give at detection, and the torques (N·m) the motors were commanded on that tick, to
         their safe pose (recovery.safe_pose_for), the move planned by `planner`
-        (planning.py; at once when None); RecoveryInfeasible where no static tensions
-        within the bounds hold the platform at that pose (checked first: a safe pose the
-        supervisor's start did not find, after several cables, takes ~0.2 s), or where
-        there is no safe pose."""
-        check_held(robot, attached, position_m, orientation)
+        (planning.py; at once when None); static tensions within the bounds hold the
+        platform at that pose (else pose_approach.py); RecoveryInfeasible where there is
+        no safe pose."""
         safe = safe_pose_for(robot, config, attached)
         self.robot = robot
         self.config = config
@@ -137,7 +130,8 @@ class PoseRecovery:
         self.brake, self.continuation = self.plan_brake(
             np.asarray(position_m, dtype=float), orientation, np.asarray(velocity_m_s, dtype=float),
             np.asarray(angular_velocity_rad_s, dtype=float))
-        self.ease_in(np.asarray(command_nm, dtype=float))
+        ease_in(self.brake, np.asarray(command_nm, dtype=float), config.command_step_share, self.attached,
+                robot.motor.drum_radius_m)
         # the brake's last row (its rest, where the move starts), once the brake is settled
         self.brake_end_tick: int | None = None
         self.planned_move = None
@@ -318,17 +312,6 @@ class PoseRecovery:
         if others:
             tables = tabulate_pose_references(self.robot, self.lowered, others, self.period_s, self.attached)
             yield from tables[:first] + ([alone] if first else []) + tables[first:]
-
-    def ease_in(self, command_nm: np.ndarray) -> None:
-        """The first row the controller tracks (row 1: row 0 is the naming tick's, already
-        commanded) takes `command_step_share` of the step from `command_nm` to its
-        feed-forward, the next row the rest: a step in torque rings elastic cables, and
-        half of it rings them half as much (docs/platform.md)."""
-        if len(self.brake) < 2:
-            return
-        held = (1.0 - self.config.command_step_share) * (command_nm - self.brake.feedforward_nm[1]) * self.attached
-        self.brake.feedforward_nm[1] += held
-        self.brake.tension_n[1] -= held / self.robot.motor.drum_radius_m
 
     def take_notes(self) -> list[str]:
         """What the plans gave up, or how they came late, each said once."""

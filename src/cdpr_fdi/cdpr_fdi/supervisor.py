@@ -15,6 +15,7 @@ import numpy as np
 from cdpr_control.controller import JointReference
 from cdpr_control.kinematics import KinematicsError, forward_kinematics
 from cdpr_control.robot import Robot
+from cdpr_control.safe_pose import tension_margin_n
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_msgs_py.contract import FAULT, NOMINAL
 
@@ -22,6 +23,7 @@ from . import tick_arithmetic
 from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector
 from .identification import identify_broken_cables
+from .pose_approach import PoseApproach
 from .pose_recovery import PoseRecovery
 from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point, find_safe_poses,
                        initial_tensions, taut_tension_n)
@@ -214,7 +216,7 @@ class Supervisor:
                 # the pose cannot be found or the move to SP cannot be planned: hold
                 self.mode, tensions, setpoint = FAULT, None, None
                 self.fault_reason = f'recovery failed at tick {tick}: {err}'
-            if isinstance(self.recovery, PoseRecovery):
+            if isinstance(self.recovery, (PoseRecovery, PoseApproach)):
                 events += self.recovery.take_notes()
             if self.mode != previous_mode:
                 events.append(f'{self.mode} from tick {tick + 1}'
@@ -377,11 +379,15 @@ class Supervisor:
         return events
 
     def pose_recovery(self, tick: int, attached: np.ndarray, angle_rad, angular_velocity_rad_s,
-                      command_nm) -> PoseRecovery:
+                      command_nm) -> PoseRecovery | PoseApproach:
         """A platform's recovery from its pose and velocity as the remaining cables give
-        them, and the torques commanded on the tick (pose_recovery.py); RecoveryInfeasible
-        where it cannot start."""
+        them, and the torques commanded on the tick: braked where it is and moved to its
+        safe pose where those cables hold it there (pose_recovery.py), else steered to it
+        (pose_approach.py); RecoveryInfeasible where it cannot start."""
         position, orientation, twist, _ = placement(self.robot, angle_rad, angular_velocity_rad_s, attached)
+        if tension_margin_n(self.robot, position, orientation, attached) < 0.0:
+            return PoseApproach(self.robot, self.recovery_config, self.distribution, self.period_s, attached,
+                                tick, position, orientation, twist[:3], twist[3:], command_nm)
         return PoseRecovery(self.robot, self.recovery_config, self.distribution, self.period_s, attached, tick,
                             position, orientation, twist[:3], twist[3:], command_nm, self.planner)
 

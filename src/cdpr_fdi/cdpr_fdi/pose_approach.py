@@ -1,0 +1,167 @@
+"""A platform's recovery from where the cables left cannot hold it (issue 29; docs/platform.md).
+
+Where no static tensions of the remaining cables within [τ_min, τ_max] hold the platform at
+its pose at the naming, it cannot be braked to rest where it is: it is steered to its safe
+pose instead (cdpr_control.steered_approach), under tensions kept `plan_tension_margin_n`
+above τ_min, its orientation pulled hard, its position let move as those tensions allow.
+The steered motion is tabulated per tick for the drives (its wrench shared again by the
+recovery's distribution), stepped as the ticks ask for it, so that a realtime supervisor
+plans a few rows at a time; its first tracked row eased in from the torques commanded at
+the naming (pose_recovery.ease_in). Once the platform is within `approach_arrival_m` and
+`approach_arrival_deg` of the safe pose, nearly at rest, it is held there (SAFE_HOLD).
+
+A steered motion that turns the platform more than `approach_turn_limit_deg` further from
+the safe orientation than it was at the naming (its cables would wind about it), or that
+has not arrived within `approach_limit_s`, is given up: RecoveryInfeasible, so the
+supervisor holds the drums (FAULT) and says why.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cdpr_control import pose_dynamics
+from cdpr_control.controller import JointReference
+from cdpr_control.pose_kinematics import joint_velocity
+from cdpr_control.pose_reference import PoseReferenceTable, table_of
+from cdpr_control.pose_trajectories import PoseSample
+from cdpr_control.robot import Robot
+from cdpr_control.steered_approach import SteeredApproach
+from cdpr_control.tension_distribution import FlooredLeastSquares, LoweredFloor, TensionDistribution, make_tension_distribution
+from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
+
+from .config import RecoveryConfig
+from .pose_recovery import ease_in
+from .recovery import RecoveryInfeasible, safe_pose_for, table_reference
+
+# Rows are stepped and tabulated this many at a time: numpy's per-call cost spread over a
+# few ticks, a realtime supervisor's tick not held up long (the rows do not depend on it).
+ROWS_PER_STEP = 10
+
+
+class PoseApproach:
+    """Steps through a platform's steered approach to its safe pose, one control tick at a
+    time, as PoseRecovery does a braked one (module docstring)."""
+
+    def __init__(self, robot: Robot, config: RecoveryConfig, distribution: TensionDistribution,
+                 period_s: float, attached: np.ndarray, start_tick: int, position_m, orientation,
+                 velocity_m_s, angular_velocity_rad_s, command_nm):
+        """From the pose and twist the remaining (`attached`) cables give at detection and
+        the torques (N·m) commanded on that tick; RecoveryInfeasible where there is no
+        safe pose."""
+        safe = safe_pose_for(robot, config, attached)
+        self.robot = robot
+        self.config = config
+        self.period_s = period_s
+        self.attached = np.asarray(attached, dtype=bool).copy()
+        self.safe_point_m = safe.position_m
+        self.safe_orientation = safe.orientation
+        margin = make_tension_distribution(
+            distribution.name, distribution.tension_min_n + config.plan_tension_margin_n, distribution.tension_max_n)
+        # the steered wrench is pulled by tensions above the margin: the floored fit never
+        # acts but on a rounding at a bound
+        self.distribution = FlooredLeastSquares(LoweredFloor(margin, robot.tension_min_n))
+        self.mode = RECOVERY_MOVE
+        self.start_tick = start_tick
+        self.phase_ticks = {RECOVERY_MOVE: start_tick}
+        self.timed_out = False
+        self.command_nm = np.asarray(command_nm, dtype=float)
+        zero = np.zeros(3)
+        start = PoseSample(np.asarray(position_m, dtype=float), orientation, np.asarray(velocity_m_s, dtype=float),
+                           np.asarray(angular_velocity_rad_s, dtype=float), zero, zero)
+        # the naming tick's torques move the platform over the first period, not the plan's
+        commanded = pose_dynamics.direct_dynamics(
+            robot, start.position_m, start.orientation, start.velocity_m_s, start.angular_velocity_rad_s,
+            self.command_nm, joint_velocity(robot, *start.motion[:4]), self.attached)
+        self.approach = SteeredApproach(
+            robot, self.attached, start, safe.position_m, safe.orientation, config.approach_gains,
+            robot.tension_min_n + config.plan_tension_margin_n, robot.tension_max_n, period_s,
+            np.concatenate([commanded.acceleration_m_s2, commanded.angular_acceleration_rad_s2]))
+        self.turn_limit_rad = self.approach.error(0)[1] + math.radians(config.approach_turn_limit_deg)
+        self.row_limit = math.ceil(config.approach_limit_s / period_s)
+        self.tables: list[PoseReferenceTable] = []
+        self.arrival_row: int | None = None
+        self.hold: JointReference | None = None
+        self.notes = ['the cables left cannot hold the platform where it is: steered to its safe pose under '
+                      'tensions within their bounds']
+
+    def tabulated_rows(self) -> int:
+        return len(self.tables) * ROWS_PER_STEP
+
+    def tabulate_to(self, row: int) -> None:
+        """Step and tabulate the approach until row `row` is planned or the platform has
+        arrived; RecoveryInfeasible where it turns too far or takes too long."""
+        while self.arrival_row is None and self.tabulated_rows() <= row:
+            start = self.tabulated_rows()
+            if start >= self.row_limit:
+                raise RecoveryInfeasible(
+                    f'the steered approach did not bring the platform to its safe pose within '
+                    f'{self.config.approach_limit_s:g} s')
+            sample = self.approach.samples(start, start + ROWS_PER_STEP)
+            for offset in range(ROWS_PER_STEP):
+                self.check(start + offset)
+            dynamics = pose_dynamics.inverse_dynamics(self.robot, self.distribution, *sample.motion,
+                                                      attached=self.attached)
+            self.tables.append(table_of(self.period_s, sample, dynamics, slice(None)))
+            if start == 0:
+                ease_in(self.tables[0], self.command_nm, self.config.command_step_share, self.attached,
+                        self.robot.motor.drum_radius_m)
+
+    def check(self, row: int) -> None:
+        """Note an arrival at `row`; RecoveryInfeasible where the platform turned too far."""
+        distance_m, angle_rad, speed_m_s, angular_speed_rad_s = self.approach.error(row)
+        if angle_rad > self.turn_limit_rad:
+            raise RecoveryInfeasible(
+                f'the steered approach turns the platform {math.degrees(angle_rad):.0f} deg from its safe '
+                f'orientation, more than approach_turn_limit_deg ({self.config.approach_turn_limit_deg:g} deg) '
+                f'beyond where it was')
+        config, gains = self.config, self.config.approach_gains
+        arrival_rad = math.radians(config.approach_arrival_deg)
+        if (self.arrival_row is None and distance_m <= config.approach_arrival_m and angle_rad <= arrival_rad
+                and speed_m_s <= gains.position_frequency_rad_s * config.approach_arrival_m
+                and angular_speed_rad_s <= gains.orientation_frequency_rad_s * arrival_rad):
+            self.arrival_row = row
+            position, orientation = self.approach.rows[row][:2]
+            zero = np.zeros(3)
+            rest = pose_dynamics.inverse_dynamics(self.robot, self.distribution, position, orientation,
+                                                  zero, zero, zero, zero, attached=self.attached)
+            self.hold = JointReference(rest.joint_angle_rad, rest.joint_velocity_rad_s, rest.torque_nm)
+
+    def reference_at(self, tick: int) -> JointReference | None:
+        """The joint reference of `tick`: the approach's row; None after the arrival."""
+        row = tick - self.start_tick
+        self.tabulate_to(row)
+        if self.arrival_row is not None and row > self.arrival_row:
+            return None
+        return table_reference(self.tables[row // ROWS_PER_STEP], row % ROWS_PER_STEP)
+
+    def setpoint(self, tick: int, angle_rad, angular_velocity_rad_s):
+        """(mode, None, JointReference) for tick + 1: the approach's rows, then the arrival
+        pose at rest from the tick SAFE_HOLD starts."""
+        if self.mode == SAFE_HOLD:
+            return self.mode, None, None
+        reference = self.reference_at(tick + 1)
+        if reference is None:
+            self.mode = SAFE_HOLD
+            self.phase_ticks[SAFE_HOLD] = tick + 1
+            reference = self.hold
+        return self.mode, None, reference
+
+    def planned_references(self, tick: int, count: int, due_tick: int | None = None) -> list[tuple[int, JointReference]]:
+        """(tick, joint reference) of the `count` ticks after tick + 1 (up to the arrival;
+        none outside RECOVERY_MOVE)."""
+        if self.mode != RECOVERY_MOVE:
+            return []
+        planned = []
+        for later in range(tick + 2, tick + 2 + count):
+            reference = self.reference_at(later)
+            if reference is None:
+                break
+            planned.append((later, reference))
+        return planned
+
+    def take_notes(self) -> list[str]:
+        """What the approach said, once."""
+        notes, self.notes = self.notes, []
+        return notes
