@@ -16,6 +16,7 @@ import pytest
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 
+from cdpr_control.pose_trajectories import PoseSample
 from cdpr_control.rotation import difference
 from cdpr_control.tension_distribution import InfeasibleTensionError
 from cdpr_fdi.planning import PlanAtOnce, PlanInBackground
@@ -109,10 +110,12 @@ def least_tension_after_naming(run) -> tuple[float, dict]:
     return float(recording.true_tension_n[fdi['identified_tick'] + 1:][:, attached].min()), fdi
 
 
-def broken_at_fraction(motion: str, fidelity: str, cable: int, fraction: float, seed: int):
-    """The run of a campaign's matrix: 1-based `cable` breaking at `fraction` of `motion`."""
-    return build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion=motion, fidelity=fidelity,
-                                          fail_cables=[cable], fail_at_fraction=fraction, seed=seed))
+def broken_at_fraction(motion: str, fidelity: str, cable: int, fraction: float, seed: int, reverse: bool = False):
+    """The run of a campaign's matrix: 1-based `cable` breaking at `fraction` of `motion`
+    (backward with `reverse`)."""
+    return build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion=motion, reverse=reverse,
+                                          fidelity=fidelity, fail_cables=[cable], fail_at_fraction=fraction,
+                                          seed=seed))
 
 
 def held_above_the_floor_only_with_the_defaults(run, **instead) -> None:
@@ -146,13 +149,14 @@ def test_half_a_torque_step_at_the_naming_keeps_elastic_cables_from_ringing_slac
 
 
 def test_a_brake_that_starts_lifting_keeps_the_takeover_above_the_floor():
-    """Cable 8 breaks 0.66 of the way across with the yaw (rigid plant, seed 2), the
-    platform named near the border (the plan's least tension 2.8 N): the ticks in which
-    the drives take over from the falling platform take ~0.9 N off the plan. A brake that
-    starts by lifting at recovery.brake_lift_m_s2 (1 m/s²) has every cable pull more
-    then, and none goes below τ_min; from rest acceleration one does."""
+    """Cable 7 breaks 0.79 of the way down the tilting climb (elastic plant, seed 2), the
+    platform named where the seven cables hold it with little to spare: the ticks in which
+    the drives take over from the falling platform take tension off the plan. A brake that
+    starts by lifting at recovery.brake_lift_m_s2 (1 m/s²) has every cable pull more then,
+    and none goes below τ_min; from rest acceleration one does."""
     held_above_the_floor_only_with_the_defaults(
-        broken_at_fraction('across-yaw', 'rigid', 8, 0.6619734158671637, seed=2), brake_lift_m_s2=0.0)
+        broken_at_fraction('climb-tilt', 'elastic', 7, 0.7924256903313863, seed=2, reverse=True),
+        brake_lift_m_s2=0.0)
 
 
 def steered_run(motion: str, fidelity: str, cable: int, fraction: float, seed: int):
@@ -185,19 +189,39 @@ def test_where_the_seven_cables_cannot_hold_it_it_is_steered_to_its_safe_pose(fi
     assert max(turned) < 20.0
 
 
-def test_the_steered_approach_starts_from_what_the_naming_tick_commanded(monkeypatch):
+def test_a_recovery_starts_from_where_the_naming_tick_takes_the_platform(monkeypatch):
     """Cable 1 breaks 0.35 of the way up the tilting climb (rigid plant, seed 0), outside
     what seven cables hold: over the naming tick the platform moves under the torques the
-    nominal controller commanded, not the plan's. Planned from that motion, every cable
-    stays at τ_min or more; planned as if the plan's own tensions moved it then, the drives
-    chase the difference and a cable falls below τ_min."""
+    nominal controller commanded, and the steered approach starts where they take it.
+    Every cable stays at τ_min or more; planned from the platform as it was named, the
+    drives chase the difference and a cable falls below τ_min."""
     from cdpr_fdi import pose_approach
     run = steered_run('climb-tilt', 'rigid', 1, 0.3529594168973901, seed=0)
     least, fdi = least_tension_after_naming(run)
     assert fdi['mode'] == 'SAFE_HOLD' and least >= run.robot.tension_min_n, (least, fdi)
-    steered = pose_approach.SteeredApproach
-    monkeypatch.setattr(pose_approach, 'SteeredApproach', lambda *args: steered(*args[:-1]))
+    monkeypatch.setattr(pose_approach, 'after_the_naming_tick',
+                        lambda robot, attached, *state_and_command: PoseSample(*state_and_command[:4], *[np.zeros(3)] * 2))
     assert least_tension_after_naming(run)[0] < run.robot.tension_min_n
+
+
+def test_a_steered_approach_eased_in_keeps_elastic_cables_from_ringing_slack():
+    """Cable 1 breaks 0.75 of the way back along (elastic plant, seed 0), outside what
+    seven cables hold: the steered approach's first tensions, pulled towards the safe
+    pose at once, step several newtons from the torques commanded at the naming and the
+    elastic cables ring below τ_min; with the pull eased in over
+    recovery.approach_ease_in_s (0.2 s), none does."""
+    run = broken_at_fraction('along', 'elastic', 1, 0.746006947370616, seed=0, reverse=True)
+    held_above_the_floor_only_with_the_defaults(
+        run, approach_gains=dataclasses.replace(run.recovery.approach_gains, ease_in_s=0.0))
+
+
+def test_a_steered_approach_keeps_its_own_margin_above_the_floor():
+    """Cable 1 breaks 0.41 of the way up the tilting climb (elastic plant, seed 1): planned
+    with cables at the brake's margin (2 N above τ_min), the drives' tracking of the
+    steered motion takes one below τ_min for a tick; at the steered approach's own
+    (recovery.approach_tension_margin_share 1.5: 3 N), none."""
+    run = broken_at_fraction('climb-tilt', 'elastic', 1, 0.40875758470186907, seed=1)
+    held_above_the_floor_only_with_the_defaults(run, approach_tension_margin_n=run.recovery.plan_tension_margin_n)
 
 
 def test_a_steered_approach_that_does_not_arrive_in_time_is_fault_saying_why():
@@ -331,8 +355,9 @@ def test_a_brake_and_a_move_planned_late_keep_to_what_was_sent_and_hold_at_rest(
     assert not any('not planned by tick' in note for note in notes), notes
 
     never = recovery_on_the_climb(PlannedWhenTold())
-    committed = never.switch_tick - 1000
-    assert never.planned_references(1000, committed - 2)[-1][0] == never.switch_tick - 1
+    committed = never.committed_ticks
+    # named on tick 1000, the committed rows are ticks 1001 to switch_tick - 1
+    assert never.planned_references(1000, committed - 1)[-1][0] == never.switch_tick - 1
     assert never.continuation is not None
     # rows past the committed ones wanted: the first try's rest of the way, planned now
     sent = never.planned_references(1000, committed + 10)

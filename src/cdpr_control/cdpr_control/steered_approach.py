@@ -8,9 +8,12 @@ that weighs moments `moment_weight` times a force's N, nearest_wrench) the wrenc
 critically damped pull towards the target,
 
     a_d = ω_p² (p* − p) − 2 ω_p v,   α_d = ω_q² φ(q*, q) − 2 ω_q ω,
-    w_d = M (a_d, α_d) − (w_g − h),
+    w_d = M s(t) (a_d, α_d) − (w_g − h),
 
-and the motion those tensions give, M (a, α) = W τ + w_g − h, is the plan: a motion the
+the pull eased in by s(t), a smoothstep from 0 at the first row to 1 at `ease_in_s` (the
+first tensions, nearest those that would hold the platform as it moves, step least from
+what the drives pulled before: a step rings elastic cables below τ_min). The motion those
+tensions give, M (a, α) = W τ + w_g − h, is the plan: a motion the
 cables can pull without a slack or an overloaded cable, by construction (the drives then
 track it, its wrench shared again by the recovery's distribution). The orientation is
 pulled much harder than the position: a platform whose small rotational inertia is left
@@ -36,24 +39,23 @@ from .tension_distribution.nearest_wrench import nearest_wrench
 @dataclass(frozen=True)
 class ApproachGains:
     """The pull towards the target: natural frequencies (rad/s) of the position's and the
-    orientation's critically damped pulls, and how many N a moment's N·m counts as."""
+    orientation's critically damped pulls, how many N a moment's N·m counts as, and over
+    how long (s) the pull is eased in from none."""
 
     position_frequency_rad_s: float
     orientation_frequency_rad_s: float
     moment_weight: float
+    ease_in_s: float
 
 
 class SteeredApproach:
     """The motion of a platform from `start` (a PoseSample; its accelerations unused) to the
     target pose under tensions of the `attached` cables within [tension_min_n,
     tension_max_n], stepped at `period_s` (module docstring). Row k is the state at
-    k periods, with the acceleration the tensions give it there; row 0's is
-    `first_acceleration` ((a, α)) where given: what the torques already commanded for
-    the first period give the platform."""
+    k periods, with the acceleration the tensions give it there."""
 
     def __init__(self, robot: Robot, attached: np.ndarray, start: PoseSample, target_m, target_orientation,
-                 gains: ApproachGains, tension_min_n: float, tension_max_n: float, period_s: float,
-                 first_acceleration=None):
+                 gains: ApproachGains, tension_min_n: float, tension_max_n: float, period_s: float):
         self.robot = robot
         self.attached = np.asarray(attached, dtype=bool)
         self.target_m = np.asarray(target_m, dtype=float)
@@ -66,7 +68,6 @@ class SteeredApproach:
                       np.asarray(start.velocity_m_s, dtype=float),
                       np.asarray(start.angular_velocity_rad_s, dtype=float))
         self.rows: list[tuple] = []
-        self.first_acceleration = first_acceleration
 
     def __len__(self) -> int:
         return len(self.rows)
@@ -76,8 +77,7 @@ class SteeredApproach:
         dt = self.period_s
         while len(self.rows) < rows:
             position, orientation, velocity, angular_velocity = self.state
-            acceleration = (self.first_acceleration if not self.rows and self.first_acceleration is not None
-                            else self.acceleration(position, orientation, velocity, angular_velocity))
+            acceleration = self.acceleration(position, orientation, velocity, angular_velocity)
             self.rows.append((position, orientation, velocity, angular_velocity, acceleration[:3], acceleration[3:]))
             # semi-implicit Euler: the new twist moves the pose
             velocity = velocity + dt * acceleration[:3]
@@ -89,9 +89,12 @@ class SteeredApproach:
     def acceleration(self, position, orientation, velocity, angular_velocity) -> np.ndarray:
         """(a, α) the bounded tensions nearest the pull towards the target give the platform."""
         gains = self.gains
+        # the pull eased in (smoothstep) from none at the first row
+        share = 1.0 if gains.ease_in_s <= 0.0 else min(1.0, len(self.rows) * self.period_s / gains.ease_in_s)
+        share = share * share * (3.0 - 2.0 * share)
         body = rigid_body(self.robot, orientation, angular_velocity)
         structure = wrench_matrix(self.robot, position, orientation)[0][:, self.attached]
-        pull = np.concatenate([
+        pull = share * np.concatenate([
             gains.position_frequency_rad_s ** 2 * (self.target_m - position)
             - 2.0 * gains.position_frequency_rad_s * velocity,
             gains.orientation_frequency_rad_s ** 2 * difference(self.target_orientation, orientation)

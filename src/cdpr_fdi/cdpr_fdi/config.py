@@ -173,6 +173,7 @@ class RecoveryConfig:
     safe_pose_turns_deg: tuple[float, ...]
     safe_pose_grid_m: float
     approach_gains: ApproachGains
+    approach_tension_margin_n: float
     approach_turn_limit_deg: float
     approach_limit_s: float
     approach_arrival_m: float
@@ -255,7 +256,10 @@ class RecoveryConfig:
             approach_gains=ApproachGains(
                 position_frequency_rad_s=recovery.number('approach_frequency_rad_s', positive=True),
                 orientation_frequency_rad_s=recovery.number('approach_turn_frequency_rad_s', positive=True),
-                moment_weight=recovery.number('approach_moment_weight', positive=True)),
+                moment_weight=recovery.number('approach_moment_weight', positive=True),
+                ease_in_s=recovery.number('approach_ease_in_s', non_negative=True)),
+            approach_tension_margin_n=recovery.number('approach_tension_margin_share', non_negative=True)
+            * robot.tension_min_n,
             approach_turn_limit_deg=recovery.number('approach_turn_limit_deg', positive=True, maximum=180.0),
             approach_limit_s=recovery.number('approach_limit_s', positive=True),
             approach_arrival_m=recovery.number('approach_arrival_m', positive=True),

@@ -2,13 +2,14 @@
 
 Where no static tensions of the remaining cables within [τ_min, τ_max] hold the platform at
 its pose at the naming, it cannot be braked to rest where it is: it is steered to its safe
-pose instead (cdpr_control.steered_approach), under tensions kept `plan_tension_margin_n`
-above τ_min, its orientation pulled hard, its position let move as those tensions allow.
+pose instead (cdpr_control.steered_approach), under tensions kept
+`approach_tension_margin_n` above τ_min, its orientation pulled hard, its position let move as those tensions allow.
 The steered motion is tabulated per tick for the drives (its wrench shared again by the
 recovery's distribution), stepped as the ticks ask for it, so that a realtime supervisor
-plans a few rows at a time; its first tracked row eased in from the torques commanded at
-the naming (pose_recovery.ease_in). Once the platform is within `approach_arrival_m` and
-`approach_arrival_deg` of the safe pose, nearly at rest, it is held there (SAFE_HOLD).
+plans a few rows at a time; from where the naming tick's torques take the platform
+(pose_recovery.after_the_naming_tick), its first row eased in from them (ease_in). Once
+the platform is within `approach_arrival_m` and `approach_arrival_deg` of the safe pose,
+nearly at rest, it is held there (SAFE_HOLD).
 
 A steered motion that turns the platform more than `approach_turn_limit_deg` further from
 the safe orientation than it was at the naming (its cables would wind about it), or that
@@ -23,16 +24,15 @@ import numpy as np
 
 from cdpr_control import pose_dynamics
 from cdpr_control.controller import JointReference
-from cdpr_control.pose_kinematics import joint_velocity
 from cdpr_control.pose_reference import PoseReferenceTable, table_of
-from cdpr_control.pose_trajectories import PoseSample
 from cdpr_control.robot import Robot
+from cdpr_control.rotation import normalised
 from cdpr_control.steered_approach import SteeredApproach
 from cdpr_control.tension_distribution import FlooredLeastSquares, LoweredFloor, TensionDistribution, make_tension_distribution
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
 
 from .config import RecoveryConfig
-from .pose_recovery import ease_in
+from .pose_recovery import after_the_naming_tick, ease_in
 from .recovery import RecoveryInfeasible, safe_pose_for, table_reference
 
 # Rows are stepped and tabulated this many at a time: numpy's per-call cost spread over a
@@ -63,21 +63,17 @@ class PoseApproach:
         # acts but on a rounding at a bound
         self.distribution = FlooredLeastSquares(LoweredFloor(margin, robot.tension_min_n))
         self.mode = RECOVERY_MOVE
-        self.start_tick = start_tick
         self.phase_ticks = {RECOVERY_MOVE: start_tick}
+        # the approach's first row is the tick after the naming's
+        self.first_tick = start_tick + 1
         self.timed_out = False
         self.command_nm = np.asarray(command_nm, dtype=float)
-        zero = np.zeros(3)
-        start = PoseSample(np.asarray(position_m, dtype=float), orientation, np.asarray(velocity_m_s, dtype=float),
-                           np.asarray(angular_velocity_rad_s, dtype=float), zero, zero)
-        # the naming tick's torques move the platform over the first period, not the plan's
-        commanded = pose_dynamics.direct_dynamics(
-            robot, start.position_m, start.orientation, start.velocity_m_s, start.angular_velocity_rad_s,
-            self.command_nm, joint_velocity(robot, *start.motion[:4]), self.attached)
+        start = after_the_naming_tick(robot, self.attached, np.asarray(position_m, dtype=float),
+                                      normalised(orientation), np.asarray(velocity_m_s, dtype=float),
+                                      np.asarray(angular_velocity_rad_s, dtype=float), self.command_nm, period_s)
         self.approach = SteeredApproach(
             robot, self.attached, start, safe.position_m, safe.orientation, config.approach_gains,
-            robot.tension_min_n + config.plan_tension_margin_n, robot.tension_max_n, period_s,
-            np.concatenate([commanded.acceleration_m_s2, commanded.angular_acceleration_rad_s2]))
+            robot.tension_min_n + config.approach_tension_margin_n, robot.tension_max_n, period_s)
         self.turn_limit_rad = self.approach.error(0)[1] + math.radians(config.approach_turn_limit_deg)
         self.row_limit = math.ceil(config.approach_limit_s / period_s)
         self.tables: list[PoseReferenceTable] = []
@@ -130,7 +126,7 @@ class PoseApproach:
 
     def reference_at(self, tick: int) -> JointReference | None:
         """The joint reference of `tick`: the approach's row; None after the arrival."""
-        row = tick - self.start_tick
+        row = tick - self.first_tick
         self.tabulate_to(row)
         if self.arrival_row is not None and row > self.arrival_row:
             return None

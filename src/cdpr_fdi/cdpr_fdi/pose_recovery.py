@@ -46,7 +46,9 @@ from concurrent.futures import Future
 
 import numpy as np
 
+from cdpr_control import pose_dynamics
 from cdpr_control.controller import JointReference
+from cdpr_control.pose_kinematics import joint_velocity
 from cdpr_control.pose_reference import PoseReferenceTable, tabulate_pose_reference, tabulate_pose_references
 from cdpr_control.pose_trajectories import BrakedTurn, PoseSample, PoseTrajectory, Turn
 from cdpr_control.robot import Robot
@@ -77,17 +79,36 @@ def brake_from(state: PoseSample, duration_s: float, rest_m, rest_orientation) -
                                            difference(rest_orientation, state.orientation)))
 
 
+def after_the_naming_tick(robot: Robot, attached: np.ndarray, position_m, orientation, velocity_m_s,
+                          angular_velocity_rad_s, command_nm, period_s: float) -> PoseSample:
+    """The platform's state one period after the naming tick's (p, q, v, ω), where the
+    torques `command_nm` already commanded on that tick move it over that period (the
+    rigid model's direct dynamics, stepped as the steered approach steps): a recovery's
+    plans start there, on the tick after the naming — planned from the naming state with
+    their own motion over that period, the drives chased the difference at the takeover
+    (docs/platform.md). Its accelerations are zero (the plans set their own)."""
+    commanded = pose_dynamics.direct_dynamics(robot, position_m, orientation, velocity_m_s,
+                                              angular_velocity_rad_s, command_nm,
+                                              joint_velocity(robot, position_m, orientation, velocity_m_s,
+                                                             angular_velocity_rad_s), attached)
+    velocity = np.asarray(velocity_m_s, dtype=float) + period_s * commanded.acceleration_m_s2
+    angular_velocity = (np.asarray(angular_velocity_rad_s, dtype=float)
+                        + period_s * commanded.angular_acceleration_rad_s2)
+    zero = np.zeros(3)
+    return PoseSample(np.asarray(position_m, dtype=float) + period_s * velocity,
+                      normalised(product(from_rotation_vector(period_s * angular_velocity), orientation)),
+                      velocity, angular_velocity, zero, zero)
+
+
 def ease_in(table: PoseReferenceTable, command_nm: np.ndarray, step_share: float, attached: np.ndarray,
             drum_radius_m: float) -> None:
-    """The first row the controller tracks (row 1: row 0 is the naming tick's, already
-    commanded) takes `step_share` of the step from `command_nm` to its feed-forward, the
-    next row the rest: a step in torque rings elastic cables, and half of it rings them
-    half as much (docs/platform.md)."""
-    if len(table) < 2:
-        return
-    held = (1.0 - step_share) * (command_nm - table.feedforward_nm[1]) * attached
-    table.feedforward_nm[1] += held
-    table.tension_n[1] -= held / drum_radius_m
+    """The first row the controller tracks (row 0, the tick after the naming) takes
+    `step_share` of the step from `command_nm` to its feed-forward, the next row the rest:
+    a step in torque rings elastic cables, and half of it rings them half as much
+    (docs/platform.md)."""
+    held = (1.0 - step_share) * (command_nm - table.feedforward_nm[0]) * attached
+    table.feedforward_nm[0] += held
+    table.tension_n[0] -= held / drum_radius_m
 
 
 def joined(first: PoseReferenceTable, rows: int, rest: PoseReferenceTable) -> PoseReferenceTable:
@@ -122,25 +143,28 @@ class PoseRecovery:
             distribution.name, distribution.tension_min_n + config.plan_tension_margin_n, distribution.tension_max_n)
         self.lowered = LoweredFloor(self.margin, robot.tension_min_n)
         self.mode = RECOVERY_MOVE
-        self.start_tick = start_tick
         self.phase_ticks = {RECOVERY_MOVE: start_tick}
+        # the brake's first row is the tick after the naming's
+        self.first_tick = start_tick + 1
         self.timed_out = False
         self.planner = planner or PlanAtOnce()
         self.notes: list[str] = []
-        self.brake, self.continuation = self.plan_brake(
-            np.asarray(position_m, dtype=float), orientation, np.asarray(velocity_m_s, dtype=float),
-            np.asarray(angular_velocity_rad_s, dtype=float))
-        ease_in(self.brake, np.asarray(command_nm, dtype=float), config.command_step_share, self.attached,
-                robot.motor.drum_radius_m)
+        command_nm = np.asarray(command_nm, dtype=float)
+        self.brake, self.continuation = self.plan_brake(after_the_naming_tick(
+            robot, self.attached, np.asarray(position_m, dtype=float), normalised(orientation),
+            np.asarray(velocity_m_s, dtype=float), np.asarray(angular_velocity_rad_s, dtype=float), command_nm,
+            period_s))
+        ease_in(self.brake, command_nm, config.command_step_share, self.attached, robot.motor.drum_radius_m)
         # the brake's last row (its rest, where the move starts), once the brake is settled
         self.brake_end_tick: int | None = None
         self.planned_move = None
         self.move: PoseReferenceTable | None = None
         self.move_start_tick: int | None = None
-        self.settle_brake(start_tick)
+        self.settle_brake(self.first_tick)
 
-    def plan_brake(self, position_m, orientation, velocity_m_s, angular_velocity_rad_s):
-        """The brake's joint references per tick (module docstring), its last row at rest:
+    def plan_brake(self, start: PoseSample):
+        """The brake's joint references per tick from `start` (the state on the tick after
+        the naming; module docstring), its last row at rest:
         over brake_s(|v|), then over that shortened `replan_slowdown` times, up to
         `replan_attempts` times; each a whole number of periods. The first
         `committed_brake_s` of one of them (try_to_commit) at once, so the drives take
@@ -149,16 +173,16 @@ class PoseRecovery:
         (`committed_brake_s` 0, or as long as the shortest brake) or the committed rows
         are held by no tensions."""
         config = self.config
+        velocity_m_s, angular_velocity_rad_s = start.velocity_m_s, start.angular_velocity_rad_s
         brake_s = config.brake_s(float(np.linalg.norm(velocity_m_s)))
         gravity = np.linalg.norm(self.robot.gravity_m_s2)
         up = -self.robot.gravity_m_s2 / gravity if gravity > 0.0 else np.zeros(3)
-        naming = PoseSample(position_m, normalised(orientation), velocity_m_s, angular_velocity_rad_s,
-                            config.brake_lift_m_s2 * up, np.zeros(3))
+        naming = dataclasses.replace(start, acceleration_m_s2=config.brake_lift_m_s2 * up)
         rests = []
         for attempt in range(config.replan_attempts + 1):
             duration_s = math.ceil(brake_s / config.replan_slowdown ** attempt / self.period_s) * self.period_s
             # a braked motion goes on by half its speed times the brake's time
-            rests.append((duration_s, position_m + 0.5 * duration_s * velocity_m_s,
+            rests.append((duration_s, start.position_m + 0.5 * duration_s * velocity_m_s,
                           product(from_rotation_vector(0.5 * duration_s * angular_velocity_rad_s), naming.orientation)))
         tries = [brake_from(naming, *rest) for rest in rests]
         committed = round(config.committed_brake_s / self.period_s)
@@ -196,7 +220,7 @@ class PoseRecovery:
     @property
     def switch_tick(self) -> int:
         """The first tick of the brake's rows planned after the naming."""
-        return self.start_tick + self.committed_ticks
+        return self.first_tick + self.committed_ticks
 
     def continue_brake(self, tries: list[PoseTrajectory], committed_try: int, first_rest: Future):
         """The brake's rows from its committed first ones on (the `tries`: from where those
@@ -241,7 +265,7 @@ class PoseRecovery:
                         f'planned at once: the least tension {self.brake.tension_n[:, self.attached].min():.2f} N')
             self.notes += [note] if note else []
         if self.planned_move is None:
-            self.brake_end_tick = self.start_tick + len(self.brake) - 1
+            self.brake_end_tick = self.first_tick + len(self.brake) - 1
             self.planned_move = self.planner.submit(self.plan_move, self.brake.position_m[-1],
                                                     self.brake.orientation[-1])
 
@@ -338,7 +362,7 @@ class PoseRecovery:
         if self.move is not None and tick >= self.move_start_tick:
             row = tick - self.move_start_tick
             return table_reference(self.move, row) if row < len(self.move) else None
-        row = tick - self.start_tick
+        row = tick - self.first_tick
         return table_reference(self.brake, min(row, len(self.brake) - 1))
 
     def setpoint(self, tick: int, angle_rad, angular_velocity_rad_s):
