@@ -2,9 +2,9 @@
 item 1), in the in-process engine as cdpr-scenario runs it: every one of the eight
 cables once, at a random instant of the rotating motion, forward or backward, on the
 rigid plant; the hardest cable on the elastic plant (the whole matrix: cdpr-campaign,
-docs/platform.md). Then the recovery in pose space: from where the remaining cables can
-hold the platform at rest, braked and moved to its safe pose; from where they cannot,
-steered to it under tensions within their bounds, or FAULT, saying why."""
+docs/platform.md). Then the recovery in pose space: steered to its safe pose under
+tensions within their bounds, or FAULT, saying why; with recovery.platform_recovery
+`braked`, braked and moved there where the remaining cables hold the platform at rest."""
 from __future__ import annotations
 
 import dataclasses
@@ -84,12 +84,14 @@ def test_the_platforms_cable_by_the_tilt_is_named_on_the_elastic_plant():
 
 
 @pytest.mark.parametrize('fidelity', ['rigid', 'elastic'])
-def test_from_where_seven_cables_hold_it_taut_the_platform_reaches_its_safe_pose(fidelity):
+@pytest.mark.parametrize('recovery', ['steered', 'braked'])
+def test_from_where_seven_cables_hold_it_taut_the_platform_reaches_its_safe_pose(fidelity, recovery):
     """Cable 5 breaks 2.33 s into the circle, where the seven others hold the platform
-    taut: position control brings it to rest and to its safe pose (issue 29: within 5 mm
-    and 1°), every remaining cable within [τ_min, τ_max] from the naming on."""
+    taut: steered, or braked to rest there and moved, it reaches its safe pose (issue 29:
+    within 5 mm and 1°), every remaining cable within [τ_min, τ_max] from the naming on."""
     base = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion='circle',
                                           fidelity=fidelity, fail_cables=[5], fail_at_s=2.33))
+    base = braked(base) if recovery == 'braked' else base
     recording = run_inprocess(base)
     fdi = recording.fdi
     assert fdi['broken_cables'] == [5] and fdi['mode'] == 'SAFE_HOLD', fdi
@@ -99,6 +101,11 @@ def test_from_where_seven_cables_hold_it_taut_the_platform_reaches_its_safe_pose
     assert np.degrees(np.linalg.norm(difference(recording.true_orientation[-1], safe.orientation))) < 1.0
     tension = recording.true_tension_n[fdi['identified_tick'] + 1:][:, attached]
     assert tension.min() >= base.robot.tension_min_n and tension.max() <= base.robot.tension_max_n
+
+
+def braked(run):
+    """`run` with its platform braked where the cables left hold it (recovery.platform_recovery)."""
+    return dataclasses.replace(run, recovery=dataclasses.replace(run.recovery, platform_recovery='braked'))
 
 
 def least_tension_after_naming(run) -> tuple[float, dict]:
@@ -133,7 +140,7 @@ def test_near_the_border_the_move_keeps_the_margin_each_pose_allows():
     above τ_min from there. The plan brakes the turn as well as the path and lowers the
     margin only where a pose needs it, and no cable goes below τ_min (before: 0 N for
     0.25 s, the brake planned with the floored least-squares tensions)."""
-    run = broken_at_fraction('circle', 'rigid', 7, 0.11242174167186213, seed=2)
+    run = braked(broken_at_fraction('circle', 'rigid', 7, 0.11242174167186213, seed=2))
     least, fdi = least_tension_after_naming(run)
     assert fdi['broken_cables'] == [7] and fdi['mode'] == 'SAFE_HOLD', fdi
     assert least >= run.robot.tension_min_n
@@ -145,7 +152,7 @@ def test_half_a_torque_step_at_the_naming_keeps_elastic_cables_from_ringing_slac
     before's. Stepped at once, the elastic cables ring below τ_min in the next ticks; half
     the step first (recovery.command_step_share 0.5), they stay above it."""
     held_above_the_floor_only_with_the_defaults(
-        broken_at_fraction('climb-tilt', 'elastic', 7, 0.34760025781117565, seed=1), command_step_share=1.0)
+        braked(broken_at_fraction('climb-tilt', 'elastic', 7, 0.34760025781117565, seed=1)), command_step_share=1.0)
 
 
 def test_a_brake_that_starts_lifting_keeps_the_takeover_above_the_floor():
@@ -155,7 +162,7 @@ def test_a_brake_that_starts_lifting_keeps_the_takeover_above_the_floor():
     starts by lifting at recovery.brake_lift_m_s2 (1 m/s²) has every cable pull more then,
     and none goes below τ_min; from rest acceleration one does."""
     held_above_the_floor_only_with_the_defaults(
-        broken_at_fraction('climb-tilt', 'elastic', 7, 0.7924256903313863, seed=2, reverse=True),
+        braked(broken_at_fraction('climb-tilt', 'elastic', 7, 0.7924256903313863, seed=2, reverse=True)),
         brake_lift_m_s2=0.0)
 
 
@@ -270,7 +277,7 @@ def test_a_brake_whose_tries_come_too_late_keeps_every_cable_above_the_floor(mon
     brake as configured left a cable at 0.24 N, in the realtime graph at 0 N for 16 s.
     Committed to the try whose rest the cables hold, every cable stays at τ_min or more
     whether the tries come in time or not."""
-    run = broken_at_fraction('circle', 'elastic', 7, 0.5075097549640587, seed=0)
+    run = braked(broken_at_fraction('circle', 'elastic', 7, 0.5075097549640587, seed=0))
     in_time, fdi = least_tension_after_naming(run)
     assert fdi['mode'] == 'SAFE_HOLD' and in_time >= run.robot.tension_min_n, (in_time, fdi['mode'])
     monkeypatch.setattr(pose_recovery, 'PlanAtOnce', TriesTooLate)

@@ -1,9 +1,9 @@
 """The platform through the node graph: lockstep, the loop's nodes with eight joints and
 the pose topics with the platform's orientation, equal to the in-process engine, through
 a cable's break, its detection and naming, and the first 0.7 s of its recovery in pose
-space (braked where the seven cables left hold the platform, steered where they do not);
-realtime, a break and the whole recovery, planned
-beside the loop (cdpr_fdi.planning)."""
+space (steered; and braked, its move planned by cdpr_fdi.planning, where the seven
+cables left hold the platform and recovery.platform_recovery asks for it); realtime, a
+break and the whole recovery."""
 from __future__ import annotations
 
 import time
@@ -23,16 +23,27 @@ from conftest import CONFIG_DIR, GraphLog, timing_check
 pytestmark = pytest.mark.graph
 
 # Half a second at rest, then two seconds of the move and its 12° turn about the vertical;
-# a cable breaks 1.8007 s in, between two ticks: there the seven cables left hold the
-# platform after cable 3 (braked, then moved), not after cable 2 (steered).
+# a cable breaks 1.8007 s in, between two ticks: cable 2, where the seven cables left
+# cannot hold the platform (steered, the default), or cable 3, where they can (braked,
+# then moved, with recovery.platform_recovery braked).
 DURATION_S = 2.5
 FAILURE_S = 1.8007
 
 
-@pytest.mark.parametrize('cable', [3, 2], ids=['braked', 'steered'])
-def test_the_lockstep_graph_turns_the_platform_as_the_in_process_engine_does(tmp_path, cable):
+def write_with_recovery(folder, robot, recovery: str):
+    """A copy of the `robot` file whose platform is recovered as `recovery` says."""
+    path = folder / f'{recovery}_{robot.name}'
+    path.write_text(robot.read_text() + f'\nrecovery:\n  platform_recovery: {recovery}\n')
+    return path
+
+
+@pytest.mark.parametrize('cable, recovery', [(2, 'steered'), (3, 'braked')], ids=['steered', 'braked'])
+def test_the_lockstep_graph_turns_the_platform_as_the_in_process_engine_does(tmp_path, cable, recovery):
+    robot = CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'
+    if recovery == 'braked':
+        robot = write_with_recovery(tmp_path, robot, recovery)
     scenario = build_scenario(ScenarioOptions(
-        config=str(CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'),
+        config=str(robot),
         motions=str(CONFIG_DIR / 'crossed_platform_motions.yaml'), motion='across-yaw', fidelity='rigid',
         duration_s=DURATION_S, fail_cables=[cable], fail_at_s=FAILURE_S))
     bag = tmp_path / 'bag'
@@ -58,10 +69,10 @@ def test_the_lockstep_graph_turns_the_platform_as_the_in_process_engine_does(tmp
 @pytest.mark.realtime
 def test_in_the_realtime_graph_a_platforms_break_is_named_and_recovered_within_the_bounds(tmp_path):
     """`make demo-6dof`'s break (cable 5, a quarter of the way up the tilting climb,
-    elastic plant) through the realtime graph: the brake's first ticks sent at the naming,
-    the rest of it and the move to the safe pose planned on the supervisor's planning
-    thread. Named right, the safe pose reached and held, every remaining cable within
-    [τ_min, τ_max] from the naming on (in-process: 4.97 N least)."""
+    elastic plant) through the realtime graph: the steered approach's rows stepped a
+    few at a time by the supervisor and sent ahead of the drives. Named right, the safe
+    pose reached and held, every remaining cable within [τ_min, τ_max] from the naming on
+    (in-process: 5.1 N least)."""
     scenario = build_scenario(ScenarioOptions(
         config=str(CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'),
         motions=str(CONFIG_DIR / 'crossed_platform_motions.yaml'), motion='climb-tilt', fidelity='elastic',

@@ -147,6 +147,12 @@ def check_calibration_robot(calibration: Section, robot: Robot, config_path: str
             f'cdpr-calibrate --config {config_path} --motions MOTIONS.yaml --out FILE')
 
 
+# How a platform is recovered after a break (docs/platform.md): steered to its safe pose
+# (pose_approach.py), or braked to rest and moved there where the cables left hold it
+# where it is named (pose_recovery.py; steered elsewhere).
+PLATFORM_RECOVERIES = ('steered', 'braked')
+
+
 @dataclass(frozen=True)
 class RecoveryConfig:
     """Paper §3.2: where to go after a failure and how (heights m, times s, speeds)."""
@@ -172,6 +178,7 @@ class RecoveryConfig:
     swing_damping_ratio: float
     safe_pose_turns_deg: tuple[float, ...]
     safe_pose_grid_m: float
+    platform_recovery: str
     approach_gains: ApproachGains
     approach_tension_margin_n: float
     approach_turn_limit_deg: float
@@ -253,6 +260,7 @@ class RecoveryConfig:
             swing_damping_ratio=recovery.number('swing_damping_ratio', non_negative=True),
             safe_pose_turns_deg=tuple(turns.tolist()),
             safe_pose_grid_m=recovery.number('safe_pose_grid_m', positive=True),
+            platform_recovery=recovery.string('platform_recovery', choices=PLATFORM_RECOVERIES),
             approach_gains=ApproachGains(
                 position_frequency_rad_s=recovery.number('approach_frequency_rad_s', positive=True),
                 orientation_frequency_rad_s=recovery.number('approach_turn_frequency_rad_s', positive=True),

@@ -35,9 +35,10 @@ from .config import RecoveryConfig
 from .pose_recovery import after_the_naming_tick, ease_in
 from .recovery import RecoveryInfeasible, safe_pose_for, table_reference
 
-# Rows are stepped and tabulated this many at a time: numpy's per-call cost spread over a
-# few ticks, a realtime supervisor's tick not held up long (the rows do not depend on it).
-ROWS_PER_STEP = 10
+# Rows are stepped and tabulated this many at a time (the rows do not depend on it): a
+# realtime supervisor's tick is held up ~0.5 ms for them; ten at a time (~3 ms once every
+# ten ticks) left the drives without a row now and then (docs/platform.md).
+ROWS_PER_STEP = 2
 
 
 class PoseApproach:
@@ -79,8 +80,7 @@ class PoseApproach:
         self.tables: list[PoseReferenceTable] = []
         self.arrival_row: int | None = None
         self.hold: JointReference | None = None
-        self.notes = ['the cables left cannot hold the platform where it is: steered to its safe pose under '
-                      'tensions within their bounds']
+        self.notes = ['steered to the safe pose under tensions within their bounds']
 
     def tabulated_rows(self) -> int:
         return len(self.tables) * ROWS_PER_STEP

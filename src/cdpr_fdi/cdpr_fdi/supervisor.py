@@ -381,11 +381,13 @@ class Supervisor:
     def pose_recovery(self, tick: int, attached: np.ndarray, angle_rad, angular_velocity_rad_s,
                       command_nm) -> PoseRecovery | PoseApproach:
         """A platform's recovery from its pose and velocity as the remaining cables give
-        them, and the torques commanded on the tick: braked where it is and moved to its
-        safe pose where those cables hold it there (pose_recovery.py), else steered to it
-        (pose_approach.py); RecoveryInfeasible where it cannot start."""
+        them, and the torques commanded on the tick: steered to its safe pose
+        (pose_approach.py), or with recovery.platform_recovery `braked`, braked where it
+        is and moved there where those cables hold it there (pose_recovery.py);
+        RecoveryInfeasible where it cannot start."""
         position, orientation, twist, _ = placement(self.robot, angle_rad, angular_velocity_rad_s, attached)
-        if tension_margin_n(self.robot, position, orientation, attached) < 0.0:
+        if (self.recovery_config.platform_recovery == 'steered'
+                or tension_margin_n(self.robot, position, orientation, attached) < 0.0):
             return PoseApproach(self.robot, self.recovery_config, self.distribution, self.period_s, attached,
                                 tick, position, orientation, twist[:3], twist[3:], command_nm)
         return PoseRecovery(self.robot, self.recovery_config, self.distribution, self.period_s, attached, tick,
