@@ -31,7 +31,8 @@ from conftest import CONFIG_DIR, MOTIONS, PAPER_ROBOT
 
 DESIGN_KEYS = {'failure_time_s', 'detection_time_s', 'detection_delay_ms', 'identified_cables',
                'true_broken_cables', 'false_alarm', 'recovery', 'kpi', 'cycles', 'wall_time_s'}
-RECOVERY_KEYS = {'reached_safe_point', 'final_error_m', 'min_tension_n', 'min_height_m', 'duration_s'}
+RECOVERY_KEYS = {'reached_safe_point', 'final_error_m', 'min_tension_n', 'max_tension_n', 'min_height_m',
+                 'duration_s'}
 KPI_KEYS = {'K_c_m', 'K_j_rad', 'K_t_nm'}
 # DESIGN_KEYS as flat() names them: what two reports compared key for key must hold
 FLAT_DESIGN_KEYS = (DESIGN_KEYS - {'recovery', 'kpi'} | {f'recovery.{key}' for key in RECOVERY_KEYS}

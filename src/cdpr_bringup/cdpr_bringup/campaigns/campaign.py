@@ -88,7 +88,8 @@ CSV_COLUMNS = (
     'run_id', 'motion', 'direction', 'cable', 'fidelity', 'detector', 'seed',
     'fail_at_fraction', 'failure_time_s', 'detection_delay_ms', 'detection_delay_from_signal_ms',
     'identified_cables', 'correct_identification',
-    'false_alarm', 'mode', 'fault', 'reached_safe_point', 'final_error_m', 'min_tension_n', 'min_height_m',
+    'false_alarm', 'mode', 'fault', 'reached_safe_point', 'final_error_m', 'min_tension_n', 'max_tension_n',
+    'min_height_m',
     'duration_s', 'cycles', 'control_period_s', 'wall_time_s', 'worker', 'error',
 )
 
@@ -266,6 +267,7 @@ def row_of(run: Run, run_dir: Path, outcome: dict | None) -> dict:
         reached_safe_point=recovery.get('reached_safe_point'),
         final_error_m=recovery.get('final_error_m'),
         min_tension_n=recovery.get('min_tension_n'),
+        max_tension_n=recovery.get('max_tension_n'),
         min_height_m=recovery.get('min_height_m'),
         duration_s=recovery.get('duration_s'),
         cycles=metrics.get('cycles'),
@@ -347,6 +349,7 @@ def outcome(rows: list[dict]) -> dict:
     failure_free = [row for row in completed if row['cable'] is None]
     delays = [row['detection_delay_ms'] for row in failures if row['detection_delay_ms'] is not None]
     tensions = [row['min_tension_n'] for row in failures if row['min_tension_n'] is not None]
+    greatest = [row['max_tension_n'] for row in failures if row['max_tension_n'] is not None]
     median, largest = _median_max(delays)
     return {
         'failure_runs': len(failures),
@@ -355,6 +358,7 @@ def outcome(rows: list[dict]) -> dict:
         'reached_safe_point': sum(bool(row['reached_safe_point']) for row in failures),
         'faults': sum(row['mode'] == FAULT for row in completed),
         'min_tension_n': min(tensions) if tensions else None,
+        'max_tension_n': max(greatest) if greatest else None,
         'delay_median_ms': median,
         'delay_max_ms': largest,
         'failure_free_runs': len(failure_free),
@@ -365,7 +369,7 @@ def outcome(rows: list[dict]) -> dict:
 
 def outcome_lines(rows: list[dict]) -> list[str]:
     """The outcome tables: per detector × fidelity with a total, and per cable."""
-    header = ('| {} | failure runs | detected | named | reached SP | FAULT | min tension after '
+    header = ('| {} | failure runs | detected | named | reached SP | FAULT | min / max tension after '
               'the failure (N) | delay median / max (ms) | failure-free runs | false alarms '
               '| not completed |')
     rule = '|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|'
@@ -373,7 +377,8 @@ def outcome_lines(rows: list[dict]) -> list[str]:
     def line(label, figures):
         return (f'| {label} | {figures["failure_runs"]} | {figures["detected"]} | {figures["named"]} '
                 f'| {figures["reached_safe_point"]} | {figures["faults"]} '
-                f'| {_fmt(figures["min_tension_n"], 2)} | {_fmt(figures["delay_median_ms"])} / '
+                f'| {_fmt(figures["min_tension_n"], 2)} / {_fmt(figures["max_tension_n"], 1)} '
+                f'| {_fmt(figures["delay_median_ms"])} / '
                 f'{_fmt(figures["delay_max_ms"])} | {figures["failure_free_runs"]} '
                 f'| {figures["false_alarms"]} | {figures["not_completed"]} |')
 
@@ -446,8 +451,8 @@ def summary_markdown(rows: list[dict]) -> str:
         '',
         'Failure runs: detected (the supervisor named a broken cable after the failure), '
         'named (exactly the broken one), reached SP (within the recovery tolerance when the run '
-        'ended), FAULT (the supervisor gave up). Min tension: the lowest tension of a remaining '
-        'cable after the failure, over the runs. Delays: from the instant the cable really broke '
+        'ended), FAULT (the supervisor gave up). Min / max tension: the lowest and the highest '
+        'tension of a remaining cable after the failure, over the runs. Delays: from the instant the cable really broke '
         'to the detection, every detected failure. False alarms: any run where a detection came '
         'before the failure, or with none.',
         '',

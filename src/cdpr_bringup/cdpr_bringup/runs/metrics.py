@@ -156,6 +156,8 @@ def metrics_json(run: KnownRun) -> dict:
             'final_error_m': final_error,
             'min_tension_n': (float(np.min(tensions_after[:, run.remaining]))
                               if tensions_after.size else None),
+            'max_tension_n': (float(np.max(tensions_after[:, run.remaining]))
+                              if tensions_after.size else None),
             'min_height_m': float(np.min(run.position_m[:, 2])),
             'duration_s': None if hold is None or detection is None else hold - detection,
             'phase_times_s': dict(run.phase_times_s),
