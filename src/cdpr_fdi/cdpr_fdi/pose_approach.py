@@ -28,12 +28,12 @@ from cdpr_control.pose_reference import PoseReferenceTable, table_of
 from cdpr_control.robot import Robot
 from cdpr_control.rotation import normalised
 from cdpr_control.steered_approach import SteeredApproach
-from cdpr_control.tension_distribution import FlooredLeastSquares, LoweredFloor, TensionDistribution, make_tension_distribution
+from cdpr_control.tension_distribution import FlooredLeastSquares, TensionDistribution
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
 
 from .config import RecoveryConfig
-from .pose_recovery import after_the_naming_tick, ease_in
-from .recovery import RecoveryInfeasible, safe_pose_for, table_reference
+from .pose_recovery import PlatformRecovery, after_the_naming_tick, ease_in
+from .recovery import RecoveryInfeasible, table_reference
 
 # Rows are stepped and tabulated this many at a time (the rows do not depend on it): a
 # realtime supervisor's tick is held up ~0.5 ms for them; ten at a time (~3 ms once every
@@ -41,7 +41,7 @@ from .recovery import RecoveryInfeasible, safe_pose_for, table_reference
 ROWS_PER_STEP = 2
 
 
-class PoseApproach:
+class PoseApproach(PlatformRecovery):
     """Steps through a platform's steered approach to its safe pose, one control tick at a
     time, as PoseRecovery does a braked one (module docstring)."""
 
@@ -51,36 +51,23 @@ class PoseApproach:
         """From the pose and twist the remaining (`attached`) cables give at detection and
         the torques (N·m) commanded on that tick; RecoveryInfeasible where there is no
         safe pose."""
-        safe = safe_pose_for(robot, config, attached)
-        self.robot = robot
-        self.config = config
-        self.period_s = period_s
-        self.attached = np.asarray(attached, dtype=bool).copy()
-        self.safe_point_m = safe.position_m
-        self.safe_orientation = safe.orientation
-        margin = make_tension_distribution(
-            distribution.name, distribution.tension_min_n + config.plan_tension_margin_n, distribution.tension_max_n)
+        super().__init__(robot, config, distribution, period_s, attached, start_tick)
         # the steered wrench is pulled by tensions above the margin: the floored fit never
         # acts but on a rounding at a bound
-        self.distribution = FlooredLeastSquares(LoweredFloor(margin, robot.tension_min_n))
-        self.mode = RECOVERY_MOVE
-        self.phase_ticks = {RECOVERY_MOVE: start_tick}
-        # the approach's first row is the tick after the naming's
-        self.first_tick = start_tick + 1
-        self.timed_out = False
+        self.distribution = FlooredLeastSquares(self.lowered)
         self.command_nm = np.asarray(command_nm, dtype=float)
         start = after_the_naming_tick(robot, self.attached, np.asarray(position_m, dtype=float),
                                       normalised(orientation), np.asarray(velocity_m_s, dtype=float),
                                       np.asarray(angular_velocity_rad_s, dtype=float), self.command_nm, period_s)
         self.approach = SteeredApproach(
-            robot, self.attached, start, safe.position_m, safe.orientation, config.approach_gains,
+            robot, self.attached, start, self.safe_point_m, self.safe_orientation, config.approach_gains,
             robot.tension_min_n + config.approach_tension_margin_n, robot.tension_max_n, period_s)
         self.turn_limit_rad = self.approach.error(0)[1] + math.radians(config.approach_turn_limit_deg)
         self.row_limit = math.ceil(config.approach_limit_s / period_s)
         self.tables: list[PoseReferenceTable] = []
         self.arrival_row: int | None = None
         self.hold: JointReference | None = None
-        self.notes = ['steered to the safe pose under tensions within their bounds']
+        self.notes.append('steered to the safe pose under tensions within their bounds')
 
     def tabulated_rows(self) -> int:
         return len(self.tables) * ROWS_PER_STEP
@@ -156,8 +143,3 @@ class PoseApproach:
                 break
             planned.append((later, reference))
         return planned
-
-    def take_notes(self) -> list[str]:
-        """What the approach said, once."""
-        notes, self.notes = self.notes, []
-        return notes

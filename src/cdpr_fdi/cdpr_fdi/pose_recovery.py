@@ -118,7 +118,38 @@ def joined(first: PoseReferenceTable, rows: int, rest: PoseReferenceTable) -> Po
                                                 for field in dataclasses.fields(first)[1:]))
 
 
-class PoseRecovery:
+class PlatformRecovery:
+    """What a platform's recoveries share (this one, and pose_approach's): the safe pose of
+    the `attached` cables left (recovery.safe_pose_for; RecoveryInfeasible where there is
+    none), the recovery's distribution with its margin above τ_min, lowered where a pose
+    needs it, the mode and the ticks each phase began on (the first row of a plan is the
+    tick after the naming's), and the notes to say once."""
+
+    def __init__(self, robot: Robot, config: RecoveryConfig, distribution: TensionDistribution,
+                 period_s: float, attached: np.ndarray, start_tick: int):
+        safe = safe_pose_for(robot, config, attached)
+        self.robot = robot
+        self.config = config
+        self.period_s = period_s
+        self.attached = np.asarray(attached, dtype=bool).copy()
+        self.safe_point_m = safe.position_m
+        self.safe_orientation = safe.orientation
+        self.margin = make_tension_distribution(
+            distribution.name, distribution.tension_min_n + config.plan_tension_margin_n, distribution.tension_max_n)
+        self.lowered = LoweredFloor(self.margin, robot.tension_min_n)
+        self.mode = RECOVERY_MOVE
+        self.phase_ticks = {RECOVERY_MOVE: start_tick}
+        self.first_tick = start_tick + 1
+        self.timed_out = False
+        self.notes: list[str] = []
+
+    def take_notes(self) -> list[str]:
+        """What the plans gave up, or how they came late, each said once."""
+        notes, self.notes = self.notes, []
+        return notes
+
+
+class PoseRecovery(PlatformRecovery):
     """Steps through a platform's recovery, one control tick at a time, as Recovery does
     a point mass's: `setpoint(tick, angle, speed)` gives the mode and the joint reference
     of the next tick."""
@@ -132,23 +163,8 @@ class PoseRecovery:
         (planning.py; at once when None); static tensions within the bounds hold the
         platform at that pose (else pose_approach.py); RecoveryInfeasible where there is
         no safe pose."""
-        safe = safe_pose_for(robot, config, attached)
-        self.robot = robot
-        self.config = config
-        self.period_s = period_s
-        self.attached = np.asarray(attached, dtype=bool).copy()
-        self.safe_point_m = safe.position_m
-        self.safe_orientation = safe.orientation
-        self.margin = make_tension_distribution(
-            distribution.name, distribution.tension_min_n + config.plan_tension_margin_n, distribution.tension_max_n)
-        self.lowered = LoweredFloor(self.margin, robot.tension_min_n)
-        self.mode = RECOVERY_MOVE
-        self.phase_ticks = {RECOVERY_MOVE: start_tick}
-        # the brake's first row is the tick after the naming's
-        self.first_tick = start_tick + 1
-        self.timed_out = False
+        super().__init__(robot, config, distribution, period_s, attached, start_tick)
         self.planner = planner or PlanAtOnce()
-        self.notes: list[str] = []
         command_nm = np.asarray(command_nm, dtype=float)
         self.brake, self.continuation = self.plan_brake(after_the_naming_tick(
             robot, self.attached, np.asarray(position_m, dtype=float), normalised(orientation),
@@ -336,11 +352,6 @@ class PoseRecovery:
         if others:
             tables = tabulate_pose_references(self.robot, self.lowered, others, self.period_s, self.attached)
             yield from tables[:first] + ([alone] if first else []) + tables[first:]
-
-    def take_notes(self) -> list[str]:
-        """What the plans gave up, or how they came late, each said once."""
-        notes, self.notes = self.notes, []
-        return notes
 
     def take_move(self, tick: int) -> None:
         """The move, once planned: its first row (the brake's rest) on the brake's last

@@ -24,7 +24,7 @@ from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector
 from .identification import identify_broken_cables
 from .pose_approach import PoseApproach
-from .pose_recovery import PoseRecovery
+from .pose_recovery import PlatformRecovery, PoseRecovery
 from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point, find_safe_poses,
                        initial_tensions, taut_tension_n)
 from .tension_collapse import TensionCollapse
@@ -216,7 +216,7 @@ class Supervisor:
                 # the pose cannot be found or the move to SP cannot be planned: hold
                 self.mode, tensions, setpoint = FAULT, None, None
                 self.fault_reason = f'recovery failed at tick {tick}: {err}'
-            if isinstance(self.recovery, (PoseRecovery, PoseApproach)):
+            if isinstance(self.recovery, PlatformRecovery):
                 events += self.recovery.take_notes()
             if self.mode != previous_mode:
                 events.append(f'{self.mode} from tick {tick + 1}'
