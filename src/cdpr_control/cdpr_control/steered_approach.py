@@ -69,9 +69,6 @@ class SteeredApproach:
                       np.asarray(start.angular_velocity_rad_s, dtype=float))
         self.rows: list[tuple] = []
 
-    def __len__(self) -> int:
-        return len(self.rows)
-
     def extend(self, rows: int) -> None:
         """Step the platform until at least `rows` rows are planned."""
         dt = self.period_s
