@@ -157,9 +157,9 @@ def print_platform(robot, config, distribution, motions, period_s: float) -> Non
         print(f'  after cable {i + 1}: p = ({pose.position_m[0]:.3f}, {pose.position_m[1]:.3f}, '
               f'{pose.position_m[2]:.3f}) m, turned ({turn[0]:.1f}, {turn[1]:.1f}, {turn[2]:.1f})° from the '
               f'nominal orientation, margin {pose.tension_margin_n:.2f} N')
-    print(f'after a break: {"steered" if recovery.platform_recovery == "steered" else "braked and moved"} to its '
-          f'safe pose (recovery.platform_recovery; steered where the cables left cannot hold it at rest), '
-          f'under tensions within their bounds (docs/platform.md)')
+    how = ('steered to its safe pose under tensions within their bounds' if recovery.platform_recovery == 'steered'
+           else 'braked and moved to its safe pose where the cables left hold it at rest, else steered there')
+    print(f'after a break: {how} (recovery.platform_recovery; docs/platform.md)')
 
 
 @command('cdpr-robot')
