@@ -207,7 +207,7 @@ class RecoveryConfig:
         rest = np.asarray(position_m) + 0.5 * brake * np.asarray(velocity_m_s)
         move = self.move_s(float(np.linalg.norm(np.asarray(safe_point_m) - rest)))
         slowest_move = move * self.replan_slowdown ** self.replan_attempts
-        # a platform the cables cannot hold where it is may be steered that long instead
+        # a platform's steered approach may take that long instead
         return max(self.tension_phase_s + self.settle_timeout_s + brake + slowest_move,
                    self.approach_limit_s) + self.hold_after_s
 
