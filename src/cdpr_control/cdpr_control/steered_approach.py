@@ -36,6 +36,17 @@ from .rotation import difference, from_rotation_vector, normalised, product
 from .tension_distribution.nearest_wrench import nearest_wrench
 
 
+def stepped(position_m, orientation, velocity_m_s, angular_velocity_rad_s, acceleration,
+            period_s: float) -> tuple:
+    """(p, q, v, ω) one period on under the twist rate (a, α) (6), by semi-implicit Euler:
+    the new twist moves the pose."""
+    velocity = np.asarray(velocity_m_s, dtype=float) + period_s * acceleration[:3]
+    angular_velocity = np.asarray(angular_velocity_rad_s, dtype=float) + period_s * acceleration[3:]
+    return (np.asarray(position_m, dtype=float) + period_s * velocity,
+            normalised(product(from_rotation_vector(period_s * angular_velocity), orientation)),
+            velocity, angular_velocity)
+
+
 @dataclass(frozen=True)
 class ApproachGains:
     """The pull towards the target: natural frequencies (rad/s) of the position's and the
@@ -71,17 +82,11 @@ class SteeredApproach:
 
     def extend(self, rows: int) -> None:
         """Step the platform until at least `rows` rows are planned."""
-        dt = self.period_s
         while len(self.rows) < rows:
             position, orientation, velocity, angular_velocity = self.state
             acceleration = self.acceleration(position, orientation, velocity, angular_velocity)
             self.rows.append((position, orientation, velocity, angular_velocity, acceleration[:3], acceleration[3:]))
-            # semi-implicit Euler: the new twist moves the pose
-            velocity = velocity + dt * acceleration[:3]
-            angular_velocity = angular_velocity + dt * acceleration[3:]
-            self.state = (position + dt * velocity,
-                          normalised(product(from_rotation_vector(dt * angular_velocity), orientation)),
-                          velocity, angular_velocity)
+            self.state = stepped(position, orientation, velocity, angular_velocity, acceleration, self.period_s)
 
     def acceleration(self, position, orientation, velocity, angular_velocity) -> np.ndarray:
         """(a, α) the bounded tensions nearest the pull towards the target give the platform."""

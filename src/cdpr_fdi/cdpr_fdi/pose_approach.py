@@ -1,15 +1,16 @@
-"""A platform's recovery from where the cables left cannot hold it (issue 29; docs/platform.md).
+"""A platform's recovery steered to its safe pose (issue 29; docs/platform.md): after every
+break by default (recovery.platform_recovery `steered`), and with `braked` where no static
+tensions of the remaining cables within [τ_min, τ_max] hold the platform at its pose at
+the naming, so that it cannot be braked to rest there.
 
-Where no static tensions of the remaining cables within [τ_min, τ_max] hold the platform at
-its pose at the naming, it cannot be braked to rest where it is: it is steered to its safe
-pose instead (cdpr_control.steered_approach), under tensions kept
-`approach_tension_margin_n` above τ_min, its orientation pulled hard, its position let move as those tensions allow.
-The steered motion is tabulated per tick for the drives (its wrench shared again by the
-recovery's distribution), stepped as the ticks ask for it, so that a realtime supervisor
-plans a few rows at a time; from where the naming tick's torques take the platform
-(pose_recovery.after_the_naming_tick), its first row eased in from them (ease_in). Once
-the platform is within `approach_arrival_m` and `approach_arrival_deg` of the safe pose,
-nearly at rest, it is held there (SAFE_HOLD).
+The platform is steered by cdpr_control.steered_approach, under tensions kept
+`approach_tension_margin_n` above τ_min, its orientation pulled hard, its position let
+move as those tensions allow. The steered motion is tabulated per tick for the drives
+(its wrench shared again by the recovery's distribution), stepped as the ticks ask for
+it, so that a realtime supervisor plans a few rows at a time; from where the naming
+tick's torques take the platform (pose_recovery.after_the_naming_tick), its first row
+eased in from them (ease_in). Once the platform is within `approach_arrival_m` and
+`approach_arrival_deg` of the safe pose, nearly at rest, it is held there (SAFE_HOLD).
 
 A steered motion that turns the platform more than `approach_turn_limit_deg` further from
 the safe orientation than it was at the naming (its cables would wind about it), or that

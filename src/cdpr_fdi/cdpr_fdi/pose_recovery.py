@@ -54,6 +54,7 @@ from cdpr_control.pose_trajectories import BrakedTurn, PoseSample, PoseTrajector
 from cdpr_control.robot import Robot
 from cdpr_control.rotation import difference, from_rotation_vector, normalised, product
 from cdpr_control.safe_pose import tension_margin_n
+from cdpr_control.steered_approach import stepped
 from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError, LoweredFloor,
                                                TensionDistribution, make_tension_distribution)
 from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N
@@ -83,7 +84,7 @@ def after_the_naming_tick(robot: Robot, attached: np.ndarray, position_m, orient
                           angular_velocity_rad_s, command_nm, period_s: float) -> PoseSample:
     """The platform's state one period after the naming tick's (p, q, v, ω), where the
     torques `command_nm` already commanded on that tick move it over that period (the
-    rigid model's direct dynamics, stepped as the steered approach steps): a recovery's
+    rigid model's direct dynamics, one period on by steered_approach.stepped): a recovery's
     plans start there, on the tick after the naming — planned from the naming state with
     their own motion over that period, the drives chased the difference at the takeover
     (docs/platform.md). Its accelerations are zero (the plans set their own)."""
@@ -91,13 +92,10 @@ def after_the_naming_tick(robot: Robot, attached: np.ndarray, position_m, orient
                                               angular_velocity_rad_s, command_nm,
                                               joint_velocity(robot, position_m, orientation, velocity_m_s,
                                                              angular_velocity_rad_s), attached)
-    velocity = np.asarray(velocity_m_s, dtype=float) + period_s * commanded.acceleration_m_s2
-    angular_velocity = (np.asarray(angular_velocity_rad_s, dtype=float)
-                        + period_s * commanded.angular_acceleration_rad_s2)
+    acceleration = np.concatenate([commanded.acceleration_m_s2, commanded.angular_acceleration_rad_s2])
     zero = np.zeros(3)
-    return PoseSample(np.asarray(position_m, dtype=float) + period_s * velocity,
-                      normalised(product(from_rotation_vector(period_s * angular_velocity), orientation)),
-                      velocity, angular_velocity, zero, zero)
+    return PoseSample(*stepped(position_m, orientation, velocity_m_s, angular_velocity_rad_s, acceleration,
+                               period_s), zero, zero)
 
 
 def ease_in(table: PoseReferenceTable, command_nm: np.ndarray, step_share: float, attached: np.ndarray,
