@@ -54,8 +54,12 @@ def test_a_campaign_on_a_dask_cluster_resumes_after_ctrl_c(tmp_path):
         assert len(workers) == 2
         argv = [*TINY, '--scheduler', address, '--out', str(out)]
 
+        # Ctrl-C's default action even where this session was started with SIGINT ignored
+        # (a background job of a shell without job control): Python then installs no
+        # KeyboardInterrupt handler, and the campaign would run to its end
         campaign = subprocess.Popen([str(Path(sys.executable).parent / 'cdpr-campaign'), *argv],
-                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                    preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         try:
             # Ctrl-C once the first runs started: with one run at a time per worker, the
             # others have not
