@@ -1,5 +1,6 @@
-"""A platform's equations of motion, one control period in sub-steps: one source, run by
-CPython or compiled by numba (docs/platform.md, "Speed").
+"""A platform's equations of motion, one control period in sub-steps, and the steered
+approach's rows (cdpr_control.steered_approach): one source, run by CPython or compiled
+by numba (docs/platform.md, "Speed").
 
 The equations are those of pose_dynamics' docstring (Newton–Euler at the platform frame's
 origin, the motors J θ̈ = −b θ̇ + c + ρ τ) and of pose_kinematics' (l_i = A_i − p − R b_i,
@@ -17,7 +18,7 @@ floats, world frame; a mask holds 1.0 for yes and 0.0 for no.
 from __future__ import annotations
 
 from functools import cache
-from math import cos, sin, sqrt, tanh
+from math import atan2, cos, sin, sqrt, tanh
 
 import numpy as np
 
@@ -32,6 +33,19 @@ CONSTANT_COUNT = 24
 # Forward kinematics' Levenberg–Marquardt damping where W Wᵀ is singular, a share of its
 # largest diagonal entry.
 LEVENBERG_DAMPING = 1e-6
+# The nearest wrench's tie-break between tensions that pull the same wrench (the free
+# directions of more cables than degrees of freedom): this share of the problem's scale
+# times |τ|² is added, so the lowest such tensions are taken, as the bounded minimum norm
+# does.
+TIE_BREAK_SHARE = 1e-12
+# A held cable is let go of only where the objective's slope away from its bound exceeds
+# this share of the problem's scale: a slope of rounding size would be let go of and held
+# again for ever.
+SLOPE_TOLERANCE_SHARE = 1e-10
+# An active-set search over m cables ends within a few times m steps; this many is a bug.
+ACTIVE_SET_STEPS_PER_CABLE = 8
+# the slots of a steered approach's row: pose (p, q), twist (v, ω), twist rate (a, α)
+ROW_POSE, ROW_TWIST, ROW_RATE, ROW_WIDTH = 0, 7, 13, 19
 
 
 def constants_of(robot, coulomb_friction_nm: float = 0.0, coulomb_velocity_rad_s: float = 1.0,
@@ -358,6 +372,181 @@ def forward_kinematics(exits, attachments, lengths, used, pose, iterations, tole
     return -1
 
 
+def rotation_towards(target, pose, phi) -> None:
+    """φ (rad, world frame, into `phi`) that turns the pose's orientation into the unit
+    quaternion `target`, |φ| in [0, π]: rotation.difference."""
+    w1, x1, y1, z1 = target[0], target[1], target[2], target[3]
+    w2, x2, y2, z2 = pose[3], -pose[4], -pose[5], -pose[6]
+    w = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2
+    qx = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2
+    qy = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2
+    qz = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2
+    norm = sqrt(w * w + qx * qx + qy * qy + qz * qz)
+    if w < 0.0:
+        norm = -norm
+    w, qx, qy, qz = w / norm, qx / norm, qy / norm, qz / norm
+    sine = sqrt(qx * qx + qy * qy + qz * qz)
+    scale = 2.0 if sine < SMALL_ANGLE_RAD else 2.0 * atan2(sine, w) / sine
+    phi[0], phi[1], phi[2] = scale * qx, scale * qy, scale * qz
+
+
+def nearest_wrench(columns, wrench, weights, tension_min_n, tension_max_n, tension) -> int:
+    """τ (N, into `tension`) in [tension_min_n, tension_max_n] minimising |D (W τ − w)|²,
+    D = diag(`weights`), W's columns the rows of `columns` (n × 6): the wrench `wrench`
+    exactly where tensions within the bounds pull it, else the nearest in that norm (the
+    weights say how much a moment's N·m counts against a force's N). The convex quadratic
+    program is solved exactly by a primal active-set search (against scipy's bounded least
+    squares in tests/test_tension_distribution.py): the steps it took; −1 where it did not
+    end (a bug), −2 where a free set's system was singular."""
+    n = columns.shape[0]
+    hessian, gradient = np.empty((n, n)), np.empty(n)
+    for i in range(n):
+        total = 0.0
+        for a in range(6):
+            total += columns[i, a] * weights[a] * weights[a] * wrench[a]
+        gradient[i] = total
+        for j in range(n):
+            total = 0.0
+            for a in range(6):
+                total += columns[i, a] * weights[a] * weights[a] * columns[j, a]
+            hessian[i, j] = total
+    trace = 0.0
+    for i in range(n):
+        trace += hessian[i, i]
+    largest_entry, largest_gradient = 0.0, 0.0
+    for i in range(n):
+        hessian[i, i] += TIE_BREAK_SHARE * trace
+        largest_gradient = max(largest_gradient, abs(gradient[i]))
+        for j in range(n):
+            largest_entry = max(largest_entry, abs(hessian[i, j]))
+    slope_tolerance = SLOPE_TOLERANCE_SHARE * (largest_entry * tension_max_n + largest_gradient)
+    held, free_index = np.zeros(n), np.empty(n, dtype=np.intp)
+    target, step, reach = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        tension[i] = 0.5 * (tension_min_n + tension_max_n)
+    for taken in range(ACTIVE_SET_STEPS_PER_CABLE * n):
+        free = 0
+        for i in range(n):
+            target[i] = tension[i]
+            if held[i] == 0.0:
+                free_index[free] = i
+                free += 1
+        if free > 0:
+            system, rhs, solution = np.empty((free, free)), np.empty(free), np.empty(free)
+            for f in range(free):
+                i = free_index[f]
+                total = gradient[i]
+                for j in range(n):
+                    if held[j] != 0.0:
+                        total -= hessian[i, j] * tension[j]
+                rhs[f] = total
+                for g in range(free):
+                    system[f, g] = hessian[i, free_index[g]]
+            if not solve_symmetric(system, rhs, solution):
+                return -2
+            for f in range(free):
+                target[free_index[f]] = solution[f]
+        # the longest share of the step that stays within the bounds
+        share = 1.0
+        for i in range(n):
+            step[i] = target[i] - tension[i]
+            if step[i] < 0.0:
+                reach[i] = (tension_min_n - tension[i]) / step[i]
+            elif step[i] > 0.0:
+                reach[i] = (tension_max_n - tension[i]) / step[i]
+            else:
+                reach[i] = np.inf
+            if held[i] == 0.0:
+                share = min(share, reach[i])
+        for i in range(n):
+            tension[i] += share * step[i]
+        if share < 1.0:
+            for i in range(n):
+                if held[i] == 0.0 and reach[i] <= share:
+                    tension[i] = tension_min_n if step[i] < 0.0 else tension_max_n
+                    held[i] = 1.0
+            continue
+        # a held cable whose bound the objective would rather leave is let go of, the
+        # steepest first
+        leaving, steepest = -1, 0.0
+        for i in range(n):
+            if held[i] != 0.0:
+                slope = -gradient[i]
+                for j in range(n):
+                    slope += hessian[i, j] * tension[j]
+                if ((tension[i] <= tension_min_n and slope < -slope_tolerance)
+                        or (tension[i] >= tension_max_n and slope > slope_tolerance)) and abs(slope) > steepest:
+                    leaving, steepest = i, abs(slope)
+        if leaving < 0:
+            return taken
+        held[leaving] = 0.0
+    return -1
+
+
+def steered_rows(constants, exits, attachments, attached, target, gains, bounds, h, first_row, pose, twist,
+                 rows) -> int:
+    """Rows `first_row`, `first_row` + 1, … of a steered approach (cdpr_control.
+    steered_approach) into `rows` (k × ROW_WIDTH: the pose, the twist and the twist rate
+    (a, α) the tensions give there), the state (`pose`, `twist`) moved one period `h` on
+    after each. `target` is the target pose, `gains` (ω_p, ω_q in rad/s, the moment's
+    weight, the ease-in in s), `bounds` the tensions' (N). 0, or nearest_wrench's failure."""
+    m = exits.shape[0]
+    count = 0
+    for i in range(m):
+        if attached[i] != 0.0:
+            count += 1
+    rotation, columns, lengths, arms = np.empty((3, 3)), np.empty((m, 6)), np.empty(m), np.empty((m, 3))
+    pulling, tension = np.empty((count, 6)), np.empty(count)
+    mass_matrix, system, free = np.empty((6, 6)), np.empty((6, 6)), np.empty(6)
+    phi, pull, wrench, rhs, acceleration, weights = (np.empty(3), np.empty(6), np.empty(6), np.empty(6),
+                                                     np.empty(6), np.empty(6))
+    position_gain, orientation_gain, ease_in_s = gains[0], gains[1], gains[3]
+    for a in range(6):
+        weights[a] = 1.0 if a < 3 else gains[2]
+    for k in range(rows.shape[0]):
+        rotation_of(pose, rotation)
+        cables_at(pose, rotation, exits, attachments, columns, lengths, arms)
+        rigid_body(constants, rotation, twist, mass_matrix, free)
+        # the pull eased in (smoothstep) from none at the first row
+        share = 1.0 if ease_in_s <= 0.0 else min(1.0, (first_row + k) * h / ease_in_s)
+        share = share * share * (3.0 - 2.0 * share)
+        rotation_towards(target[3:], pose, phi)
+        for a in range(3):
+            pull[a] = share * (position_gain * position_gain * (target[a] - pose[a]) - 2.0 * position_gain * twist[a])
+            pull[3 + a] = share * (orientation_gain * orientation_gain * phi[a]
+                                   - 2.0 * orientation_gain * twist[3 + a])
+        for a in range(6):
+            total = 0.0
+            for b in range(6):
+                total += mass_matrix[a, b] * pull[b]
+            wrench[a] = total - free[a]
+        used = 0
+        for i in range(m):
+            if attached[i] != 0.0:
+                for a in range(6):
+                    pulling[used, a] = columns[i, a]
+                used += 1
+        status = nearest_wrench(pulling, wrench, weights, bounds[0], bounds[1], tension)
+        if status < 0:
+            return status
+        # M (a, α) = W τ + w_g − h
+        for a in range(6):
+            total = free[a]
+            for i in range(count):
+                total += pulling[i, a] * tension[i]
+            rhs[a] = total
+            for b in range(6):
+                system[a, b] = mass_matrix[a, b]
+        solve_symmetric(system, rhs, acceleration)
+        for a in range(7):
+            rows[k, ROW_POSE + a] = pose[a]
+        for a in range(6):
+            rows[k, ROW_TWIST + a] = twist[a]
+            rows[k, ROW_RATE + a] = acceleration[a]
+        move(pose, twist, acceleration, h)
+    return 0
+
+
 def rigid_substeps(substeps, h, constants, exits, attachments, offsets, attached, torque, external_wrench,
                    pose, twist, angle, speed, tension, taut) -> None:
     """`substeps` sub-steps of `h` s of the rigid model (cdpr_twin.rigid_platform), the
@@ -442,11 +631,11 @@ def elastic_substeps(substeps, h, constants, exits, attachments, offsets, attach
 
 
 HELPERS = (rotation_of, cables_at, length_rate, rigid_body, solve_symmetric, velocity_product, direct_dynamics,
-           turn, move, spring_tensions)
+           turn, move, spring_tensions, rotation_towards, nearest_wrench)
 
 
 PYTHON = python_kernel(forward_kinematics, velocity_product, rigid_body, direct_dynamics, motion_rows, rigid_substeps,
-                       elastic_substeps)
+                       elastic_substeps, move, nearest_wrench, steered_rows)
 
 
 def signatures(types) -> dict:
@@ -460,7 +649,10 @@ def signatures(types) -> dict:
             direct_dynamics: types.void(row, rows, rows, *(row,) * 10),
             motion_rows: types.void(row, rows, rows, rows, rows, rows, stack, rows, rows, rows, rows),
             rigid_substeps: types.void(count, types.float64, *geometry, *(row,) * 9),
-            elastic_substeps: types.void(count, types.float64, *geometry, row, row, row, flag, *(row,) * 5)}
+            elastic_substeps: types.void(count, types.float64, *geometry, row, row, row, flag, *(row,) * 5),
+            move: types.void(row, row, row, types.float64),
+            nearest_wrench: count(rows, row, row, types.float64, types.float64, row),
+            steered_rows: count(row, rows, rows, row, row, row, row, types.float64, count, row, row, rows)}
 
 
 @cache
@@ -471,7 +663,7 @@ def _compiled() -> Kernel | None:
 
 def kernel(name: str = 'compiled') -> Kernel:
     """The kernel called `name` (KERNELS): `forward_kinematics`, `velocity_product`,
-    `rigid_body`, `direct_dynamics`, `motion_rows`, `rigid_substeps` and
-    `elastic_substeps` of this module; 'compiled' is the Python one where numba is not
+    `rigid_body`, `direct_dynamics`, `motion_rows`, `rigid_substeps`, `elastic_substeps`,
+    `move`, `nearest_wrench` and `steered_rows` of this module; 'compiled' is the Python one where numba is not
     installed."""
     return choose(name, PYTHON, _compiled)

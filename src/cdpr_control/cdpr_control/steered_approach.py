@@ -4,7 +4,7 @@ Where the cables left after a break cannot hold the platform at rest where it is
 static tensions exist there, but some motion does: the platform is let move as tensions
 within [τ_min + margin, τ_max] let it, towards the target pose. Each control period the
 platform's rigid-body model is stepped under the tensions that come nearest (in a norm
-that weighs moments `moment_weight` times a force's N, nearest_wrench) the wrench of a
+that weighs moments `moment_weight` times a force's N, platform_substeps.nearest_wrench) the wrench of a
 critically damped pull towards the target,
 
     a_d = ω_p² (p* − p) − 2 ω_p v,   α_d = ω_q² φ(q*, q) − 2 ω_q ω,
@@ -20,7 +20,9 @@ pulled much harder than the position: a platform whose small rotational inertia 
 to the moments that the forces' best fit leaves turns over (docs/platform.md).
 
 Rows are stepped as they are asked for (`extend`), so a realtime supervisor steps a tick's
-worth at a time; they are the same however they are asked for.
+worth at a time; they are the same however they are asked for. A row is stepped by the
+compiled kernel platform_substeps.steered_rows (~10 µs where numpy took ~0.3 ms: a
+realtime supervisor stepping it kept up with the loop only most of the time, docs/platform.md).
 """
 from __future__ import annotations
 
@@ -28,23 +30,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .pose_dynamics import rigid_body
-from .pose_kinematics import wrench_matrix
+from . import platform_substeps
+from .platform_substeps import ROW_POSE, ROW_RATE, ROW_TWIST, ROW_WIDTH
 from .pose_trajectories import PoseSample
 from .robot import Robot
-from .rotation import difference, from_rotation_vector, normalised, product
-from .tension_distribution.nearest_wrench import nearest_wrench
+from .rotation import difference, normalised
 
-
-def stepped(position_m, orientation, velocity_m_s, angular_velocity_rad_s, acceleration,
-            period_s: float) -> tuple:
-    """(p, q, v, ω) one period on under the twist rate (a, α) (6), by semi-implicit Euler:
-    the new twist moves the pose."""
-    velocity = np.asarray(velocity_m_s, dtype=float) + period_s * acceleration[:3]
-    angular_velocity = np.asarray(angular_velocity_rad_s, dtype=float) + period_s * acceleration[3:]
-    return (np.asarray(position_m, dtype=float) + period_s * velocity,
-            normalised(product(from_rotation_vector(period_s * angular_velocity), orientation)),
-            velocity, angular_velocity)
+# Rows are kept in an array grown this many rows at a time (10 s of a 2 ms period).
+ROWS_PER_GROWTH = 5000
 
 
 @dataclass(frozen=True)
@@ -67,54 +60,50 @@ class SteeredApproach:
 
     def __init__(self, robot: Robot, attached: np.ndarray, start: PoseSample, target_m, target_orientation,
                  gains: ApproachGains, tension_min_n: float, tension_max_n: float, period_s: float):
-        self.robot = robot
-        self.attached = np.asarray(attached, dtype=bool)
+        self.kernel = platform_substeps.kernel()
+        self.constants = platform_substeps.constants_of(robot)
+        self.exits, self.attachments, _ = platform_substeps.geometry_of(robot)
+        self.attached = np.asarray(attached, dtype=float)
         self.target_m = np.asarray(target_m, dtype=float)
         self.target_orientation = normalised(target_orientation)
-        self.gains = gains
-        self.bounds_n = (tension_min_n, tension_max_n)
+        self.target = np.concatenate([self.target_m, self.target_orientation])
+        self.gains = np.array([gains.position_frequency_rad_s, gains.orientation_frequency_rad_s,
+                               gains.moment_weight, gains.ease_in_s])
+        self.bounds_n = np.array([tension_min_n, tension_max_n], dtype=float)
         self.period_s = period_s
-        self.weights = np.array([1.0, 1.0, 1.0] + [gains.moment_weight] * 3)
-        self.state = (np.asarray(start.position_m, dtype=float), normalised(start.orientation),
-                      np.asarray(start.velocity_m_s, dtype=float),
-                      np.asarray(start.angular_velocity_rad_s, dtype=float))
-        self.rows: list[tuple] = []
+        self.pose = np.concatenate([np.asarray(start.position_m, dtype=float), normalised(start.orientation)])
+        self.twist = np.concatenate([np.asarray(start.velocity_m_s, dtype=float),
+                                     np.asarray(start.angular_velocity_rad_s, dtype=float)])
+        self.table = np.empty((0, ROW_WIDTH))
+        self.count = 0
 
     def extend(self, rows: int) -> None:
         """Step the platform until at least `rows` rows are planned."""
-        while len(self.rows) < rows:
-            position, orientation, velocity, angular_velocity = self.state
-            acceleration = self.acceleration(position, orientation, velocity, angular_velocity)
-            self.rows.append((position, orientation, velocity, angular_velocity, acceleration[:3], acceleration[3:]))
-            self.state = stepped(position, orientation, velocity, angular_velocity, acceleration, self.period_s)
-
-    def acceleration(self, position, orientation, velocity, angular_velocity) -> np.ndarray:
-        """(a, α) the bounded tensions nearest the pull towards the target give the platform."""
-        gains = self.gains
-        # the pull eased in (smoothstep) from none at the first row
-        share = 1.0 if gains.ease_in_s <= 0.0 else min(1.0, len(self.rows) * self.period_s / gains.ease_in_s)
-        share = share * share * (3.0 - 2.0 * share)
-        body = rigid_body(self.robot, orientation, angular_velocity)
-        structure = wrench_matrix(self.robot, position, orientation)[0][:, self.attached]
-        pull = share * np.concatenate([
-            gains.position_frequency_rad_s ** 2 * (self.target_m - position)
-            - 2.0 * gains.position_frequency_rad_s * velocity,
-            gains.orientation_frequency_rad_s ** 2 * difference(self.target_orientation, orientation)
-            - 2.0 * gains.orientation_frequency_rad_s * angular_velocity])
-        tension = nearest_wrench(structure, body.mass_matrix @ pull - body.free_wrench, self.weights,
-                                 *self.bounds_n)
-        return np.linalg.solve(body.mass_matrix, structure @ tension + body.free_wrench)
+        if rows <= self.count:
+            return
+        if rows > len(self.table):
+            grown = np.empty((max(rows, len(self.table) + ROWS_PER_GROWTH), ROW_WIDTH))
+            grown[:self.count] = self.table[:self.count]
+            self.table = grown
+        status = self.kernel.steered_rows(self.constants, self.exits, self.attachments, self.attached, self.target,
+                                          self.gains, self.bounds_n, self.period_s, self.count, self.pose,
+                                          self.twist, self.table[self.count:rows])
+        if status < 0:
+            raise RuntimeError(f'steered approach: the nearest wrench failed ({status}) at row {self.count}')
+        self.count = rows
 
     def samples(self, start: int, stop: int) -> PoseSample:
         """Rows [start, stop) as a PoseSample of stacks (stepped first where needed)."""
         self.extend(stop)
-        return PoseSample(*(np.array(figure) for figure in zip(*self.rows[start:stop])))
+        rows = self.table[start:stop]
+        return PoseSample(rows[:, ROW_POSE:ROW_POSE + 3].copy(), rows[:, ROW_POSE + 3:ROW_TWIST].copy(),
+                          rows[:, ROW_TWIST:ROW_TWIST + 3].copy(), rows[:, ROW_TWIST + 3:ROW_RATE].copy(),
+                          rows[:, ROW_RATE:ROW_RATE + 3].copy(), rows[:, ROW_RATE + 3:].copy())
 
-    def error(self, row: int) -> tuple[float, float, float, float]:
-        """At row `row`: the distance (m) and the angle (rad) to the target, the speed (m/s)
-        and the angular speed (rad/s)."""
-        self.extend(row + 1)
-        position, orientation, velocity, angular_velocity, _, _ = self.rows[row]
-        return (float(np.linalg.norm(self.target_m - position)),
-                float(np.linalg.norm(difference(self.target_orientation, orientation))),
-                float(np.linalg.norm(velocity)), float(np.linalg.norm(angular_velocity)))
+    def errors(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """At rows [start, stop): the distances (m) and the angles (rad) to the target, the
+        speeds (m/s) and the angular speeds (rad/s)."""
+        sample = self.samples(start, stop)
+        return (np.linalg.norm(self.target_m - sample.position_m, axis=1),
+                np.linalg.norm(difference(self.target_orientation, sample.orientation), axis=1),
+                np.linalg.norm(sample.velocity_m_s, axis=1), np.linalg.norm(sample.angular_velocity_rad_s, axis=1))

@@ -37,9 +37,10 @@ from .pose_recovery import PlatformRecovery, after_the_naming_tick, ease_in
 from .recovery import RecoveryInfeasible, table_reference
 
 # Rows are stepped and tabulated this many at a time (the rows do not depend on it): a
-# realtime supervisor's tick is held up ~0.5 ms for them; ten at a time (~3 ms once every
-# ten ticks) left the drives without a row now and then (docs/platform.md).
-ROWS_PER_STEP = 2
+# realtime supervisor's tick is held up ~0.35 ms once every ten ticks for them (~0.27 ms of
+# it numpy's per-call cost, the same for two rows: two at a time cost four times the CPU;
+# docs/platform.md).
+ROWS_PER_STEP = 10
 
 
 class PoseApproach(PlatformRecovery):
@@ -63,7 +64,7 @@ class PoseApproach(PlatformRecovery):
         self.approach = SteeredApproach(
             robot, self.attached, start, self.safe_point_m, self.safe_orientation, config.approach_gains,
             robot.tension_min_n + config.approach_tension_margin_n, robot.tension_max_n, period_s)
-        self.turn_limit_rad = self.approach.error(0)[1] + math.radians(config.approach_turn_limit_deg)
+        self.turn_limit_rad = self.approach.errors(0, 1)[1][0] + math.radians(config.approach_turn_limit_deg)
         self.row_limit = math.ceil(config.approach_limit_s / period_s)
         self.tables: list[PoseReferenceTable] = []
         self.arrival_row: int | None = None
@@ -83,8 +84,7 @@ class PoseApproach(PlatformRecovery):
                     f'the steered approach did not bring the platform to its safe pose within '
                     f'{self.config.approach_limit_s:g} s')
             sample = self.approach.samples(start, start + ROWS_PER_STEP)
-            for offset in range(ROWS_PER_STEP):
-                self.check(start + offset)
+            self.check(start, start + ROWS_PER_STEP)
             dynamics = pose_dynamics.inverse_dynamics(self.robot, self.distribution, *sample.motion,
                                                       attached=self.attached)
             self.tables.append(table_of(self.period_s, sample, dynamics, slice(None)))
@@ -92,24 +92,27 @@ class PoseApproach(PlatformRecovery):
                 ease_in(self.tables[0], self.command_nm, self.config.command_step_share, self.attached,
                         self.robot.motor.drum_radius_m)
 
-    def check(self, row: int) -> None:
-        """Note an arrival at `row`; RecoveryInfeasible where the platform turned too far."""
-        distance_m, angle_rad, speed_m_s, angular_speed_rad_s = self.approach.error(row)
-        if angle_rad > self.turn_limit_rad:
+    def check(self, start: int, stop: int) -> None:
+        """Note an arrival at rows [start, stop); RecoveryInfeasible where the platform turned
+        too far."""
+        distance_m, angle_rad, speed_m_s, angular_speed_rad_s = self.approach.errors(start, stop)
+        if angle_rad.max() > self.turn_limit_rad:
             raise RecoveryInfeasible(
-                f'the steered approach turns the platform {math.degrees(angle_rad):.0f} deg from its safe '
+                f'the steered approach turns the platform {math.degrees(angle_rad.max()):.0f} deg from its safe '
                 f'orientation, more than approach_turn_limit_deg ({self.config.approach_turn_limit_deg:g} deg) '
                 f'beyond where it was')
         config, gains = self.config, self.config.approach_gains
         arrival_rad = math.radians(config.approach_arrival_deg)
-        if (self.arrival_row is None and distance_m <= config.approach_arrival_m and angle_rad <= arrival_rad
-                and speed_m_s <= gains.position_frequency_rad_s * config.approach_arrival_m
-                and angular_speed_rad_s <= gains.orientation_frequency_rad_s * arrival_rad):
-            self.arrival_row = row
-            position, orientation = self.approach.rows[row][:2]
+        arrived = np.flatnonzero((distance_m <= config.approach_arrival_m) & (angle_rad <= arrival_rad)
+                                 & (speed_m_s <= gains.position_frequency_rad_s * config.approach_arrival_m)
+                                 & (angular_speed_rad_s <= gains.orientation_frequency_rad_s * arrival_rad))
+        if self.arrival_row is None and arrived.size:
+            self.arrival_row = start + int(arrived[0])
+            arrival = self.approach.samples(self.arrival_row, self.arrival_row + 1)
             zero = np.zeros(3)
-            rest = pose_dynamics.inverse_dynamics(self.robot, self.distribution, position, orientation,
-                                                  zero, zero, zero, zero, attached=self.attached)
+            rest = pose_dynamics.inverse_dynamics(self.robot, self.distribution, arrival.position_m[0],
+                                                  arrival.orientation[0], zero, zero, zero, zero,
+                                                  attached=self.attached)
             self.hold = JointReference(rest.joint_angle_rad, rest.joint_velocity_rad_s, rest.torque_nm)
 
     def reference_at(self, tick: int) -> JointReference | None:

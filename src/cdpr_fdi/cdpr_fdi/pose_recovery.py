@@ -46,7 +46,7 @@ from concurrent.futures import Future
 
 import numpy as np
 
-from cdpr_control import pose_dynamics
+from cdpr_control import platform_substeps, pose_dynamics
 from cdpr_control.controller import JointReference
 from cdpr_control.pose_kinematics import joint_velocity
 from cdpr_control.pose_reference import PoseReferenceTable, tabulate_pose_reference, tabulate_pose_references
@@ -54,7 +54,6 @@ from cdpr_control.pose_trajectories import BrakedTurn, PoseSample, PoseTrajector
 from cdpr_control.robot import Robot
 from cdpr_control.rotation import difference, from_rotation_vector, normalised, product
 from cdpr_control.safe_pose import tension_margin_n
-from cdpr_control.steered_approach import stepped
 from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError, LoweredFloor,
                                                TensionDistribution, make_tension_distribution)
 from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N
@@ -84,7 +83,8 @@ def after_the_naming_tick(robot: Robot, attached: np.ndarray, position_m, orient
                           angular_velocity_rad_s, command_nm, period_s: float) -> PoseSample:
     """The platform's state one period after the naming tick's (p, q, v, ω), where the
     torques `command_nm` already commanded on that tick move it over that period (the
-    rigid model's direct dynamics, one period on by steered_approach.stepped): a recovery's
+    rigid model's direct dynamics, one period on by semi-implicit Euler as the steered
+    approach's rows are, platform_substeps.move): a recovery's
     plans start there, on the tick after the naming — planned from the naming state with
     their own motion over that period, the drives chased the difference at the takeover
     (docs/platform.md). Its accelerations are zero (the plans set their own)."""
@@ -93,9 +93,11 @@ def after_the_naming_tick(robot: Robot, attached: np.ndarray, position_m, orient
                                               joint_velocity(robot, position_m, orientation, velocity_m_s,
                                                              angular_velocity_rad_s), attached)
     acceleration = np.concatenate([commanded.acceleration_m_s2, commanded.angular_acceleration_rad_s2])
+    pose = np.concatenate([np.asarray(position_m, dtype=float), normalised(orientation)])
+    twist = np.concatenate([np.asarray(velocity_m_s, dtype=float), np.asarray(angular_velocity_rad_s, dtype=float)])
+    platform_substeps.kernel().move(pose, twist, acceleration, period_s)
     zero = np.zeros(3)
-    return PoseSample(*stepped(position_m, orientation, velocity_m_s, angular_velocity_rad_s, acceleration,
-                               period_s), zero, zero)
+    return PoseSample(pose[:3], pose[3:], twist[:3], twist[3:], zero, zero)
 
 
 def ease_in(table: PoseReferenceTable, command_nm: np.ndarray, step_share: float, attached: np.ndarray,

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from cdpr_control import platform_substeps
 from cdpr_control.controller import JointReference
 from cdpr_control.kinematics import KinematicsError, forward_kinematics
 from cdpr_control.robot import Robot
@@ -116,6 +117,10 @@ class Supervisor:
         self.tension_bounds_n = (np.zeros(robot.cable_count), np.zeros(robot.cable_count))
         # the per-tick arithmetic (tick_arithmetic), and what it takes of the robot
         self.arithmetic = tick_arithmetic.kernel().load_all()
+        if robot.platform is not None:
+            # a platform's recovery steps its steered approach with them from the naming
+            # on, when there is no time to load (or compile) them
+            platform_substeps.kernel().load_all()
         self.motor_constants = tick_arithmetic.motor_constants(robot.motor, fdi.friction)
         self.evidence = AlarmEvidence(fdi.identification_window_cycles)
         self.collapse = TensionCollapse(fdi.collapse_window_cycles, fdi.collapse_band_n,
