@@ -291,13 +291,9 @@ def motion_rows(constants, exits, attachments, poses, twists, accelerations, wre
             joint_acceleration[k, i] = (kappa[i] - along) / radius
 
 
-def turn(pose, x, y, z) -> None:
-    """The pose's orientation turned by the rotation vector (x, y, z) (rad, world frame),
-    kept a unit quaternion with w ≥ 0."""
-    angle = sqrt(x * x + y * y + z * z)
-    half_sinc = 0.5 - angle * angle / 48.0 if angle < SMALL_ANGLE_RAD else sin(0.5 * angle) / angle
-    w1, x1, y1, z1 = cos(0.5 * angle), half_sinc * x, half_sinc * y, half_sinc * z
-    w2, x2, y2, z2 = pose[3], pose[4], pose[5], pose[6]
+def unit_product(w1, x1, y1, z1, w2, x2, y2, z2):
+    """The unit quaternion (w, x, y, z), w ≥ 0, of the product of (w1, x1, y1, z1) and
+    (w2, x2, y2, z2): rotating by the second, then by the first."""
     w = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2
     qx = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2
     qy = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2
@@ -305,7 +301,16 @@ def turn(pose, x, y, z) -> None:
     norm = sqrt(w * w + qx * qx + qy * qy + qz * qz)
     if w < 0.0:
         norm = -norm
-    pose[3], pose[4], pose[5], pose[6] = w / norm, qx / norm, qy / norm, qz / norm
+    return w / norm, qx / norm, qy / norm, qz / norm
+
+
+def turn(pose, x, y, z) -> None:
+    """The pose's orientation turned by the rotation vector (x, y, z) (rad, world frame),
+    kept a unit quaternion with w ≥ 0."""
+    angle = sqrt(x * x + y * y + z * z)
+    half_sinc = 0.5 - angle * angle / 48.0 if angle < SMALL_ANGLE_RAD else sin(0.5 * angle) / angle
+    pose[3], pose[4], pose[5], pose[6] = unit_product(cos(0.5 * angle), half_sinc * x, half_sinc * y,
+                                                      half_sinc * z, pose[3], pose[4], pose[5], pose[6])
 
 
 def move(pose, twist, acceleration, h) -> None:
@@ -375,16 +380,7 @@ def forward_kinematics(exits, attachments, lengths, used, pose, iterations, tole
 def rotation_towards(target, pose, phi) -> None:
     """φ (rad, world frame, into `phi`) that turns the pose's orientation into the unit
     quaternion `target`, |φ| in [0, π]: rotation.difference."""
-    w1, x1, y1, z1 = target[0], target[1], target[2], target[3]
-    w2, x2, y2, z2 = pose[3], -pose[4], -pose[5], -pose[6]
-    w = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2
-    qx = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2
-    qy = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2
-    qz = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2
-    norm = sqrt(w * w + qx * qx + qy * qy + qz * qz)
-    if w < 0.0:
-        norm = -norm
-    w, qx, qy, qz = w / norm, qx / norm, qy / norm, qz / norm
+    w, qx, qy, qz = unit_product(target[0], target[1], target[2], target[3], pose[3], -pose[4], -pose[5], -pose[6])
     sine = sqrt(qx * qx + qy * qy + qz * qz)
     scale = 2.0 if sine < SMALL_ANGLE_RAD else 2.0 * atan2(sine, w) / sine
     phi[0], phi[1], phi[2] = scale * qx, scale * qy, scale * qz
@@ -631,7 +627,7 @@ def elastic_substeps(substeps, h, constants, exits, attachments, offsets, attach
 
 
 HELPERS = (rotation_of, cables_at, length_rate, rigid_body, solve_symmetric, velocity_product, direct_dynamics,
-           turn, move, spring_tensions, rotation_towards, nearest_wrench)
+           unit_product, turn, move, spring_tensions, rotation_towards, nearest_wrench)
 
 
 PYTHON = python_kernel(forward_kinematics, velocity_product, rigid_body, direct_dynamics, motion_rows, rigid_substeps,
