@@ -84,13 +84,15 @@ def test_scenario_arguments():
 
 def row(motion='along-1', direction='forward', cable=4, detector='threshold', fidelity='rigid',
         delay_ms=None, identified=(), correct=None, false_alarm=False, reached=None,
-        final_error_m=None, min_tension_n=5.0, max_tension_n=30.0, cycles=5000, error=None, mode='SAFE_HOLD'):
+        final_error_m=None, final_orientation_error_deg=None, min_tension_n=5.0, max_tension_n=30.0, cycles=5000,
+        error=None, mode='SAFE_HOLD'):
     values = {column: None for column in CSV_COLUMNS}
     values.update(run_id=f'{motion}_{direction}_{cable}', motion=motion, direction=direction,
                   cable=cable, fidelity=fidelity, detector=detector, seed=0,
                   detection_delay_ms=delay_ms, identified_cables=list(identified),
                   correct_identification=correct, false_alarm=false_alarm,
                   reached_safe_point=reached, final_error_m=final_error_m,
+                  final_orientation_error_deg=final_orientation_error_deg,
                   min_tension_n=min_tension_n, max_tension_n=max_tension_n, cycles=cycles,
                   control_period_s=0.002, error=error,
                   mode=mode)
@@ -100,7 +102,8 @@ def row(motion='along-1', direction='forward', cable=4, detector='threshold', fi
 def synthetic_rows():
     return [
         row('along-1', delay_ms=40.0, identified=[4], correct=True, reached=True, final_error_m=0.01),
-        row('along-2', delay_ms=60.0, identified=[4], correct=True, reached=True, final_error_m=0.03),
+        row('along-2', delay_ms=60.0, identified=[4], correct=True, reached=True, final_error_m=0.03,
+            final_orientation_error_deg=0.5),
         row('along-3', 'reverse', delay_ms=100.0, identified=[3], correct=False, reached=False,
             final_error_m=0.2, min_tension_n=1.5),
         row('orthogonal-1', delay_ms=250.0, identified=[4], correct=True, reached=True),
@@ -124,11 +127,12 @@ def test_outcome_counts_every_failure_run_of_any_cable():
     assert (figures['failure_runs'], figures['detected'], figures['named']) == (8, 7, 6)
     assert figures['reached_safe_point'] == 5 and figures['faults'] == 1
     assert figures['min_tension_n'] == 0.4 and figures['max_tension_n'] == 130.0
+    assert figures['final_error_max_m'] == 0.2 and figures['final_orientation_error_max_deg'] == 0.5
     assert figures['delay_median_ms'] == 40.0 and figures['delay_max_ms'] == 250.0
     assert (figures['failure_free_runs'], figures['false_alarms'], figures['not_completed']) == (3, 1, 1)
     lines = outcome_lines(rows)
-    assert '| 2 | 1 | 1 | 1 | 0 | 1 | 0.40 / 130.0 | 8.0 / 8.0 | 0 | 0 | 0 |' in lines
-    assert '| **all** | 8 | 7 | 6 | 5 | 1 | 0.40 / 130.0 | 40.0 / 250.0 | 3 | 1 | 1 |' in lines
+    assert '| 2 | 1 | 1 | 1 | 0 | 1 | – / – | 0.40 / 130.0 | 8.0 / 8.0 | 0 | 0 | 0 |' in lines
+    assert '| **all** | 8 | 7 | 6 | 5 | 1 | 200.0 / 0.500 | 0.40 / 130.0 | 40.0 / 250.0 | 3 | 1 | 1 |' in lines
 
 
 def test_summarize_figures():

@@ -420,8 +420,11 @@ class Supervisor:
         return tension
 
     def summary(self) -> dict:
-        """What happened so far, in plain types (ticks, 1-based cables, SP in m)."""
+        """What happened so far, in plain types (ticks, 1-based cables, SP in m; a
+        platform's recovery also its safe orientation, a unit quaternion w, x, y, z)."""
         recovery = self.recovery
+        platform = ({'safe_orientation': recovery.safe_orientation.tolist()}
+                    if isinstance(recovery, PlatformRecovery) else {})
         return {
             'alarm_tick': self.alarm_tick,
             'identified_tick': self.identified_tick,
@@ -435,4 +438,5 @@ class Supervisor:
             'late_commands': self.late_commands,
             'unjudged_ticks': self.unjudged_ticks,
             'disturbances': self.disturbances,
+            **platform,
         }

@@ -88,7 +88,8 @@ CSV_COLUMNS = (
     'run_id', 'motion', 'direction', 'cable', 'fidelity', 'detector', 'seed',
     'fail_at_fraction', 'failure_time_s', 'detection_delay_ms', 'detection_delay_from_signal_ms',
     'identified_cables', 'correct_identification',
-    'false_alarm', 'mode', 'fault', 'reached_safe_point', 'final_error_m', 'min_tension_n', 'max_tension_n',
+    'false_alarm', 'mode', 'fault', 'reached_safe_point', 'final_error_m', 'final_orientation_error_deg',
+    'min_tension_n', 'max_tension_n',
     'min_height_m',
     'duration_s', 'cycles', 'control_period_s', 'wall_time_s', 'worker', 'error',
 )
@@ -266,6 +267,7 @@ def row_of(run: Run, run_dir: Path, outcome: dict | None) -> dict:
         fault=metrics.get('fault'),
         reached_safe_point=recovery.get('reached_safe_point'),
         final_error_m=recovery.get('final_error_m'),
+        final_orientation_error_deg=recovery.get('final_orientation_error_deg'),
         min_tension_n=recovery.get('min_tension_n'),
         max_tension_n=recovery.get('max_tension_n'),
         min_height_m=recovery.get('min_height_m'),
@@ -350,6 +352,8 @@ def outcome(rows: list[dict]) -> dict:
     delays = [row['detection_delay_ms'] for row in failures if row['detection_delay_ms'] is not None]
     tensions = [row['min_tension_n'] for row in failures if row['min_tension_n'] is not None]
     greatest = [row['max_tension_n'] for row in failures if row['max_tension_n'] is not None]
+    errors = [row['final_error_m'] for row in failures if row['final_error_m'] is not None]
+    angles = [row['final_orientation_error_deg'] for row in failures if row['final_orientation_error_deg'] is not None]
     median, largest = _median_max(delays)
     return {
         'failure_runs': len(failures),
@@ -359,6 +363,8 @@ def outcome(rows: list[dict]) -> dict:
         'faults': sum(row['mode'] == FAULT for row in completed),
         'min_tension_n': min(tensions) if tensions else None,
         'max_tension_n': max(greatest) if greatest else None,
+        'final_error_max_m': max(errors) if errors else None,
+        'final_orientation_error_max_deg': max(angles) if angles else None,
         'delay_median_ms': median,
         'delay_max_ms': largest,
         'failure_free_runs': len(failure_free),
@@ -369,14 +375,16 @@ def outcome(rows: list[dict]) -> dict:
 
 def outcome_lines(rows: list[dict]) -> list[str]:
     """The outcome tables: per detector × fidelity with a total, and per cable."""
-    header = ('| {} | failure runs | detected | named | reached SP | FAULT | min / max tension after '
-              'the failure (N) | delay median / max (ms) | failure-free runs | false alarms '
-              '| not completed |')
-    rule = '|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|'
+    header = ('| {} | failure runs | detected | named | reached SP | FAULT | final error max (mm / °) '
+              '| min / max tension after the failure (N) | delay median / max (ms) | failure-free runs '
+              '| false alarms | not completed |')
+    rule = '|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|'
 
     def line(label, figures):
+        millimetres = None if figures['final_error_max_m'] is None else 1000.0 * figures['final_error_max_m']
         return (f'| {label} | {figures["failure_runs"]} | {figures["detected"]} | {figures["named"]} '
                 f'| {figures["reached_safe_point"]} | {figures["faults"]} '
+                f'| {_fmt(millimetres)} / {_fmt(figures["final_orientation_error_max_deg"], 3)} '
                 f'| {_fmt(figures["min_tension_n"], 2)} / {_fmt(figures["max_tension_n"], 1)} '
                 f'| {_fmt(figures["delay_median_ms"])} / '
                 f'{_fmt(figures["delay_max_ms"])} | {figures["failure_free_runs"]} '

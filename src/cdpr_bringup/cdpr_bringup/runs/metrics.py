@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -117,6 +118,16 @@ class KnownRun:
         return self.robot.cable_mask([cable - 1 for cable in broken])
 
 
+def final_orientation_error_deg(run: KnownRun) -> float | None:
+    """The angle (deg) between a platform's last recorded true orientation and the safe
+    orientation its supervisor's recovery steered to; None before a recovery (or without
+    the supervisor's word)."""
+    safe = run.supervisor.get('safe_orientation')
+    if safe is None or not run.recording.true_orientation.size:
+        return None
+    return math.degrees(float(np.linalg.norm(difference(safe, run.recording.true_orientation[-1]))))
+
+
 def metrics_json(run: KnownRun) -> dict:
     """The metrics.json keys of docs/design.md §7 (and `epsilon_nm`).
 
@@ -162,6 +173,9 @@ def metrics_json(run: KnownRun) -> dict:
             'duration_s': None if hold is None or detection is None else hold - detection,
             'phase_times_s': dict(run.phase_times_s),
             'settle_timed_out': run.supervisor.get('settle_timed_out'),
+            # a platform's: the angle (deg) from its last true orientation to the safe one
+            **({} if run.recording.true_orientation is None
+               else {'final_orientation_error_deg': final_orientation_error_deg(run)}),
         },
         'kpi': twin_kpis(run.robot, run.recording, nominal),
         'tracking_error_m': (tracking_error_m(run.recording, nominal)
