@@ -38,8 +38,10 @@ def summary_lines(metrics: dict) -> list[str]:
         lines.append(f'  FAULT: {metrics["fault"]}')
     elif recovery['final_error_m'] is not None:
         safe_point = ', '.join(f'{v:.3f}' for v in metrics['safe_point_m'])
-        lines.append(f'  recovery to SP ({safe_point}) m: final error {recovery["final_error_m"] * 1000:.1f} mm '
-                     f'after {recovery["duration_s"] or float("nan"):.2f} s, min tension '
+        angle = recovery.get('final_orientation_error_deg')
+        lines.append(f'  recovery to SP ({safe_point}) m: final error {recovery["final_error_m"] * 1000:.1f} mm'
+                     + ('' if angle is None else f', {angle:.3f}°')
+                     + f' after {recovery["duration_s"] or float("nan"):.2f} s, min tension '
                      f'{recovery["min_tension_n"]:.2f} N, lowest point {recovery["min_height_m"]:.3f} m')
     lines.append(f'  {"KPI":<8} {"this run":>10} {"paper":>10}   (before any failure)')
     lines += [f'  {key:<8} {value:10.4f} {PAPER_KPI[key]:10.4f}' for key, value in metrics['kpi'].items()
