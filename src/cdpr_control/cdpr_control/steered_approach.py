@@ -100,10 +100,9 @@ class SteeredApproach:
                           rows[:, ROW_TWIST:ROW_TWIST + 3].copy(), rows[:, ROW_TWIST + 3:ROW_RATE].copy(),
                           rows[:, ROW_RATE:ROW_RATE + 3].copy(), rows[:, ROW_RATE + 3:].copy())
 
-    def errors(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """At rows [start, stop): the distances (m) and the angles (rad) to the target, the
-        speeds (m/s) and the angular speeds (rad/s)."""
-        sample = self.samples(start, stop)
+    def errors(self, sample: PoseSample) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """At each row of `sample` (samples'): the distances (m) and the angles (rad) to the
+        target, the speeds (m/s) and the angular speeds (rad/s)."""
         return (np.linalg.norm(self.target_m - sample.position_m, axis=1),
                 np.linalg.norm(difference(self.target_orientation, sample.orientation), axis=1),
                 np.linalg.norm(sample.velocity_m_s, axis=1), np.linalg.norm(sample.angular_velocity_rad_s, axis=1))

@@ -26,6 +26,7 @@ import numpy as np
 from cdpr_control import pose_dynamics
 from cdpr_control.controller import JointReference
 from cdpr_control.pose_reference import PoseReferenceTable, table_of
+from cdpr_control.pose_trajectories import PoseSample
 from cdpr_control.robot import Robot
 from cdpr_control.rotation import normalised
 from cdpr_control.steered_approach import SteeredApproach
@@ -64,7 +65,8 @@ class PoseApproach(PlatformRecovery):
         self.approach = SteeredApproach(
             robot, self.attached, start, self.safe_point_m, self.safe_orientation, config.approach_gains,
             robot.tension_min_n + config.approach_tension_margin_n, robot.tension_max_n, period_s)
-        self.turn_limit_rad = self.approach.errors(0, 1)[1][0] + math.radians(config.approach_turn_limit_deg)
+        self.turn_limit_rad = (self.approach.errors(self.approach.samples(0, 1))[1][0]
+                               + math.radians(config.approach_turn_limit_deg))
         self.row_limit = math.ceil(config.approach_limit_s / period_s)
         self.tables: list[PoseReferenceTable] = []
         self.arrival_row: int | None = None
@@ -84,7 +86,7 @@ class PoseApproach(PlatformRecovery):
                     f'the steered approach did not bring the platform to its safe pose within '
                     f'{self.config.approach_limit_s:g} s')
             sample = self.approach.samples(start, start + ROWS_PER_STEP)
-            self.check(start, start + ROWS_PER_STEP)
+            self.check(start, sample)
             dynamics = pose_dynamics.inverse_dynamics(self.robot, self.distribution, *sample.motion,
                                                       attached=self.attached)
             self.tables.append(table_of(self.period_s, sample, dynamics, slice(None)))
@@ -92,10 +94,10 @@ class PoseApproach(PlatformRecovery):
                 ease_in(self.tables[0], self.command_nm, self.config.command_step_share, self.attached,
                         self.robot.motor.drum_radius_m)
 
-    def check(self, start: int, stop: int) -> None:
-        """Note an arrival at rows [start, stop); RecoveryInfeasible where the platform turned
-        too far."""
-        distance_m, angle_rad, speed_m_s, angular_speed_rad_s = self.approach.errors(start, stop)
+    def check(self, start: int, sample: PoseSample) -> None:
+        """Note an arrival among the rows of `sample` (the first is row `start`);
+        RecoveryInfeasible where the platform turned too far."""
+        distance_m, angle_rad, speed_m_s, angular_speed_rad_s = self.approach.errors(sample)
         if angle_rad.max() > self.turn_limit_rad:
             raise RecoveryInfeasible(
                 f'the steered approach turns the platform {math.degrees(angle_rad.max()):.0f} deg from its safe '
@@ -107,11 +109,11 @@ class PoseApproach(PlatformRecovery):
                                  & (speed_m_s <= gains.position_frequency_rad_s * config.approach_arrival_m)
                                  & (angular_speed_rad_s <= gains.orientation_frequency_rad_s * arrival_rad))
         if self.arrival_row is None and arrived.size:
-            self.arrival_row = start + int(arrived[0])
-            arrival = self.approach.samples(self.arrival_row, self.arrival_row + 1)
+            offset = int(arrived[0])
+            self.arrival_row = start + offset
             zero = np.zeros(3)
-            rest = pose_dynamics.inverse_dynamics(self.robot, self.distribution, arrival.position_m[0],
-                                                  arrival.orientation[0], zero, zero, zero, zero,
+            rest = pose_dynamics.inverse_dynamics(self.robot, self.distribution, sample.position_m[offset],
+                                                  sample.orientation[offset], zero, zero, zero, zero,
                                                   attached=self.attached)
             self.hold = JointReference(rest.joint_angle_rad, rest.joint_velocity_rad_s, rest.torque_nm)
 

@@ -318,7 +318,6 @@ def summarize(rows: list[dict]) -> dict:
                                  for row in failure_free) / SECONDS_PER_HOUR
         false_alarms = sum(bool(row['false_alarm']) for row in failure_free)
         min_tensions = [row['min_tension_n'] for row in completed if row['min_tension_n'] is not None]
-        final_errors = [row['final_error_m'] for row in failures if row['final_error_m'] is not None]
         summary[key] = {
             'runs': len(group),
             'errors': len(group) - len(completed),
@@ -335,7 +334,7 @@ def summarize(rows: list[dict]) -> dict:
             'recovery_success_pct': _percent(sum(bool(row['reached_safe_point']) for row in failures),
                                              len(failures)),
             'min_tension_n': min(min_tensions) if min_tensions else None,
-            'final_error_max_m': max(final_errors) if final_errors else None,
+            'final_error_max_m': outcome(group)['final_error_max_m'],
         }
     return summary
 
