@@ -519,7 +519,7 @@ def test_a_failure_on_a_platform_the_cables_left_cannot_hold_is_named_and_recove
     assert 'cable(s) [2] named' in out
     assert 'FAULT' not in out
     # within issue 29's 5 mm and 1°: metrics.json's angle, against the last true orientation
-    # of the bag and the safe orientation found here again
+    # of the same run in the in-process engine and the safe orientation found here again
     assert float(out.split('final error ')[1].split(' mm')[0]) < 5.0
     metrics = json.loads((tmp_path / 'metrics.json').read_text())
     scenario = build_scenario(ScenarioOptions(config=str(PLATFORM_ROBOT),
