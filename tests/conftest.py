@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cdpr_msgs_py import dds
 from cdpr_msgs_py.dds import use_shipped_setup
 from cdpr_msgs_py.runtime.diagnostics import LOG_THROTTLE_S
 
@@ -42,10 +43,13 @@ def pytest_runtest_protocol(item, nextitem):
 def pytest_configure(config):
     # One DDS domain per test session so parallel sessions never see each other's graph;
     # a pytest-xdist worker inherits its session's and takes the next ones (102-202).
-    os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 101))
+    # Claimed machine-wide (dds.claim_domain) for the session's life: a second session, or a
+    # graph another user starts on this machine, never takes it (a pid-derived id did).
     worker = os.environ.get('PYTEST_XDIST_WORKER', '')
     if worker.startswith('gw'):
-        os.environ['ROS_DOMAIN_ID'] = str(102 + (int(os.environ['ROS_DOMAIN_ID']) + int(worker[2:])) % 101)
+        os.environ.pop('ROS_DOMAIN_ID', None)   # the session's is its own; each worker claims one
+    global DOMAIN_CLAIM
+    DOMAIN_CLAIM = dds.claim_domain(start=1 + os.getpid() % len(dds.DOMAIN_IDS))
     # where the venv's packages are indexed, as `make test` and the venv's activate say
     os.environ.setdefault('AMENT_PREFIX_PATH', sys.prefix)
     use_shipped_setup()
@@ -62,6 +66,55 @@ def settled_parameters(clock_mode: str = 'lockstep', **options) -> dict[str, dic
     from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
     return build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
                                           **options)).node_parameters(clock_mode)
+
+
+# The loop topics' rows of a Recording, and the view topics'.
+LOOP_ROWS = ('angle_rad', 'angular_velocity_rad_s', 'command_nm', 'reference_angle_rad', 'twin_angle_rad',
+             'twin_angular_velocity_rad_s', 'twin_torque_nm', 'residual_nm')
+VIEW_ROWS = ('view_time_s', 'true_position_m', 'true_tension_n', 'twin_position_m', 'reference_position_m')
+
+
+def assert_close_figures(got, want, path=''):
+    """Two metrics or figures documents alike, numbers to 1e-9."""
+    if isinstance(want, dict):
+        assert set(got) == set(want), path
+        for key in want:
+            assert_close_figures(got[key], want[key], f'{path}.{key}')
+    elif isinstance(want, (list, tuple)):
+        assert len(got) == len(want), path
+        for index, (a, b) in enumerate(zip(got, want)):
+            assert_close_figures(a, b, f'{path}[{index}]')
+    elif isinstance(want, float) and not isinstance(want, bool):
+        assert got == pytest.approx(want, rel=0, abs=1e-9), path
+    else:
+        assert got == want, path
+
+
+def kept(sent: list, publisher):
+    """A stand-in for `publisher.publish` that keeps each message in `sent` as a reader
+    gets it: the loop's JointStates go out as CDR bytes (cdr.JointStateCodec), read back
+    into the publisher's message type."""
+    from rclpy.serialization import deserialize_message
+
+    def publish(message):
+        sent.append(deserialize_message(message, publisher.msg_type) if isinstance(message, bytes) else message)
+    return publish
+
+
+def every_tick(scenario):
+    """`scenario` with its view topics on every tick (streams.view_rate_hz 0), for a test
+    that judges the truth tick by tick, as a user sets it for a bag of every tick."""
+    import dataclasses
+
+    from cdpr_msgs_py.contract import ViewTicks
+    scenario.settings.data['streams']['view_rate_hz'] = 0.0
+    return dataclasses.replace(scenario, view_ticks=ViewTicks(0.0, scenario.period_s))
+
+
+def every_tick_scenario(options):
+    """cdpr_bringup.runs.settle.build_scenario's, with its view topics on every tick (every_tick)."""
+    from cdpr_bringup.runs.settle import build_scenario
+    return every_tick(build_scenario(options))
 
 
 @functools.cache

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdpr_bringup.bags import bulk_cdr
+from cdpr_msgs_py import cdr as bulk_cdr
 from cdpr_bringup.bags.bag_io import TYPESTORE
 from cdpr_msgs_py.stamps import ns_parts
 
@@ -61,3 +61,42 @@ def test_pose_stampeds_are_rosbags_bytes(turning):
                                                    x=float(x), y=float(y), z=float(z), w=float(w)))
         message = TYPES[POSE_STAMPED](header=header(stamp), pose=pose)
         assert rows[k].tobytes() == bytes(TYPESTORE.serialize_cdr(message, POSE_STAMPED)), f'tick {k}'
+
+
+@pytest.mark.parametrize('fields', [('position', 'velocity', 'effort'), ('effort',), ('position', 'velocity')])
+def test_a_nodes_joint_state_bytes_are_rclpys_message_and_read_back_either_way(fields):
+    """What the loop's nodes publish (cdr.JointStateCodec) is the JointState rclpy reads;
+    what rclpy (any other writer) serialises, with whatever its padding holds, reads back
+    as the same values; other names or a message cut short are not read (the node then
+    deserialises them, and rejects them naming why)."""
+    from rclpy.serialization import deserialize_message, serialize_message
+    from sensor_msgs.msg import JointState
+
+    from cdpr_msgs_py.cdr import JointStateCodec
+    from cdpr_msgs_py.conversions import InvalidMessage, joint_state, joints_from_message
+    names = [f'motor_{i}' for i in range(1, 9)]
+    rng = np.random.default_rng(3)
+    values = {field: rng.normal(size=8) for field in fields}
+    stamp = 3 * 10 ** 9 + 2_000_001
+    codec = JointStateCodec(names)
+    ours = codec.encode(stamp, **values)
+    message = deserialize_message(ours, JointState)
+    assert list(message.name) == names and stamp_of_message(message) == stamp
+    theirs = serialize_message(joint_state(names, stamp, **values))
+    for data in (ours, theirs):
+        decoded = codec.decode(data)
+        assert decoded[0] == stamp
+        for field, got in zip(('position', 'velocity', 'effort'), decoded[1:]):
+            assert list(got) == (list(values[field]) if field in values else [])
+    assert JointStateCodec(names[::-1]).decode(ours) is None and codec.decode(ours[:40]) is None
+    joints = joints_from_message(JointStateCodec(names[:4]).encode(stamp, effort=np.ones(4)), names[:4], ('effort',))
+    assert joints.stamp_ns == stamp and list(joints.effort) == [1.0] * 4
+    with pytest.raises(InvalidMessage, match='non-finite'):
+        joints_from_message(JointStateCodec(names[:4]).encode(stamp, effort=[1.0, np.nan, 0.0, 0.0]), names[:4],
+                            ('effort',))
+    with pytest.raises(InvalidMessage, match='joint names'):
+        joints_from_message(ours, names[::-1])
+
+
+def stamp_of_message(message) -> int:
+    return message.header.stamp.sec * 10 ** 9 + message.header.stamp.nanosec

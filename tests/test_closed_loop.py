@@ -6,15 +6,17 @@ import numpy as np
 import pytest
 
 from cdpr_bringup.runs.engine import run_inprocess
-from cdpr_bringup.runs.metrics import tracking_error_m, twin_kpis
-from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.metrics import twin_kpis
+from cdpr_bringup.runs.settle import ScenarioOptions
 from cdpr_control.kinematics import structure_matrix
 from cdpr_twin.plant import PlantSimulator
+
+from conftest import every_tick_scenario
 
 
 @pytest.fixture(scope='module')
 def rigid_run():
-    scenario = build_scenario(ScenarioOptions(motion='along-2', fidelity='rigid'))
+    scenario = every_tick_scenario(ScenarioOptions(motion='along-2', fidelity='rigid'))
     return scenario, run_inprocess(scenario)
 
 
@@ -22,13 +24,14 @@ def test_rigid_plant_is_the_twin_when_nothing_fails(rigid_run):
     scenario, recording = rigid_run
     kpi = twin_kpis(scenario.robot, recording)
     assert kpi['K_j_rad'] == 0.0 and kpi['K_t_nm'] == 0.0 and kpi['K_c_m'] < 1e-12
-    assert tracking_error_m(recording) < 1e-3
+    # the plant's figures of a failure-free run: over every tick
+    assert recording.figures['detection']['tracking_error_m'] < 1e-3
 
 
 def test_elastic_plant_tracks_within_5_mm_and_stays_taut():
-    scenario = build_scenario(ScenarioOptions(motion='circle', fidelity='elastic'))
+    scenario = every_tick_scenario(ScenarioOptions(motion='circle', fidelity='elastic'))
     recording = run_inprocess(scenario)
-    assert tracking_error_m(recording) < 0.005
+    assert recording.figures['detection']['tracking_error_m'] < 0.005
     assert recording.true_tension_n.min() > 0.0
     kpi = twin_kpis(scenario.robot, recording)
     # the elastic plant differs from the twin, by about the paper's orders of magnitude
@@ -37,7 +40,7 @@ def test_elastic_plant_tracks_within_5_mm_and_stays_taut():
 
 def test_injected_failure_frees_the_motor_but_not_the_twin(rigid_run):
     healthy_scenario, healthy = rigid_run
-    scenario = build_scenario(ScenarioOptions(motion='along-2', fidelity='rigid', fail_cables=[4]))
+    scenario = every_tick_scenario(ScenarioOptions(motion='along-2', fidelity='rigid', fail_cables=[4]))
     broken = run_inprocess(scenario)
     failure = scenario.failure_time_s
     assert failure == pytest.approx(scenario.motion.time_at_fraction(0.5))
@@ -64,7 +67,7 @@ def test_injected_failure_frees_the_motor_but_not_the_twin(rigid_run):
 
 @pytest.fixture(scope='module')
 def circle_scenario():
-    return build_scenario(ScenarioOptions(motion='circle', fidelity='rigid'))
+    return every_tick_scenario(ScenarioOptions(motion='circle', fidelity='rigid'))
 
 
 def test_holding_torque_keeps_the_plant_where_it_starts_on_the_cables_left(circle_scenario):

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rclpy.serialization import deserialize_message
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.executors import SingleThreadedExecutor
@@ -188,7 +189,8 @@ def test_only_the_controllers_publisher_reaches_the_motors(ros, make):
             publisher.publish(JointState(name=[sender]))
         spin_until(executor, lambda: len(motors.obeyed) + sum(motors.diagnostics.rejected.values()) == 3,
                    'not every command arrived')
-        assert [list(message.name) for message in motors.obeyed] == [['controller']]
+        # a JointState stream arrives as its CDR bytes (contract.raw_stream)
+        assert [list(deserialize_message(message, JointState).name) for message in motors.obeyed] == [['controller']]
         assert motors.diagnostics.rejected == {contract.EFFORT_COMMAND: 2}
         rejected = motors.current_facts()[f'rejected {contract.EFFORT_COMMAND} from']
         assert f'node {NAMESPACE}/intruder (GID ' in rejected

@@ -208,3 +208,19 @@ def test_the_launcher_gives_the_supervisor_the_thresholds_of_its_plant(fidelity)
     assert {node['control.coulomb_friction_nm'] for node in parameters.values()} == {
         supervisor['control.coulomb_friction_nm']}
     assert not any(key.endswith('_file') for node in parameters.values() for key in node)
+
+
+def test_a_second_graph_in_the_same_domain_and_namespace_is_refused(tmp_path):
+    """Two graphs on one domain and namespace drive each other's nodes (the second
+    supervisor's latched NOMINAL took the first's controller out of its recovery: cable
+    named, SP missed by 0.67 m); the second launcher refuses to start, in one line."""
+    claim = dds.claim_domain('/cdpr')          # as a running graph of this machine holds it
+    environment = {key: value for key, value in node_environment().items()
+                   if key != dds.DOMAIN_CLAIM_VARIABLE}    # a launcher of another session
+    try:
+        result = run_bounded(scenario_command(tmp_path / 'run', '--quiet'), 60.0, env=environment)
+    finally:
+        for file in claim:
+            file.close()
+    assert result.returncode == 1
+    assert f'ROS_DOMAIN_ID={os.environ["ROS_DOMAIN_ID"]} is in use' in result.stderr.strip().splitlines()[-1]

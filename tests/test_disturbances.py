@@ -7,17 +7,17 @@ import numpy as np
 import pytest
 
 from cdpr_bringup.runs.engine import run_inprocess
-from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.settle import ScenarioOptions
 from cdpr_fdi.residual import sensorless_tension_bounds
 from cdpr_fdi.wrench_balance import WrenchBalance
 
-from conftest import MOTIONS, PAPER_ROBOT
+from conftest import MOTIONS, PAPER_ROBOT, every_tick_scenario
 
 PUSH_START_S = 1.5
 
 
 def scenario(motion: str, fidelity: str = 'elastic', **options):
-    return build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+    return every_tick_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
                                           motion=motion, fidelity=fidelity, seed=4, **options))
 
 

@@ -69,6 +69,8 @@ def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_pa
     log = GraphLog()
     parameters = realtime_parameters()
     period_s = parameters['plant_simulator']['control.period_s']
+    # the ground-truth pose is a view topic: on the view ticks only
+    view_period_s = 1.0 / parameters['plant_simulator']['streams.view_rate_hz']
     graph = Graph(graph_nodes(parameters, str(bag)), namespace,
                   completion='plant_simulator', log=log)
     try:
@@ -107,23 +109,25 @@ def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_pa
         # a prefix of the run without a hole
         stamps = [stamp for stamp, _ in recorded]
         assert recorded[:len(held)] == held, 'the bag lost what it held before the recorder was killed'
-        period_ns = round(period_s * 1e9)
+        period_ns = round(view_period_s * 1e9)
         assert stamps == [tick * period_ns for tick in range(len(stamps))], \
             'the bag of the killed recorder is not the run from its first tick without a hole'
         assert_stopped_cleanly(exit_codes, log, but=victim)
         return
     with timing_check(log, (started_s, killed_s), f'{victim} killed: the run before it recorded'):
-        expected = BEFORE_THE_KILL_SHARE * (killed_s - started_s) / period_s
+        expected = BEFORE_THE_KILL_SHARE * (killed_s - started_s) / view_period_s
         assert len(before) >= expected, f'{len(before)} poses before the kill, expected {expected:.0f}'
     with timing_check(log, (killed_s, stopping_s), f'{victim} killed: the run after it recorded'):
-        expected = AFTER_THE_KILL_SHARE * (stopping_s - named_s) / period_s
+        expected = AFTER_THE_KILL_SHARE * (stopping_s - named_s) / view_period_s
         assert len(after) >= expected, f'{len(after)} poses after the kill, expected {expected:.0f}'
-    # nothing sags or falls once the node is gone, whichever it was
-    assert not before or not after or min(after) > before[-1] - 0.02
+    # nothing sags or falls once the node is gone, whichever it was: judged on poses that
+    # exist (the counts above may be excused on a slow machine, this never is)
+    assert before and after, f'{len(before)} poses before the kill and {len(after)} after it: nothing to judge'
+    assert min(after) > before[-1] - 0.02
     if victim == 'controller':
         facts = [value.value for _, message in found['/diagnostics'] for status in message.status
                  if status.name.endswith('/plant_simulator') for value in status.values
                  if value.key == 'command watchdog']
         with timing_check(log, (killed_s, stopping_s), 'controller killed: the plant status recorded'):
             assert facts, 'no command watchdog status of the plant in the bag'
-        assert not facts or any('drums braked' in fact for fact in facts)
+        assert facts and any('drums braked' in fact for fact in facts), facts

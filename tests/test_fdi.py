@@ -22,7 +22,7 @@ from cdpr_fdi.recovery import (Recovery, RecoveryInfeasible, TabulatedMove, entr
 from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
 from cdpr_fdi.supervisor import Supervisor
 from cdpr_fdi.tension_collapse import TensionCollapse
-from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
+from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, VERDICT_DELAY_TICKS
 from cdpr_twin.rigid_model import RigidCableRobot
 
 from conftest import PAPER_ROBOT
@@ -394,13 +394,14 @@ def test_a_moves_references_sent_ahead_are_those_its_later_ticks_get():
             return 100, table
 
     sent, move = {}, Move()
+    due = VERDICT_DELAY_TICKS   # the verdict on a tick steers the tick this many after it
     for tick in range(99, 108):
         for later, reference in move.planned_references(tick, 3):
-            assert tick + 2 <= later <= tick + 4 and later - 100 < rows
+            assert tick + due + 1 <= later <= tick + due + 3 and later - 100 < rows
             sent[later] = reference
         if move.mode == RECOVERY_MOVE:
             reference = move.move_setpoint(tick)
-            if tick + 1 in sent and move.mode == RECOVERY_MOVE:
-                np.testing.assert_array_equal(sent[tick + 1].angle_rad, reference.angle_rad)
+            if tick + due in sent and move.mode == RECOVERY_MOVE:
+                np.testing.assert_array_equal(sent[tick + due].angle_rad, reference.angle_rad)
     assert move.mode == SAFE_HOLD and move.planned_references(107, 3) == []
-    assert sorted(sent) == list(range(101, 106))
+    assert sorted(sent) == list(range(99 + due + 1, 106))

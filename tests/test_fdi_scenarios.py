@@ -15,20 +15,20 @@ import yaml
 from cdpr_bringup.reports import robot_summary
 from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.runs.engine import run_inprocess
-from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.settle import ScenarioOptions
 from cdpr_control.config import Section
 from cdpr_control.controller import PdGains
 from cdpr_control.kinematics import forward_kinematics
 from cdpr_control.motions import motion_names
 from cdpr_control.workspace import contains, sew_cross_section
-from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
+from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 from cdpr_twin.run_length import RunLength
 
-from conftest import CONFIG_DIR, MOTIONS, PAPER_ROBOT
+from conftest import CONFIG_DIR, MOTIONS, PAPER_ROBOT, every_tick_scenario
 
 
 def run(motion, cables=(), reverse=False, config=PAPER_ROBOT, motions=MOTIONS, **options):
-    scenario = build_scenario(ScenarioOptions(
+    scenario = every_tick_scenario(ScenarioOptions(
         config=str(config), motions=str(motions), motion=motion, reverse=reverse,
         fail_cables=list(cables), fidelity='rigid', epsilon_nm=0.03, **options))
     recording = run_inprocess(scenario)
@@ -120,7 +120,7 @@ def test_false_alarms_are_judged_on_every_shipped_motion_both_ways_on_unseen_see
                          ids=['-'.join(map(str, run)) for run in FAILURE_FREE_RUNS])
 def test_no_false_alarm_on_the_elastic_and_field_plants_with_calibrated_thresholds(
         fidelity, seed, motion, direction):
-    scenario = build_scenario(ScenarioOptions(
+    scenario = every_tick_scenario(ScenarioOptions(
         config=str(PAPER_ROBOT), motions=str(MOTIONS), motion=motion,
         reverse=DIRECTIONS[direction], fidelity=fidelity, seed=seed))
     # the thresholds a run on this plant settles for are the shipped calibration's
@@ -237,7 +237,7 @@ def test_a_robot_file_with_only_its_robot_runs_on_the_papers_settings(robot_only
 def test_a_robot_only_file_hands_the_nodes_the_frequency_settled_for_it(robot_only_file):
     """The graph's nodes read every setting as given (none is a default to them): the run
     hands them the stable frequency the paper's 12 Hz gave way to, which they accept."""
-    scenario = build_scenario(ScenarioOptions(config=str(robot_only_file),
+    scenario = every_tick_scenario(ScenarioOptions(config=str(robot_only_file),
                                               motions=str(CONFIG_DIR / 'six_cable_motions.yaml'),
                                               motion='lift', fidelity='rigid'))
     as_given = Section(scenario.settings.data, robot_only_file).section('control')
@@ -282,7 +282,7 @@ def test_a_light_robot_from_its_robot_file_alone_names_a_break_before_a_second_c
     at 3 N on the circle, too little for ε; 23 periods later cable 3 unloads, and with
     2.78 N both were named (FAULT). Its motor's tension collapse names cable 1 alone
     before that, and the end-effector is recovered."""
-    scenario = build_scenario(ScenarioOptions(
+    scenario = every_tick_scenario(ScenarioOptions(
         config=str(CONFIG_DIR / 'robots' / 'tall_frame_robot.yaml'),
         motions=str(CONFIG_DIR / 'tall_frame_motions.yaml'), motion='circle', fail_cables=[1],
         fail_at_s=6.997166915801529, fidelity='elastic', seed=1, detector='threshold'))
@@ -299,7 +299,7 @@ def test_a_break_the_residual_never_sees_is_found_by_the_tension_collapse():
     0.05 N·m against ε = 0.125 N·m) late on the circle and no other cable slackens: the
     robot would go on on three cables. Its motor feels nothing while the reference asks
     1.5 N: named within the collapse's window of the parting, and recovered."""
-    scenario = build_scenario(ScenarioOptions(
+    scenario = every_tick_scenario(ScenarioOptions(
         config=str(CONFIG_DIR / 'robots' / 'tall_frame_robot.yaml'),
         motions=str(CONFIG_DIR / 'tall_frame_motions.yaml'), motion='circle', fail_cables=[4],
         fail_at_s=7.525300261572056, fidelity='elastic', seed=2, detector='threshold'))
@@ -321,7 +321,7 @@ TAKEN_OVER_MOVING = [('orthogonal-4', 3, 2.500674789862831, 2, 'cusum'),
 @pytest.mark.parametrize('motion, cable, failure_s, seed, detector', TAKEN_OVER_MOVING)
 def test_position_control_takes_over_with_the_force_the_cables_apply(motion, cable, failure_s,
                                                                      seed, detector):
-    scenario = build_scenario(ScenarioOptions(
+    scenario = every_tick_scenario(ScenarioOptions(
         motion=motion, fail_cables=[cable], fail_at_s=failure_s, fidelity='elastic', seed=seed,
         detector=detector))
     metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
@@ -347,7 +347,7 @@ def test_a_break_near_a_corner_swings_into_the_frame_not_up_to_its_exit_points()
     flung across the frame and up to z = 2.50 m, tensions reached 214 N, and the recovery
     ended in FAULT. Now: SP, taut cables, well below the exit points, tensions within
     bounds."""
-    scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
+    scenario = every_tick_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
                                               motion='along-1', fail_cables=[4],
                                               fail_at_fraction=0.895, fidelity='elastic'))
     recording = run_inprocess(scenario)
@@ -390,7 +390,7 @@ def recovery_run(folder, motion, cable, peak_speed_m_s, recovery):
     if peak_speed_m_s is not None:
         motions['motions'][motion]['peak_speed_m_s'] = peak_speed_m_s
     (folder / 'motions.yaml').write_text(yaml.safe_dump(motions))
-    scenario = build_scenario(ScenarioOptions(
+    scenario = every_tick_scenario(ScenarioOptions(
         config=str(setup), motions=str(folder / 'motions.yaml'), motion=motion,
         fail_cables=[cable], fidelity='rigid', epsilon_nm=0.03))
     recording = run_inprocess(scenario)
@@ -403,8 +403,10 @@ def re_plans_of_the_move(scenario, recording, phase_times_s, cable) -> int:
     that peak lies midway along it, in the second half of RECOVERY_MOVE (the brake comes
     first)."""
     config = scenario.recovery
-    second_half = ((recording.time_s >= 0.5 * (phase_times_s[RECOVERY_MOVE] + phase_times_s[SAFE_HOLD]))
-                   & (recording.time_s < phase_times_s[SAFE_HOLD]))
+    # the reference published on a tick is the one of the tick its verdict is due
+    due_s = recording.time_s + VERDICT_DELAY_TICKS * scenario.period_s
+    second_half = ((due_s >= 0.5 * (phase_times_s[RECOVERY_MOVE] + phase_times_s[SAFE_HOLD]))
+                   & (due_s < phase_times_s[SAFE_HOLD]))
     path = forward_kinematics(scenario.robot, recording.recovery_reference_angle_rad[second_half],
                               scenario.robot.cable_mask([cable - 1]))
     peak = np.max(np.linalg.norm(np.diff(path, axis=0), axis=1)) / scenario.period_s

@@ -56,7 +56,7 @@ from cdpr_msgs_py.health import HealthLimits
 from cdpr_twin.digital_twin_node import DigitalTwinNode
 from cdpr_twin.plant import PlantConfig
 from cdpr_twin.plant_simulator_node import PlantSimulatorNode
-from conftest import MOTIONS, PAPER_ROBOT
+from conftest import MOTIONS, PAPER_ROBOT, kept
 
 ROBOT = load_robot(PAPER_ROBOT)
 CABLES = ROBOT.cable_count
@@ -214,7 +214,7 @@ class Recorder:
         self.node = node
         self.messages = defaultdict(list)
         for publisher in node.publishers:
-            publisher.publish = self.messages[publisher.topic_name].append
+            publisher.publish = kept(self.messages[publisher.topic_name], publisher)
             publisher.get_subscription_count = lambda: 1
 
     def __getitem__(self, topic: str) -> list:
@@ -487,19 +487,22 @@ def test_digital_twin_rejects_bad_or_stale_references_and_stays_finite(
                                       np.zeros(CABLES), np.zeros(CABLES)))
         twin_states = published[contract.TWIN_JOINT_STATES]
         poses = published[contract.TWIN_POSE]
-        assert len(twin_states) == len(poses) == 1
+        # the pose, a view topic, on the view ticks only
+        viewed = lambda stamp: int(node.view_ticks.at(stamp))  # noqa: E731
+        assert len(twin_states) == 1 and len(poses) == viewed(first_stamp)
         latest = first_stamp
         for message in steps:
             stamp = stamp_to_ns(message.header.stamp)
             # a reference not after the last one is rejected too, as the node documents
             valid = well_formed(message) and stamp > latest
-            sent = len(twin_states)
+            sent, posed = len(twin_states), len(poses)
             deliver(node, published, 'on_reference', message, contract.REFERENCE, valid, twin_state)
             if valid:
                 latest = stamp
-                assert len(twin_states) == len(poses) == sent + 1
+                assert len(twin_states) == sent + 1 and len(poses) == posed + viewed(stamp)
                 assert stamp_to_ns(twin_states[-1].header.stamp) == stamp
-                assert stamp_to_ns(poses[-1].header.stamp) == stamp
+                if viewed(stamp):
+                    assert stamp_to_ns(poses[-1].header.stamp) == stamp
         assert_finite_joint_states(twin_states)
         for twin in twin_states:
             assert np.all(np.abs(twin.effort) <= TORQUE_LIMIT_NM)
@@ -662,15 +665,17 @@ def test_trajectory_generator_publishes_each_reference_once_in_order(
     references, poses = published[contract.REFERENCE], published[contract.REFERENCE_POSE]
     rejected = Counter(node.diagnostics.rejected)
     for jump, offset, message in jumps:
-        count, first = len(references), node.schedule.next_tick
+        count, posed, first = len(references), len(poses), node.schedule.next_tick
         latest_tick = first - LEAD_CYCLES - 1
         stamp = (latest_tick + jump) * PERIOD_NS + offset + (node.origin_ns or 0)
         message.header.stamp = ns_to_stamp(stamp)
         node.on_state(message)
         tick = (stamp - node.origin_ns) // PERIOD_NS
         expected = list(range(max(first, tick), tick + LEAD_CYCLES + 1))
-        for sent in (references[count:], poses[count:]):
-            assert [(stamp_to_ns(m.header.stamp) - node.origin_ns) // PERIOD_NS for m in sent] == expected
+        # the pose, a view topic, of the view ticks among them only
+        viewed = [later for later in expected if node.view_ticks.at(node.origin_ns + later * PERIOD_NS)]
+        for sent, ticks in ((references[count:], expected), (poses[posed:], viewed)):
+            assert [(stamp_to_ns(m.header.stamp) - node.origin_ns) // PERIOD_NS for m in sent] == ticks
             assert all((stamp_to_ns(m.header.stamp) - node.origin_ns) % PERIOD_NS == 0 for m in sent)
         assert_finite_joint_states(references[count:])
     assert node.diagnostics.rejected == rejected
@@ -705,7 +710,8 @@ LOADERS = {
     'scheduling': lambda path, robot: realtime_scheduling(load_section(path, 'scheduling')),
     # as CdprNode.configure reads them
     'health': lambda path, robot: HealthLimits.from_section(load_config(path).section('health', {})),
-    'streams': lambda path, robot: qos.stream_writer(load_config(path).section('streams', {}), 0.002),
+    'streams': lambda path, robot: (qos.stream_writer(load_config(path).section('streams', {}), 0.002),
+                                    contract.ViewTicks.of_streams(load_config(path).section('streams', {}), 0.002)),
 }
 
 

@@ -16,15 +16,16 @@ from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.graph.launcher import Graph, graph_nodes, node_environment, run_to_completion
 from cdpr_bringup.reports.report import run_settings, write_report
 from cdpr_bringup.reports.summary import bag_summary
-from cdpr_bringup.runs.metrics import (fdi_summary_from_diagnostics, fdi_summary_of,
-                                      last_true_position_of, twin_kpis, written_statuses)
+from cdpr_bringup.runs.metrics import (fdi_summary_from_diagnostics, fdi_summary_of, run_figures_of,
+                                      statuses_beside, take_statuses, twin_kpis, written_statuses)
+from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.runs.settle import GRAPH_FORMS, ScenarioOptions, build_scenario
 
 from cdpr_msgs_py.dds import PROFILE_VARIABLE
 from cdpr_msgs_py.stamps import stamp_to_ns
 
-from conftest import (MOTIONS, PAPER_ROBOT, GraphLog, in_private_shm, private_shm_allowed,
-                      settled_parameters, timing_check)
+from conftest import (LOOP_ROWS, MOTIONS, PAPER_ROBOT, VIEW_ROWS, GraphLog, assert_close_figures, in_private_shm,
+                      private_shm_allowed, settled_parameters, timing_check)
 from test_report import assert_figure
 
 pytestmark = pytest.mark.graph
@@ -67,25 +68,36 @@ def lockstep_bags(tmp_path_factory):
 
 
 def test_lockstep_graph_equals_the_inprocess_engine(lockstep_bags):
-    """Through the failure, its detection and the whole recovery."""
+    """Through the failure, its detection and the whole recovery: every loop topic, the
+    view topics on the view ticks, and the figures the plant computed from every tick, so
+    that metrics.json is the in-process engine's."""
     scenario = failure_scenario()
     engine = run_inprocess(scenario)
-    graph = recording_from_bag(lockstep_bags[0], '/cdpr_test_run0')
+    bag = lockstep_bags[0]
+    graph = recording_from_bag(bag, '/cdpr_test_run0')
     # the run ends hold_after_s after SAFE_HOLD in both, before its scheduled end
     assert graph.time_s.size == engine.time_s.size < scenario.cycles
-    np.testing.assert_allclose(graph.true_position_m, engine.true_position_m, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(graph.command_nm, engine.command_nm, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(graph.twin_torque_nm, engine.twin_torque_nm, rtol=0, atol=1e-9)
-    diagnostics = read_messages(lockstep_bags[0], ['/diagnostics'])['/diagnostics']
+    for name in LOOP_ROWS + VIEW_ROWS:
+        np.testing.assert_allclose(getattr(graph, name), getattr(engine, name), rtol=0, atol=1e-9, err_msg=name)
+    # the view topics on every 10th tick only, from the first
+    np.testing.assert_array_equal(np.round(graph.view_time_s / scenario.period_s), np.arange(0, graph.time_s.size, 10))
+    diagnostics = read_messages(bag, ['/diagnostics'])['/diagnostics']
     assert fdi_summary_from_diagnostics(diagnostics) == engine.fdi
     assert engine.fdi['broken_cables'] == [4] and engine.fdi['mode'] == 'SAFE_HOLD'
     # what the nodes said as they stopped, whatever the recorder kept (cdpr-scenario's
-    # verdicts and final pose)
-    said = written_statuses(lockstep_bags[0].with_name('run0_said'))
+    # verdicts and figures)
+    said = written_statuses(bag.with_name('run0_said'))
     assert fdi_summary_of(said['supervisor']) == engine.fdi
-    np.testing.assert_allclose(last_true_position_of(said['plant_simulator']),
-                               engine.true_position_m[-1], rtol=0, atol=1e-9)
+    assert_close_figures(run_figures_of(said['plant_simulator']), engine.figures)
     assert int(said['plant_simulator']['states total']) == engine.time_s.size
+    # metrics.json of either engine
+    take_statuses(graph, statuses_beside(bag, diagnostics), None)
+    metrics = {name: scenario_cli.metrics_of(scenario, recording, wall_time_s=0.0) for name, recording
+               in (('graph', graph), ('engine', engine))}
+    # what the recorder lacks, of a graph run's bag only: nothing
+    assert not any(metrics['graph'].pop('bag_missing_ticks').values())
+    assert_close_figures(metrics['graph'], metrics['engine'])
+    assert metrics['engine']['recovery']['reached_safe_point'] and metrics['engine']['tracking_error_m'] > 0.0
 
 
 def test_lockstep_runs_are_bit_for_bit_repeatable_and_the_same_in_either_graph_form(lockstep_bags):
@@ -95,9 +107,12 @@ def test_lockstep_runs_are_bit_for_bit_repeatable_and_the_same_in_either_graph_f
     failure_s = failure_scenario().failure_time_s
     assert second.time_s[-1] == pytest.approx(REPEATED_S) and first.time_s.size > ticks
     # the failure shows: cable 4 slack, its motor freed
-    assert np.all(second.true_tension_n[second.time_s > failure_s + 0.1, 3] == 0.0)
-    np.testing.assert_array_equal(first.true_position_m[:ticks], second.true_position_m)
-    np.testing.assert_array_equal(first.command_nm[:ticks], second.command_nm)
+    assert np.all(second.true_tension_n[second.view_time_s > failure_s + 0.1, 3] == 0.0)
+    views = second.view_time_s.size
+    for name in LOOP_ROWS:
+        np.testing.assert_array_equal(getattr(first, name)[:ticks], getattr(second, name), err_msg=name)
+    for name in VIEW_ROWS:
+        np.testing.assert_array_equal(getattr(first, name)[:views], getattr(second, name), err_msg=name)
 
 
 def test_failure_in_the_graph_frees_the_plant_motor_not_the_twin(lockstep_bags):
@@ -106,8 +121,10 @@ def test_failure_in_the_graph_frees_the_plant_motor_not_the_twin(lockstep_bags):
         config=str(PAPER_ROBOT), motions=str(MOTIONS), motion='along-2')), supervised=False)
     n = healthy.time_s.size
     np.testing.assert_allclose(graph.twin_torque_nm[:n], healthy.twin_torque_nm, rtol=0, atol=1e-9)
-    late = graph.time_s[:n] > graph.time_s[n - 1] - 1.0
-    assert np.all(graph.true_tension_n[:n][late, 3] == 0.0)
+    views = healthy.view_time_s.size
+    late = graph.view_time_s[:views] > graph.time_s[n - 1] - 1.0
+    assert np.any(late)
+    assert np.all(graph.true_tension_n[:views][late, 3] == 0.0)
     assert np.all(healthy.true_tension_n[late, 3] > 1.0)
 
 

@@ -1,5 +1,6 @@
 """The markers of /cdpr/markers (cdpr_fdi.markers) against a simulated run's ground truth,
-and the same markers in an in-process run's bag."""
+a frame per view tick from the view topics alone, and the same markers in an in-process
+run's bag."""
 from __future__ import annotations
 
 import numpy as np
@@ -12,8 +13,7 @@ from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.workspace import contains
 from cdpr_fdi.markers import (BROKEN_GREY, LINE_LIST, LINE_STRIP, SPHERE_LIST, TENSION_SCALE,
-                              cable_shapes, dashes, tension_colour)
-from cdpr_fdi.residual import sensorless_tensions
+                              UNKNOWN_TENSION_COLOUR, Frame, cable_shapes, dashes, tension_colour)
 from cdpr_msgs_py import contract
 
 from conftest import MOTIONS, PAPER_ROBOT
@@ -21,49 +21,58 @@ from conftest import MOTIONS, PAPER_ROBOT
 BROKEN = 4
 
 
+def feed(frame: Frame, recording, view: int, stamp_ns: int) -> None:
+    """The view topics of the recording's view tick `view` into `frame`, as the node gets them."""
+    frame.on_view('twin', stamp_ns, (recording.twin_position_m[view], None if recording.twin_orientation is None
+                                     else recording.twin_orientation[view]))
+    frame.on_view('reference', stamp_ns, (recording.reference_position_m[view], None))
+    frame.on_view('true_pose', stamp_ns, (recording.true_position_m[view], None if recording.true_orientation is None
+                                          else recording.true_orientation[view]))
+    frame.on_view('true_tension', stamp_ns, recording.true_tension_n[view])
+
+
 @pytest.fixture(scope='module')
 def run():
     """Cable 4 breaks mid-way along cable 4 on the rigid plant, detected and recovered
-    in-process; the shapes of every frame, fed as the markers node is fed:
-    (scenario, recording, [(tick, shapes by namespace and id)], frame ticks)."""
+    in-process; the shapes of every frame, fed as the markers node is fed (the view
+    topics of each view tick, the verdict once named):
+    (scenario, recording, [(view row, tick, shapes by namespace and id)])."""
     scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
                                               motion='along-4', fail_cables=[BROKEN],
                                               fidelity='rigid'))
     recording = run_inprocess(scenario)
     frame = scenario.marker_frame()
-    ticks = scenario.markers.frame_ticks(scenario.period_s)
-    applied = np.vstack([np.zeros_like(recording.command_nm[:1]), recording.command_nm[:-1]])
     frames = []
-    for k, time_s in enumerate(recording.time_s):
-        if k == recording.fdi['identified_tick']:
+    for view, time_s in enumerate(recording.view_time_s):
+        k = int(round(time_s / scenario.period_s))
+        if k >= recording.fdi['identified_tick']:
             frame.on_broken_cable(BROKEN)
-        frame.on_state(time_s, recording.angle_rad[k], recording.angular_velocity_rad_s[k], applied[k])
-        frame.on_twin_pose(recording.twin_position_m[k])
-        if np.isfinite(recording.recovery_reference_angle_rad[k]).all():
-            frame.on_recovery_reference(recording.recovery_reference_angle_rad[k])
-        if k % ticks == 0:
-            frames.append((k, {(s.namespace, s.id): s for s in frame.shapes()}))
-    # at the markers' rate, the frames of the whole motion at least
-    assert len(frames) >= scenario.motion.trajectory.duration_s * scenario.markers.rate_hz, len(frames)
-    return scenario, recording, frames, ticks
+        feed(frame, recording, view, k * 2_000_000)
+        stamp, shapes = frame.take()
+        assert stamp == k * 2_000_000 and frame.take() is None, 'one frame per view tick, once'
+        frames.append((view, k, {(s.namespace, s.id): s for s in shapes}))
+    # at the view rate, the frames of the whole motion at least
+    assert len(frames) >= scenario.motion.trajectory.duration_s * 50.0, len(frames)
+    return scenario, recording, frames
 
 
 def assert_judged_once_identified(run, judged: int) -> None:
     """`judged` frames from the identification on were checked: at least half of those
     after the scheduled failure, else a check of what is drawn once the cable is named
     judged next to nothing."""
-    scenario, recording, _, ticks = run
-    after_failure = recording.time_s.size - scenario.failure_time_s / scenario.period_s
-    assert judged >= 0.5 * after_failure / ticks, (judged, after_failure / ticks)
+    scenario, recording, _ = run
+    after_failure = np.count_nonzero(recording.view_time_s >= scenario.failure_time_s)
+    assert judged >= 0.5 * after_failure, (judged, after_failure)
 
 
 def test_cables_run_from_the_exit_points_to_the_true_end_effector(run):
-    scenario, recording, frames, _ = run
+    scenario, recording, frames = run
     robot = scenario.robot
-    for k, shapes in frames:
-        true = recording.true_position_m[k]
+    for view, k, shapes in frames:
+        true = recording.true_position_m[view]
         assert np.allclose(shapes['end_effector', 0].points_m, [true], atol=1e-6), k
-        assert np.allclose(shapes['twin', 0].points_m, [recording.twin_position_m[k]])
+        assert np.allclose(shapes['twin', 0].points_m, [recording.twin_position_m[view]])
+        assert np.allclose(shapes['reference', 0].points_m, [recording.reference_position_m[view]])
         for cable in range(1, robot.cable_count + 1):
             shape = shapes['cables', cable]
             assert shape.kind == LINE_LIST
@@ -73,11 +82,11 @@ def test_cables_run_from_the_exit_points_to_the_true_end_effector(run):
 
 
 def test_the_broken_cable_hangs_grey_thin_and_dashed_once_identified(run):
-    scenario, recording, frames, _ = run
+    scenario, recording, frames = run
     style, exit_point = scenario.markers, scenario.robot.exit_points_m[BROKEN - 1]
     identified = recording.fdi['identified_tick']
     hung = 0
-    for k, shapes in frames:
+    for view, k, shapes in frames:
         shape = shapes['cables', BROKEN]
         if k < identified:
             assert shape.scale_m == style.cable_width_m
@@ -89,7 +98,7 @@ def test_the_broken_cable_hangs_grey_thin_and_dashed_once_identified(run):
         assert np.allclose(shape.points_m[:, :2], exit_point[:2]), 'hanging straight down'
         assert shape.points_m[0, 2] == exit_point[2]
         # down to the end-effector's height, the last dash within a dash and a gap of it
-        height = recording.true_position_m[k, 2]
+        height = recording.true_position_m[view, 2]
         assert np.all(shape.points_m[:, 2] >= height - 1e-6)
         assert shape.points_m[-1, 2] - height <= 2 * style.dash_length_m
         for other in set(range(1, 5)) - {BROKEN}:
@@ -97,26 +106,50 @@ def test_the_broken_cable_hangs_grey_thin_and_dashed_once_identified(run):
     assert_judged_once_identified(run, hung)
 
 
-def test_a_cable_is_coloured_by_its_sensorless_tension_over_the_frame(run):
-    scenario, recording, frames, ticks = run
+def test_a_cable_is_coloured_by_its_true_tension_of_the_tick(run):
+    scenario, recording, frames = run
     robot = scenario.robot
-    speed = recording.angular_velocity_rad_s
-    estimate = sensorless_tensions(robot.motor, scenario.fdi.friction, recording.command_nm[:-1],
-                                   speed[:-1], speed[1:], scenario.period_s)
-    checked = 0
-    for (_, _), (k, shapes) in zip(frames, frames[1:]):
-        mean = estimate[k - ticks:k].mean(axis=0)
-        colours = tension_colour(mean, robot.tension_min_n, robot.tension_max_n)
+    spread = []
+    for view, k, shapes in frames:
+        colours = tension_colour(recording.true_tension_n[view], robot.tension_min_n, robot.tension_max_n)
         for cable in range(1, robot.cable_count + 1):
             if cable == BROKEN and k >= recording.fdi['identified_tick']:
                 continue
             assert np.allclose(shapes['cables', cable].colours, colours[cable - 1]), k
-        if k < recording.fdi['identified_tick'] - ticks:
-            # the estimate follows the truth on the rigid plant, so the colours do
-            true = recording.true_tension_n[k - ticks + 1:k + 1].mean(axis=0)
-            assert np.allclose(mean, true, atol=0.5), k
-            checked += 1
-    assert checked > 10
+        spread.append(colours[:, :3])
+    # the colours change along the motion, as the tensions do
+    assert np.ptp(np.array(spread), axis=0).max() > 0.1
+
+
+def test_without_ground_truth_the_cables_run_to_the_twin_uncoloured(run):
+    """Beside a hardware bridge there is no ground truth: the twin is drawn, and the
+    cables to it in one colour."""
+    scenario, recording, _ = run
+    frame = Frame(scenario.robot, scenario.recovery, scenario.markers, ground_truth=False)
+    frame.on_view('twin', 0, (recording.twin_position_m[0], None))
+    assert frame.take() is None, 'a frame waits for the reference of its tick'
+    frame.on_view('reference', 0, (recording.reference_position_m[0], None))
+    _, shapes = frame.take()
+    shapes = {(s.namespace, s.id): s for s in shapes}
+    assert ('end_effector', 0) not in shapes
+    for cable in range(1, scenario.robot.cable_count + 1):
+        assert np.allclose(shapes['cables', cable].points_m[1], recording.twin_position_m[0])
+        assert np.allclose(shapes['cables', cable].colours, UNKNOWN_TENSION_COLOUR)
+
+
+def test_a_frame_is_of_one_tick_and_an_older_incomplete_tick_is_passed_over(run):
+    scenario, recording, _ = run
+    frame = scenario.marker_frame()
+    feed(frame, recording, 1, 20_000_000)
+    frame.on_view('twin', 40_000_000, (recording.twin_position_m[2], None))
+    stamp, shapes = frame.take()
+    assert stamp == 20_000_000 and frame.take() is None
+    feed(frame, recording, 3, 60_000_000)
+    frame.on_view('true_pose', 20_000_000, (recording.true_position_m[0], None))  # late, of a drawn tick
+    stamp, shapes = frame.take()
+    assert stamp == 60_000_000 and frame.take() is None and not frame.ticks
+    shapes = {(s.namespace, s.id): s for s in shapes}
+    assert np.allclose(shapes['end_effector', 0].points_m, [recording.true_position_m[3]])
 
 
 def test_the_tension_scale_runs_from_blue_at_the_floor_to_red_at_the_ceiling():
@@ -151,10 +184,10 @@ def test_dashes_cover_the_line_with_gaps():
 
 
 def test_the_safe_point_is_the_supervisors_inside_the_sew_outline_at_its_height(run):
-    scenario, recording, frames, _ = run
+    scenario, recording, frames = run
     identified = recording.fdi['identified_tick']
     placed = 0
-    for k, shapes in frames:
+    for view, k, shapes in frames:
         if k < identified:
             assert ('safe_point', 0) not in shapes and ('sew_outline', 0) not in shapes
             continue
@@ -172,23 +205,24 @@ def test_the_safe_point_is_the_supervisors_inside_the_sew_outline_at_its_height(
     assert corners == {tuple(p[:2]) for i, p in enumerate(scenario.robot.exit_points_m) if i != BROKEN - 1}
 
 
-def test_the_recovery_path_follows_the_setpoints_to_the_safe_point(run):
-    scenario, recording, frames, _ = run
-    _, shapes = frames[-1]
+def test_the_recovery_path_is_where_the_end_effector_went_since_the_naming(run):
+    scenario, recording, frames = run
+    _, _, shapes = frames[-1]
     path = shapes['recovery_path', 0].points_m
     assert len(path) > 10
     assert np.linalg.norm(path[-1] - recording.fdi['safe_point_m']) < scenario.recovery.reached_tolerance_m
     steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
     assert np.all(steps >= scenario.markers.path_spacing_m - 1e-12)
-    identified, move = recording.fdi['identified_tick'], recording.fdi['phase_ticks']['RECOVERY_MOVE']
-    before_move = [(k, s) for k, s in frames if k < move]
-    # the tension phase, where a path drawn too early would show, has its frames
-    assert any(k >= identified for k, _ in before_move)
-    assert not any(('recovery_path', 0) in s for _, s in before_move)
+    identified = recording.fdi['identified_tick']
+    named = recording.view_time_s >= identified * scenario.period_s
+    # every point a true position of a view tick since the naming, the first the first of them
+    assert np.allclose(path[0], recording.true_position_m[named][0])
+    assert all(np.min(np.linalg.norm(recording.true_position_m[named] - point, axis=1)) < 1e-12 for point in path)
+    assert not any(('recovery_path', 0) in s for _, k, s in frames if k < identified)
 
 
 def test_an_inprocess_bag_carries_the_same_markers(run, tmp_path):
-    scenario, recording, frames, _ = run
+    scenario, recording, frames = run
     writer = BagWriter(tmp_path / 'bag')
     writer.open()
     write_recording(writer, recording, frame=scenario.marker_frame())
@@ -196,7 +230,9 @@ def test_an_inprocess_bag_carries_the_same_markers(run, tmp_path):
     topic = f'{contract.DEFAULT_NAMESPACE}/{contract.MARKERS}'
     messages = [message for _, message in read_messages(tmp_path / 'bag', [topic])[topic]]
     assert len(messages) == len(frames)
-    for message, (k, shapes) in zip(messages, frames):
+    for message, (_, k, shapes) in zip(messages, frames):
+        assert message.markers[0].header.stamp.sec * 10 ** 9 + message.markers[0].header.stamp.nanosec \
+            == k * 2_000_000, 'stamped with its view tick'
         first, *markers = message.markers
         assert first.action == first.DELETEALL
         assert message.markers[1].header.frame_id == 'world'
@@ -212,7 +248,7 @@ def test_an_inprocess_bag_carries_the_same_markers(run, tmp_path):
         viewed = [message for schema, _, _, message in reader.iter_decoded_messages(topics=[topic])
                   if schema.name == 'visualization_msgs/msg/MarkerArray']
     assert len(viewed) == len(frames)
-    for message, (k, shapes) in zip(viewed, frames):
+    for message, (_, k, shapes) in zip(viewed, frames):
         assert {(m.ns, m.id) for m in message.markers[1:]} == set(shapes)
         assert {m.header.frame_id for m in message.markers[1:]} == {'world'}
 
@@ -221,8 +257,8 @@ def test_the_node_sends_the_shapes_as_markers(run):
     from visualization_msgs.msg import Marker
 
     from cdpr_fdi.markers_node import marker_array
-    scenario, _, frames, _ = run
-    k, shapes = frames[-1]
+    scenario, _, frames = run
+    _, k, shapes = frames[-1]
     message = marker_array(list(shapes.values()), 123)
     assert message.markers[0].action == Marker.DELETEALL
     # one marker per shape, every cable's at least: the pairs below leave none out
@@ -250,17 +286,18 @@ def test_a_platforms_safe_pose_is_drawn_as_its_body_over_the_section_it_was_foun
     assert recording.fdi['mode'] == 'SAFE_HOLD'
     frame = scenario.marker_frame()
     identified = recording.fdi['identified_tick']
-    frame.on_state(recording.time_s[identified], recording.angle_rad[identified],
-                   recording.angular_velocity_rad_s[identified], recording.command_nm[identified])
-    assert ('safe_pose', 0) not in {(s.namespace, s.id) for s in frame.shapes()}
-    frame.on_broken_cable(5)
-    for angle in recording.recovery_reference_angle_rad[identified:]:
-        if np.isfinite(angle).all():
-            frame.on_recovery_reference(angle)
-    last = recording.time_s.size - 1
-    frame.on_state(recording.time_s[last], recording.angle_rad[last], recording.angular_velocity_rad_s[last],
-                   recording.command_nm[last])
-    shapes = {(s.namespace, s.id): s for s in frame.shapes()}
+    shapes = None
+    for view, time_s in enumerate(recording.view_time_s):
+        k = int(round(time_s / scenario.period_s))
+        if k >= identified:
+            if not frame.broken_cables:
+                assert shapes is not None and ('safe_pose', 0) not in shapes, 'none before the naming'
+            frame.on_broken_cable(5)
+        feed(frame, recording, view, k * 2_000_000)
+        shapes = {(s.namespace, s.id): s for s in frame.take()[1]}
+        # the platform's body at its true pose
+        assert np.allclose(shapes['platform', 0].points_m[1::2], scenario.robot.cable_ends_m(
+            recording.true_position_m[view], recording.true_orientation[view]))
     robot, attached = scenario.robot, scenario.robot.cable_mask([4])
     safe = safe_pose_for(robot, scenario.recovery, attached)
     assert np.allclose(shapes['safe_point', 0].points_m, [recording.fdi['safe_point_m']])

@@ -21,10 +21,10 @@ from cdpr_control.tension_distribution import InfeasibleTensionError, LoweredFlo
 from cdpr_control.tension_distribution.lowered_floor import FLOOR_BISECTIONS
 
 from cdpr_bringup.runs.engine import run_inprocess
-from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
+from cdpr_bringup.runs.settle import ScenarioOptions
 from cdpr_fdi.recovery import safe_pose_for
 
-from conftest import CONFIG_DIR, EIGHT_CABLE_ROBOT, PAPER_ROBOT
+from conftest import CONFIG_DIR, EIGHT_CABLE_ROBOT, PAPER_ROBOT, every_tick_scenario
 
 PLATFORM_ROBOT = CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'
 TILT_RAD = np.radians(15.0)
@@ -522,7 +522,7 @@ def test_a_failure_on_a_platform_the_cables_left_cannot_hold_is_named_and_recove
     # of the same run in the in-process engine and the safe orientation found here again
     assert float(out.split('final error ')[1].split(' mm')[0]) < 5.0
     metrics = json.loads((tmp_path / 'metrics.json').read_text())
-    scenario = build_scenario(ScenarioOptions(config=str(PLATFORM_ROBOT),
+    scenario = every_tick_scenario(ScenarioOptions(config=str(PLATFORM_ROBOT),
                                               motions=str(CONFIG_DIR / 'crossed_platform_motions.yaml'),
                                               motion='along', fail_cables=[2]))
     safe = safe_pose_for(scenario.robot, scenario.recovery, scenario.robot.cable_mask([1]))

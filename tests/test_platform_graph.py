@@ -12,11 +12,12 @@ import pytest
 from cdpr_bringup.bags.bag_io import read_messages, recording_from_bag
 from cdpr_bringup.graph.launcher import graph_nodes, run_to_completion
 from cdpr_bringup.runs.engine import run_inprocess
-from cdpr_bringup.runs.metrics import fdi_summary_from_diagnostics
+from cdpr_bringup.runs.metrics import fdi_summary_from_diagnostics, statuses_beside, take_statuses
+from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.rotation import difference
 
-from conftest import CONFIG_DIR, GraphLog, timing_check
+from conftest import CONFIG_DIR, LOOP_ROWS, GraphLog, assert_close_figures, timing_check
 
 pytestmark = pytest.mark.graph
 
@@ -41,15 +42,22 @@ def test_the_lockstep_graph_turns_the_platform_as_the_in_process_engine_does(tmp
     engine = run_inprocess(scenario)
     assert graph.time_s.size == engine.time_s.size == scenario.cycles
     assert graph.angle_rad.shape[1] == 8
-    for name in ('true_position_m', 'command_nm', 'twin_torque_nm', 'true_orientation', 'twin_orientation',
-                 'reference_orientation'):
+    for name in LOOP_ROWS + ('view_time_s', 'true_position_m', 'true_orientation', 'twin_orientation',
+                             'reference_orientation'):
         np.testing.assert_allclose(getattr(graph, name), getattr(engine, name), rtol=0, atol=1e-9,
                                    err_msg=name)
-    before = graph.time_s < FAILURE_S
+    before = graph.view_time_s < FAILURE_S
     turned = np.degrees(np.linalg.norm(difference(graph.true_orientation[before][-1], graph.true_orientation[0])))
     assert 0.5 < turned < 12.0   # the start of the turn, on its way
     diagnostics = read_messages(bag, ['/diagnostics'])['/diagnostics']
     assert fdi_summary_from_diagnostics(diagnostics) == engine.fdi
+    # the plant's figures from every tick, and so metrics.json, the in-process engine's
+    take_statuses(graph, statuses_beside(bag, diagnostics), None)
+    assert_close_figures(graph.figures, engine.figures)
+    metrics = [scenario_cli.metrics_of(scenario, recording, wall_time_s=0.0) for recording in (graph, engine)]
+    assert not any(metrics[0].pop('bag_missing_ticks').values())
+    assert_close_figures(metrics[0], metrics[1])
+    assert metrics[1]['orientation_tracking_error_rad'] > 0.0
     assert engine.fdi['broken_cables'] == [cable] and engine.fdi['mode'] == 'RECOVERY_MOVE'
     assert engine.fdi['alarm_tick'] * scenario.period_s - FAILURE_S <= 2 * scenario.period_s
 
@@ -73,12 +81,14 @@ def test_in_the_realtime_graph_a_platforms_break_is_named_and_recovered_within_t
     # whatever the machine's speed: the cable named, the recovery ended holding the safe pose
     assert fdi['broken_cables'] == [5] and fdi['mode'] == 'SAFE_HOLD', fdi
     recording = recording_from_bag(bag, namespace, orientations=True)
-    named = np.searchsorted(recording.time_s, fdi['identified_tick'] * scenario.period_s) + 1
-    tension = recording.true_tension_n[named:][:, scenario.robot.cable_mask([4])]
+    take_statuses(recording, statuses_beside(bag, read_messages(bag, ['/diagnostics'])['/diagnostics']), None)
+    # the plant's figures of every tick from the break on
+    figures = recording.figures
+    assert figures is not None and figures['broken_cables'] == [5], figures
+    least, greatest = figures['failure']['min_tension_n'], figures['failure']['max_tension_n']
     robot = scenario.robot
     with timing_check(log, window, 'realtime platform recovery: the cables within their bounds'):
-        assert robot.tension_min_n <= tension.min() and tension.max() <= robot.tension_max_n, (
-            tension.min(), tension.max())
+        assert robot.tension_min_n <= least and greatest <= robot.tension_max_n, (least, greatest)
     with timing_check(log, window, 'realtime platform recovery: the safe pose reached'):
-        assert np.linalg.norm(recording.true_position_m[-1] - fdi['safe_point_m']) <= (
+        assert np.linalg.norm(np.array(figures['final_position_m']) - fdi['safe_point_m']) <= (
             scenario.recovery.reached_tolerance_m)

@@ -18,7 +18,7 @@ from cdpr_twin.plant import PlantConfig, PlantSimulator
 from cdpr_twin.rigid_platform import RigidPlatform
 from cdpr_twin.twin import DigitalTwin
 
-from conftest import CONFIG_DIR
+from conftest import CONFIG_DIR, every_tick_scenario
 
 ROBOT = CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'
 MOTIONS = CONFIG_DIR / 'crossed_platform_motions.yaml'
@@ -141,9 +141,9 @@ def test_the_in_process_engine_runs_a_platform_on_the_elastic_plant_without_a_fa
     within its own, no alarm, and the twin's position, by forward kinematics of the
     platform's angles, where the plant is."""
     from cdpr_bringup.runs.engine import run_inprocess
-    from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
+    from cdpr_bringup.runs.settle import ScenarioOptions
     from cdpr_bringup.scenario.command import metrics_of
-    scenario = build_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion=motion_name,
+    scenario = every_tick_scenario(ScenarioOptions(config=str(ROBOT), motions=str(MOTIONS), motion=motion_name,
                                               fidelity='elastic'))
     assert scenario.calibration_path.name == 'crossed_platform_calibration_elastic.yaml'
     recording = run_inprocess(scenario)
@@ -169,15 +169,16 @@ def test_a_goal_position_is_refused_for_a_platform_saying_why():
 
 
 def test_the_markers_draw_a_platforms_cables_to_its_attachment_points():
-    """The markers' core on the platform's measured angles: each cable ends at its
-    attachment point p + R b_i of the pose forward kinematics finds, and the platform's
-    body joins its origin to them."""
+    """The markers' core on the platform's true pose: each cable ends at its attachment
+    point p + R b_i of the pose, and the platform's body joins its origin to them."""
     from cdpr_fdi.markers import Frame, MarkerStyle
     robot, settings, _, reference = setup('climb-tilt')
     row = len(reference) - 1
-    frame = Frame(robot, None, None, MarkerStyle.from_section(settings.section('markers')))
-    frame.on_state(0.0, reference.angle_rad[row], np.zeros(8), np.zeros(8))
-    shapes = {(shape.namespace, shape.id): shape for shape in frame.shapes()}
+    frame = Frame(robot, None, MarkerStyle.from_section(settings.section('markers')))
+    pose = (reference.position_m[row], reference.orientation[row])
+    for name, value in (('twin', pose), ('reference', pose), ('true_pose', pose), ('true_tension', np.full(8, 20.0))):
+        frame.on_view(name, 0, value)
+    shapes = {(shape.namespace, shape.id): shape for shape in frame.take()[1]}
     attachment = (reference.position_m[row]
                   + robot.platform.attachment_points_m @ rotation_matrix(reference.orientation[row]).T)
     for cable in range(8):

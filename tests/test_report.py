@@ -20,9 +20,8 @@ from cdpr_bringup.bags.bag_io import BagWriter, recording_from_bag, write_record
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.reports.summary import summary_lines
 from cdpr_bringup.paths import LAST_DIAGNOSTICS
-from cdpr_bringup.runs.metrics import (metrics_json, missing_against_the_plant, tracking_error_m,
-                                      twin_kpis)
-from cdpr_msgs_py.contract import LAST_TRUE_POSITION_KEY
+from cdpr_bringup.runs.metrics import metrics_json, missing_against_the_plant, twin_kpis
+from cdpr_msgs_py.contract import RUN_FIGURES_KEY
 from cdpr_bringup.reports.report import (SETTLED_RUN, load_run, main, run_of_recording, run_settings, write_report,
                                  write_run_report)
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
@@ -80,19 +79,23 @@ def test_every_figure_of_a_failure_run_is_written(failure_run):
 
 
 def test_recomputed_metrics_equal_those_of_the_recording(failure_run):
+    """The bag's metrics: the KPIs from its loop topics, the figures of the end-effector
+    the plant's from every tick (its last status, in the bag's /diagnostics), the failure
+    the instant it parted the cable."""
     scenario, recording, folder, metrics = failure_run
     assert DESIGN_KEYS <= set(metrics) and RECOVERY_KEYS <= set(metrics['recovery'])
     assert json.loads((folder / 'plots' / 'metrics.json').read_text()) == metrics
-    # ground truth: the first tick with cable 4 slack, at or after the scheduled failure
     failure_tick = int(np.ceil(scenario.failure_time_s / scenario.period_s - 1e-9))
     before = slice(0, failure_tick)
     kpis = twin_kpis(scenario.robot, recording, before)
     assert set(kpis) == set(metrics['kpi']) == KPI_KEYS
     for key, value in kpis.items():
         assert metrics['kpi'][key] == pytest.approx(value, rel=1e-12, abs=1e-15)
-    assert metrics['tracking_error_m'] == pytest.approx(tracking_error_m(recording, before), rel=1e-12)
+    figures = recording.figures
+    assert figures['failure_tick'] == failure_tick
+    assert metrics['tracking_error_m'] == figures['failure']['tracking_error_m'] > 0.0
     assert metrics['cycles'] == recording.time_s.size
-    assert metrics['failure_time_s'] == pytest.approx(failure_tick * scenario.period_s)
+    assert metrics['failure_time_s'] == recording.broken_at_s[3] == pytest.approx(scenario.failure_time_s)
     assert metrics['true_broken_cables'] == [4]
     fdi = recording.fdi
     assert metrics['identified_cables'] == fdi['broken_cables'] == [4]
@@ -101,9 +104,12 @@ def test_recomputed_metrics_equal_those_of_the_recording(failure_run):
     ticks = fdi['phase_ticks']
     assert metrics['recovery']['duration_s'] == pytest.approx(
         (ticks['SAFE_HOLD'] - fdi['identified_tick']) * scenario.period_s)
-    assert metrics['recovery']['min_height_m'] == pytest.approx(recording.true_position_m[:, 2].min())
+    assert metrics['recovery']['min_height_m'] == figures['lowest_point_m']
+    # of every tick, not only the view ticks: as low as their lowest, or lower
+    assert figures['lowest_point_m'] <= recording.true_position_m[:, 2].min()
+    assert metrics['recovery']['min_tension_n'] == figures['failure']['min_tension_n']
     assert metrics['safe_point_m'] == pytest.approx(fdi['safe_point_m'])
-    final = np.linalg.norm(recording.true_position_m[-1] - np.array(fdi['safe_point_m']))
+    final = np.linalg.norm(np.array(figures['final_position_m']) - np.array(fdi['safe_point_m']))
     assert metrics['recovery']['final_error_m'] == pytest.approx(final, abs=1e-12)
     assert metrics['recovery']['reached_safe_point'] is True
 
@@ -142,12 +148,23 @@ def test_scenario_and_report_compute_the_same_metrics_of_one_run(failure_run, tm
     assert not differ, differ
 
 
+VIEW_ROWS = ('view_time_s', 'twin_position_m', 'reference_position_m', 'true_position_m', 'true_tension_n',
+             'true_orientation', 'twin_orientation', 'reference_orientation')
+
+
+def first_ticks(recording, kept: int, **changes):
+    """`recording`'s first `kept` ticks: its loop rows, and its view rows of those ticks."""
+    viewed = recording.view_time_s < recording.time_s[kept - 1] + 1e-9
+    return dataclasses.replace(recording, **{
+        field.name: getattr(recording, field.name)[viewed if field.name in VIEW_ROWS else slice(0, kept)]
+        for field in dataclasses.fields(recording) if isinstance(getattr(recording, field.name), np.ndarray)},
+        **changes)
+
+
 def with_the_tail_lost(recording, kept: int):
     """`recording` as a bag whose recorder lost every tick from `kept` on (it lagged when
-    the graph stopped): its first `kept` rows."""
-    return dataclasses.replace(recording, **{
-        field.name: getattr(recording, field.name)[:kept] for field in dataclasses.fields(recording)
-        if isinstance(getattr(recording, field.name), np.ndarray)})
+    the graph stopped): its first `kept` ticks, and with them the plant's last status."""
+    return first_ticks(recording, kept, figures=None)
 
 
 def kept_ticks(scenario, recording) -> int:
@@ -164,22 +181,21 @@ def test_a_bag_that_lost_the_runs_last_seconds_changes_neither_where_the_run_end
     whole = scenario_cli.metrics_of(scenario, recording, wall_time_s=1.0)
     kept, ticks = kept_ticks(scenario, recording), recording.time_s.size
     cut = with_the_tail_lost(recording, kept)
-    held = {topic: kept for topic in ('joint_states', 'ground_truth/pose', 'ground_truth/tensions',
-                                      'effort_command')}
+    held = {topic: kept for topic in ('joint_states', 'effort_command')}
     # the recorder's own count: no hole between its first tick and its last
     cut.missing_ticks = missing_against_the_plant(dict.fromkeys(held, 0), ticks, held)
-    cut.last_true_position_m = recording.true_position_m[-1]
+    # the plant's last status, written as it stopped, gives its figures
+    cut.figures = recording.figures
     metrics = scenario_cli.metrics_of(scenario, cut, wall_time_s=1.0)
     assert whole['recovery']['reached_safe_point'] is True
     assert metrics['recovery']['final_error_m'] == whole['recovery']['final_error_m']
     assert metrics['identified_cables'] == [4] and metrics['mode'] == 'SAFE_HOLD'
     lost = ticks - kept
-    assert metrics['bag_missing_ticks'] == {'joint_states': lost, 'ground_truth/pose': lost,
-                                            'ground_truth/tensions': lost, 'effort_command': 0}
+    assert metrics['bag_missing_ticks'] == {'joint_states': lost, 'effort_command': 0}
     said = '\n'.join(summary_lines(metrics))
     assert f'joint_states {lost}' in said and 'lacks ticks' in said
-    # the bag's last row alone would have said the safe point was not reached
-    alone = scenario_cli.metrics_of(scenario, dataclasses.replace(cut, last_true_position_m=None), 1.0)
+    # the bag's last view tick alone would have said the safe point was not reached
+    alone = scenario_cli.metrics_of(scenario, dataclasses.replace(cut, figures=None), 1.0)
     assert alone['recovery']['reached_safe_point'] is False
 
 
@@ -195,8 +211,7 @@ def test_the_report_of_a_run_folder_takes_the_nodes_last_statuses_beside_its_bag
     alone = metrics_json(load_run(bag, settings).known)
     said = tmp_path / LAST_DIAGNOSTICS
     said.mkdir()
-    statuses = {'plant_simulator': {'states total': str(ticks), LAST_TRUE_POSITION_KEY: json.dumps(
-                    recording.true_position_m[-1].tolist())},
+    statuses = {'plant_simulator': {'states total': str(ticks), RUN_FIGURES_KEY: json.dumps(recording.figures)},
                 'supervisor': {f'fdi {key}': json.dumps(value) for key, value in recording.fdi.items()}}
     for node, values in statuses.items():
         (said / f'{node}.json').write_text(json.dumps({'values': values}))
@@ -320,13 +335,10 @@ def test_real_robot_bag_without_ground_truth_or_supervisor(failure_run, tmp_path
     """What a real robot without the supervisor records: no truth, no FDI topics (the
     first 5 s of the failure run, through the failure at 3.59 s)."""
     scenario, recording, _, _ = failure_run
-    ticks = slice(0, 2500)
-    arrays = {f.name: getattr(recording, f.name)[ticks] for f in dataclasses.fields(recording)
-              if isinstance(getattr(recording, f.name), np.ndarray)}
-    nan = np.full_like(arrays['true_position_m'], np.nan)
-    real = dataclasses.replace(recording, **dict(
-        arrays, true_position_m=nan, true_tension_n=np.full_like(arrays['true_tension_n'], np.nan),
-        residual_nm=None, fdi={}))
+    first = first_ticks(recording, 2500)
+    real = dataclasses.replace(first, true_position_m=np.full_like(first.true_position_m, np.nan),
+                               true_tension_n=np.full_like(first.true_tension_n, np.nan),
+                               residual_nm=None, fdi={}, figures=None, broken_at_s=None)
     bag = write_bag(real, tmp_path / 'bag')
     assert main([str(bag), '--out', str(tmp_path / 'plots'), '--config', str(PAPER_ROBOT),
                  '--epsilon', '0.3']) == 0
@@ -368,13 +380,15 @@ def test_a_platforms_report_plots_its_orientation_beside_its_position(tmp_path):
                                               duration_s=4.0))
     recording = run_inprocess(scenario)
     real = dataclasses.replace(recording, true_position_m=np.full_like(recording.true_position_m, np.nan),
-                               true_tension_n=np.full_like(recording.true_tension_n, np.nan))
+                               true_tension_n=np.full_like(recording.true_tension_n, np.nan), figures=None)
     bag = write_bag(real, tmp_path / 'bag')
     assert main([str(bag), '--out', str(tmp_path / 'plots'), '--config', str(platform)]) == 0
     run = load_run(bag, run_settings(bag, platform))
     assert not run.has_ground_truth and run.orientation.shape == (recording.time_s.size, 4)
-    np.testing.assert_allclose(run.position_m, recording.true_position_m, atol=1e-8)
-    assert np.max(np.linalg.norm(difference(run.orientation, recording.true_orientation), axis=-1)) < 1e-8
+    # every tick's pose found; compared with the truth on the view ticks
+    viewed = np.round(recording.view_time_s / scenario.period_s).astype(int)
+    np.testing.assert_allclose(run.position_m[viewed], recording.true_position_m, atol=1e-8)
+    assert np.max(np.linalg.norm(difference(run.orientation[viewed], recording.true_orientation), axis=-1)) < 1e-8
     assert np.degrees(np.linalg.norm(difference(run.orientation[-1], run.orientation[0]))) > 5.0
     assert_figure(tmp_path / 'plots' / 'position.png')
     assert matplotlib.image.imread(tmp_path / 'plots' / 'position.png').shape[1] > 1500   # two columns

@@ -2,8 +2,6 @@
 the launcher checked and the in-process engine runs with; no node needs a file."""
 from __future__ import annotations
 
-import subprocess
-import sys
 from contextlib import contextmanager
 
 import numpy as np
@@ -79,7 +77,7 @@ def test_the_supervisor_node_gets_the_launchers_fdi_and_recovery_settings(scenar
 
 def test_the_plant_gets_the_failures_as_times_and_0_based_cables(scenario, tmp_path):
     parameters = scenario.node_parameters('lockstep')['plant_simulator']
-    assert not any(key.startswith(('motion', 'fdi')) for key in parameters)
+    assert not any(key.startswith('fdi') for key in parameters)
     with node_given(parameters, PlantSimulatorNode, tmp_path) as node:
         failures, position = node.plant.failures, node.plant.position_m
         run_length = node.run_length
@@ -90,9 +88,11 @@ def test_the_plant_gets_the_failures_as_times_and_0_based_cables(scenario, tmp_p
     assert run_length.hold_cycles == scenario.hold_after_cycles
 
 
-def test_the_plant_node_does_not_know_the_motion_catalogue():
-    script = ('import sys, cdpr_twin.plant_simulator_node\n'
-              'print("cdpr_control.motions" in sys.modules)\n')
-    result = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True, timeout=120)
-    assert result.returncode == 0, result.stderr
-    assert result.stdout.strip() == 'False'
+def test_the_plant_tracks_its_truth_against_the_generators_reference_poses_to_the_bit(scenario, tmp_path):
+    """The plant computes the tracking error of every tick (cdpr_twin.run_figures) against
+    the settled motion's poses, which it tabulates as the generator does: the same rows."""
+    parameters = scenario.node_parameters('lockstep')['plant_simulator']
+    with node_given(parameters, PlantSimulatorNode, tmp_path) as node:
+        positions, orientations = node.reference_poses
+    np.testing.assert_array_equal(positions, scenario.reference.position_m)
+    assert orientations is None

@@ -201,8 +201,8 @@ PINNED = {
 # for the ground truth, and never subscribed to the states); the plant simulator reads
 # fdi/residual in lockstep (the tick a mode it learns was decided on; in realtime it takes
 # its own tick); the markers node starts before
-# the plant and waits for nobody, but the writers of what it reads at every tick count
-# it among the graph's readers (a display's reader, whose lag is not an outside reader's).
+# the plant and waits for nobody, but the writers of the view topics it reads count it
+# among the graph's readers (a display's reader, whose lag is not an outside reader's).
 NEVER_WRITTEN = {
     'no supervisor': {'subscription:fdi/residual=1'},
     'hardware': {'subscription:ground_truth/pose=1', 'subscription:ground_truth/tensions=1',
@@ -230,8 +230,10 @@ def expected_handshake(supervised, plant, bag, clock_mode) -> dict[str, str]:
         expected['cdpr_twin/plant_simulator'].append('subscription:fdi/residual=1')
         one_more_reader(expected['cdpr_fdi/supervisor'], 'fdi/residual')
     one_more_reader(expected['cdpr_twin/digital_twin'], 'twin/pose')
+    one_more_reader(expected['cdpr_control/trajectory_generator'], 'reference/pose')
     if plant:
-        one_more_reader(expected['cdpr_twin/plant_simulator'], 'joint_states')
+        one_more_reader(expected['cdpr_twin/plant_simulator'], 'ground_truth/pose')
+        one_more_reader(expected['cdpr_twin/plant_simulator'], 'ground_truth/tensions')
     nodes = list(expected.items())
     nodes.insert(len(nodes) - 1 if plant else len(nodes), ('cdpr_fdi/markers', []))
     return {node: ' '.join(sorted(entries)) for node, entries in nodes}
@@ -310,20 +312,25 @@ def test_each_node_writes_and_reads_what_the_table_says(clock_mode, name):
         node.destroy_node()
 
 
-# ---- topics only the recorder or a display reads go out only to a reader ------------------
+# ---- view topics go out on the view ticks, and only to a reader ----------------------------
 
 MATCH_TIMEOUT_S = 10.0
 
 
 def a_tick(name: str, node, tick: int) -> None:
-    """What makes `node` write its per-tick topics: the state of `tick` for the generator
-    (its time base), the reference at home (angles 0) for the twin, the plant's state."""
+    """What makes `node` write its topics of a tick: the state of `tick` for the generator
+    (its time base: it writes the reference reference_lead_cycles ahead), the reference at
+    home (angles 0) for the twin, the plant's state."""
     names = contract.joint_names(node.robot.cable_count)
     at_home = joint_state(names, tick * node.period_ns, np.zeros(len(names)), np.zeros(len(names)),
                           np.zeros(len(names)))
+
+    def plant_state():
+        node.tick = tick
+        node.publish_state()
     {contract.TRAJECTORY_GENERATOR: lambda: node.on_state(at_home),
      contract.DIGITAL_TWIN: lambda: node.on_reference(at_home),
-     contract.PLANT_SIMULATOR: lambda: node.publish_state()}[name]()
+     contract.PLANT_SIMULATOR: plant_state}[name]()
 
 
 def written_in_a_tick(name: str, node, tick: int) -> set[str]:
@@ -337,14 +344,19 @@ def written_in_a_tick(name: str, node, tick: int) -> set[str]:
 
 
 @pytest.mark.parametrize('name', sorted({topic.writer for topic in contract.TOPICS.values()
-                                         if topic.on_demand}))
-def test_a_topic_only_the_recorder_or_a_display_reads_is_written_only_while_read(clock_mode, name):
-    writes = [topic for topic in contract.TOPICS.values() if topic.writer == name and topic.every_tick
+                                         if topic.on_demand and topic.from_first_tick}))
+def test_a_view_topic_is_written_on_the_view_ticks_and_only_while_read(clock_mode, name):
+    writes = [topic for topic in contract.TOPICS.values() if topic.writer == name and topic.from_first_tick
               and (clock_mode == 'lockstep' or not topic.lockstep)]
+    loop = {topic.name for topic in writes if topic.rate is contract.Rate.TICK}
     node = NODES[name]()
+    every = node.view_ticks.every
+    # the generator's tick writes the reference of the tick reference_lead_cycles ahead
+    ahead = node.lead if name == contract.TRAJECTORY_GENERATOR else 0
+    assert every == 10 and ahead % every == 0, 'the default view rate: every 10th tick of 500 Hz'
     listener = rclpy.create_node('on_demand_listener')
     try:
-        assert written_in_a_tick(name, node, 0) == {topic.name for topic in writes if not topic.on_demand}
+        assert written_in_a_tick(name, node, 0) == loop
         on_demand = [topic for topic in writes if topic.on_demand]
         for topic in on_demand:
             listener.create_subscription(contract.message_class(topic.type),
@@ -352,16 +364,25 @@ def test_a_topic_only_the_recorder_or_a_display_reads_is_written_only_while_read
                                          qos.of_readers(topic.name))
         publishers = [publisher for publisher in node.publishers
                       if publisher.topic_name in {node.resolve_topic_name(topic.name) for topic in on_demand}]
-        # a writer of topics on demand in this clock mode, each with its publisher to wait for
+        # a writer of view topics in this clock mode, each with its publisher to wait for
         assert len(publishers) == len(on_demand) > 0, [topic.name for topic in on_demand]
         deadline = time.monotonic() + MATCH_TIMEOUT_S
         while not all(publisher.get_subscription_count() for publisher in publishers):
             assert time.monotonic() < deadline, 'the listener did not match'
             time.sleep(0.01)
-        assert written_in_a_tick(name, node, 1) == {topic.name for topic in writes}
+        assert written_in_a_tick(name, node, every) == {topic.name for topic in writes}
+        assert written_in_a_tick(name, node, every + 1) == loop, 'a view topic on a tick that is not a view tick'
     finally:
         listener.destroy_node()
         node.destroy_node()
+
+
+def test_the_markers_node_reads_no_loop_topic():
+    """design.md §3: the markers are drawn from the view topics (and the verdict)."""
+    read = contract.topics_read_by(contract.MARKERS_NODE)
+    assert {topic.rate for topic in read} == {contract.Rate.VIEW, contract.Rate.CHANGE}
+    assert {topic.name for topic in read if topic.rate is contract.Rate.VIEW} == {
+        contract.TWIN_POSE, contract.REFERENCE_POSE, contract.GROUND_TRUTH_POSE, contract.GROUND_TRUTH_TENSIONS}
 
 
 # ---- the doc keeps the table -------------------------------------------------------------

@@ -13,7 +13,7 @@ from cdpr_fdi.supervisor import Supervisor
 from cdpr_twin.plant import FIDELITIES, PlantSimulator
 from cdpr_twin.watchdog import BRAKING, HOLDING, OK, CommandWatchdog
 
-from conftest import MOTIONS, PAPER_ROBOT
+from conftest import MOTIONS, PAPER_ROBOT, kept
 
 
 def test_watchdog_holds_then_brakes_and_a_fresh_command_releases():
@@ -180,7 +180,7 @@ def test_controller_withholds_a_command_that_would_not_be_finite(controller_node
     from cdpr_msgs_py.conversions import joint_state
     node, m = controller_node, paper_robot.cable_count
     sent = []
-    node.publisher.publish = sent.append
+    node.publisher.publish = kept(sent, node.publisher)
     node.on_reference(joint_state(joint_names(m), 0, [1e308] * m, [-1e308] * m, [0.0] * m))
     node.on_state(joint_state(joint_names(m), 0, [0.0] * m, [1e308] * m))
     assert sent == [] and node.diagnostics.rejected['joint_states'] == 1
@@ -213,7 +213,7 @@ def realtime_generator(realtime_ros):
     from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
     node = TrajectoryGeneratorNode()
     sent = []
-    node.reference.publish = sent.append
+    node.reference.publish = kept(sent, node.reference)
     node.pose.publish = lambda message: None
     node.on_state(joint_state_message(node.robot, 0, 0.0))
     yield node, sent
@@ -283,7 +283,7 @@ def test_twin_bridges_a_gap_in_the_references_as_the_controller_does(realtime_ro
     node = DigitalTwinNode()
     try:
         published = []
-        node.joints.publish = published.append
+        node.joints.publish = kept(published, node.joints)
         node.pose.publish = lambda message: None
         names = joint_names(paper_robot.cable_count)
         received = [0, 1, 2, 40, 41]   # the references of ticks 3 … 39 never came

@@ -162,9 +162,14 @@ class JointController:
         self.tracked: JointReference | None = None
         self.applied_nm = np.zeros(robot.cable_count)
 
-    def set_mode(self, mode: str) -> None:
+    @staticmethod
+    def check_mode(mode: str) -> None:
+        """ValueError for a mode that is none of the contract's."""
         if mode not in MODES:
             raise ValueError(f'unknown mode {mode!r}; one of {", ".join(MODES)}')
+
+    def set_mode(self, mode: str) -> None:
+        self.check_mode(mode)
         self.mode = mode
 
     def set_broken(self, cables) -> None:

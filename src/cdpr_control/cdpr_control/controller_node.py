@@ -3,8 +3,10 @@
 
 Lockstep: the state of tick k is answered with the reference of exactly tick k (or, in
 recovery, the supervisor's setpoint of tick k); with `wait_for_supervisor` also only
-after the supervisor's residual of tick k − 1, so its verdict applies from tick k as in
-the in-process engine. Realtime: the latest of each, never waiting.
+after the supervisor's residual of tick k − VERDICT_DELAY_TICKS, and a verdict (the
+broken cable, the mode, which carry no stamp) applies from the tick its residual names +
+VERDICT_DELAY_TICKS, as in the in-process engine: the twin and the supervisor run a tick
+behind the loop. Realtime: the latest of each, never waiting; a verdict applies at once.
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ from std_msgs.msg import Int32, String
 
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.contract import NOMINAL, SAFE_HOLD
-from cdpr_msgs_py.conversions import joint_state
+from cdpr_msgs_py.conversions import joint_state_bytes
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import NANOSECONDS
@@ -46,6 +48,11 @@ class ControllerNode(CdprNode):
             "lockstep: answer a state only after the supervisor's residual of the tick before")
         self.names = contract.joint_names(self.robot.cable_count)
         self.verdict_ns: int | None = None
+        self.delay_ns = contract.VERDICT_DELAY_TICKS * self.period_ns
+        # lockstep: the verdict heard since the last residual (broken cables, mode), due
+        # from that residual's tick + VERDICT_DELAY_TICKS
+        self.heard_cables: list[int] = []
+        self.heard_mode: str | None = None
         self.first_state_ns: int | None = None
         self.pending = None
         self.answered: dict[int, np.ndarray] = {}
@@ -88,7 +95,15 @@ class ControllerNode(CdprNode):
         if joints is not None:
             self.verdict_ns = (joints.stamp_ns if self.verdict_ns is None
                                else max(joints.stamp_ns, self.verdict_ns))
+            if self.heard_cables or self.heard_mode is not None:
+                self.setpoints.verdict(joints.stamp_ns + self.delay_ns, self.heard_cables, self.heard_mode)
+                self.heard_cables, self.heard_mode = [], None
             self.retry()
+
+    @property
+    def verdicts_by_tick(self) -> bool:
+        """Lockstep with a supervisor: a verdict waits for the residual that names its tick."""
+        return self.wait_for_supervisor and self.clock_mode == 'lockstep'
 
     def on_state(self, message: JointState) -> None:
         joints = self.joints_or_reject(message, contract.JOINT_STATES, ('position', 'velocity'))
@@ -105,12 +120,13 @@ class ControllerNode(CdprNode):
             self.answer(self.pending)
 
     def verdict_arrived(self, stamp_ns: int) -> bool:
-        """Lockstep with a supervisor: its verdict on the previous tick is in."""
-        if not (self.wait_for_supervisor and self.clock_mode == 'lockstep'):
+        """Lockstep with a supervisor: its verdict due on this tick (of the tick
+        VERDICT_DELAY_TICKS before) is in."""
+        if not self.verdicts_by_tick:
             return True
-        if stamp_ns - self.period_ns < self.first_state_ns:
+        if stamp_ns - self.delay_ns < self.first_state_ns:
             return True
-        return self.verdict_ns is not None and self.verdict_ns >= stamp_ns - self.period_ns
+        return self.verdict_ns is not None and self.verdict_ns >= stamp_ns - self.delay_ns
 
     def report_safe_hold(self) -> None:
         """At once, as ERROR, on /diagnostics and (once: Diagnostics logs an episode's
@@ -148,22 +164,30 @@ class ControllerNode(CdprNode):
             return
         torque = torque.copy()
         torque[self.controller.broken] = 0.0   # also on a command answered before the break
-        self.publisher.publish(joint_state(self.names, joints.stamp_ns, effort=torque))
+        self.publisher.publish(joint_state_bytes(self.names, joints.stamp_ns, effort=torque))
         self.diagnostics.count('commands')
 
     def on_broken_cable(self, message: Int32) -> None:
         if not 0 <= message.data <= self.robot.cable_count:
             self.diagnostics.reject(contract.FDI_BROKEN_CABLE, f'cable {message.data} out of range')
             return
-        if message.data:
+        if not message.data:
+            return
+        if self.verdicts_by_tick:
+            self.heard_cables.append(message.data)
+        else:
             self.setpoints.cable_broken(message.data)
 
     def on_mode(self, message: String) -> None:
         try:
-            self.setpoints.set_mode(message.data)
+            JointController.check_mode(message.data)
         except ValueError as err:
             self.diagnostics.reject(contract.MODE, str(err))
             return
+        if self.verdicts_by_tick:
+            self.heard_mode = message.data
+            return
+        self.setpoints.set_mode(message.data)
         self.answered = {}   # a state sent again is answered in the new mode
 
 

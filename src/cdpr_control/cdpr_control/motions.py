@@ -7,7 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from .config import Section, load_config, load_section
+from .pose_reference import sampled
 from .pose_trajectories import PoseTrajectory, Turn
+from .reference import tick_times
 from .rotation import from_axis_angle, product
 from .trajectories import Circle, Hold, Sequence, StraightLine, quintic_time_at_fraction
 
@@ -128,3 +130,14 @@ class PoseMotion:
     @property
     def name(self) -> str:
         return self.motion.name
+
+
+def reference_poses(robot, motion: Section, period_s: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """The poses (positions n × 3, a platform's orientations n × 4, else None) of the
+    settled `motion` at every tick, as the trajectory generator tabulates them (its
+    reference table's rows, to the bit): what the plant simulator tracks its truth against."""
+    path = motion_from_settled(motion)
+    if robot.platform is None:
+        return path.trajectory.sample(tick_times(period_s, path.trajectory.duration_s))[0], None
+    sample = sampled(with_turn(path, motion, robot.platform.home_orientation).trajectory, period_s)
+    return sample.position_m, sample.orientation

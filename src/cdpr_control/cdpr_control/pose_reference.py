@@ -7,7 +7,7 @@ import numpy as np
 
 from . import pose_dynamics
 from .pose_trajectories import PoseTrajectory
-from .reference import ReferenceTable
+from .reference import ReferenceTable, tick_times
 from .robot import Robot
 from .tension_distribution import InfeasibleTensionError, TensionDistribution
 
@@ -36,8 +36,8 @@ def tabulate_pose_reference(robot: Robot, tension_distribution: TensionDistribut
 def sampled(trajectory: PoseTrajectory, period_s: float, rows: int | None = None):
     """The trajectory's PoseSample every `period_s` from its start to its end (its first
     `rows` samples where given)."""
-    count = int(round(trajectory.duration_s / period_s)) + 1
-    return trajectory.sample(np.arange(count if rows is None else min(count, rows)) * period_s)
+    times = tick_times(period_s, trajectory.duration_s)
+    return trajectory.sample(times if rows is None else times[:rows])
 
 
 def table_of(period_s: float, sample, dynamics, rows: slice) -> PoseReferenceTable:

@@ -31,6 +31,13 @@ class ReferenceTable:
         return min(max(int(np.floor(time_s / self.period_s + 1e-9)), 0), len(self) - 1)
 
 
+def tick_times(period_s: float, duration_s: float, start_s: float = 0.0) -> np.ndarray:
+    """The times (s) of the ticks of `duration_s` from `start_s`, both ends included: where
+    a trajectory is tabulated."""
+    count = int(round(duration_s / period_s)) + 1
+    return start_s + np.arange(count) * period_s
+
+
 def tabulate_reference(robot: Robot, tension_distribution: TensionDistribution,
                        trajectory: Trajectory, period_s: float, start_s: float = 0.0,
                        duration_s: float | None = None, attached=None) -> ReferenceTable:
@@ -39,8 +46,7 @@ def tabulate_reference(robot: Robot, tension_distribution: TensionDistribution,
     With `attached` (boolean mask) only those cables carry the load; the others' rows are 0.
     """
     duration_s = trajectory.duration_s - start_s if duration_s is None else duration_s
-    count = int(round(duration_s / period_s)) + 1
-    position, velocity, acceleration = trajectory.sample(start_s + np.arange(count) * period_s)
+    position, velocity, acceleration = trajectory.sample(tick_times(period_s, duration_s, start_s))
     dynamics = inverse_dynamics(robot, tension_distribution, position, velocity, acceleration,
                                 attached)
     angle = inverse_kinematics(robot, position)

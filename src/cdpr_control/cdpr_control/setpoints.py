@@ -2,8 +2,10 @@
 
 The trajectory's references, the recovery's joint references and its tension setpoints
 arrive stamped (ns) for the tick they belong to; the supervisor's mode and broken cables
-steer which of them the controller uses. The controller node feeds it from topics, the
-in-process engine from the cores directly: both take the same setpoint for the same tick.
+steer which of them the controller uses. A verdict steers from the tick it is due
+(`verdict`: the judged tick + contract.VERDICT_DELAY_TICKS), whenever it arrives before
+it. The controller node feeds it from topics, the in-process engine from the cores
+directly: both take the same setpoint for the same tick.
 
 Lockstep (`exact`): a tick is answered with the setpoint stamped exactly for it, and waits
 for it. Realtime: with the latest one not after it, never waiting; a trajectory reference
@@ -52,6 +54,8 @@ class Setpoints:
         self.recovery_tensions = StampedBuffer()
         # Why the robot holds because an input went stale (realtime), once it does.
         self.safe_hold_reason = ''
+        # verdicts not yet due: (due stamp ns, broken cables 1-based, mode or None)
+        self.pending: list[tuple[int, list[int], str | None]] = []
 
     def put_reference(self, stamp_ns: int, reference: JointReference) -> None:
         self.references.put(stamp_ns, reference)
@@ -67,8 +71,24 @@ class Setpoints:
         self.controller.set_broken([cable - 1])
 
     def set_mode(self, mode: str) -> None:
-        """The supervisor's mode (ValueError for an unknown one)."""
+        """The supervisor's mode, from now on (ValueError for an unknown one)."""
         self.controller.set_mode(mode)
+
+    def verdict(self, due_ns: int, broken_cables: list[int], mode: str | None) -> None:
+        """A verdict (the broken cables, 1-based, and the mode, None: unchanged) that
+        steers the ticks stamped `due_ns` and later (ValueError for an unknown mode, now)."""
+        if mode is not None:
+            self.controller.check_mode(mode)
+        self.pending.append((due_ns, list(broken_cables), mode))
+
+    def apply_due(self, stamp_ns: int) -> None:
+        """The verdicts due by the tick stamped `stamp_ns`, in the order they came."""
+        while self.pending and self.pending[0][0] <= stamp_ns:
+            _, cables, mode = self.pending.pop(0)
+            for cable in cables:
+                self.cable_broken(cable)
+            if mode is not None:
+                self.set_mode(mode)
 
     def go_safe_hold(self, why: str) -> bool:
         """Realtime, an input went stale: hold where the last reference was, at rest. True
@@ -101,6 +121,7 @@ class Setpoints:
     def command(self, stamp_ns: int, angle_rad, angular_velocity_rad_s) -> np.ndarray | None:
         """The motor torques (N·m) for the state of the tick stamped `stamp_ns`; None
         while its setpoint has not arrived (lockstep)."""
+        self.apply_due(stamp_ns)
         ready, reference = self.select(stamp_ns)
         if not ready:
             return None

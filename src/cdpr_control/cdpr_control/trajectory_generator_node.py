@@ -1,4 +1,5 @@
-"""trajectory_generator: /cdpr/reference (θ_d, θ̇_d, c_ID) and /cdpr/reference/pose.
+"""trajectory_generator: /cdpr/reference (θ_d, θ̇_d, c_ID), every tick, and
+/cdpr/reference/pose, on the view ticks.
 
 Time comes from the stamps of /cdpr/joint_states (sim time in lockstep, the robot's
 clock in realtime); each reference is published `reference_lead_cycles` ahead, so the
@@ -19,8 +20,8 @@ from geometry_msgs.msg import PointStamped, PoseStamped
 from sensor_msgs.msg import JointState
 
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import (IDENTITY_ORIENTATION, InvalidMessage, joint_state, point_from_message,
-                                      pose_stamped, stamp_to_ns)
+from cdpr_msgs_py.conversions import (IDENTITY_ORIENTATION, InvalidMessage, joint_state_bytes, point_from_message,
+                                      pose_stamped, stamp_of)
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 
@@ -66,7 +67,7 @@ class TrajectoryGeneratorNode(CdprNode):
         settings.declare(self)
 
     def on_state(self, message: JointState) -> None:
-        stamp = stamp_to_ns(message.header.stamp)
+        stamp = stamp_of(message)
         if self.origin_ns is None:
             self.origin_ns = stamp
         tick = (stamp - self.origin_ns) // self.period_ns
@@ -77,13 +78,14 @@ class TrajectoryGeneratorNode(CdprNode):
     def publish(self, index: int) -> None:
         table, row = self.schedule.sample(index)
         stamp = self.origin_ns + index * self.period_ns
-        self.reference.publish(joint_state(
+        self.reference.publish(joint_state_bytes(
             self.names, stamp, table.angle_rad[row], table.angular_velocity_rad_s[row],
             table.feedforward_nm[row]))
-        # for the recorder and viewers only (contract.Topic.on_demand)
-        self.pose.publish_if_subscribed(lambda: pose_stamped(
-            stamp, table.position_m[row], IDENTITY_ORIENTATION if self.robot.platform is None
-            else table.orientation[row]))
+        if self.view_ticks.at(stamp):
+            # a view topic: for the recorder and viewers only (contract.Topic.on_demand)
+            self.pose.publish_if_subscribed(lambda: pose_stamped(
+                stamp, table.position_m[row], IDENTITY_ORIENTATION if self.robot.platform is None
+                else table.orientation[row]))
         self.diagnostics.count('references')
 
     def on_goal(self, message: PointStamped) -> None:

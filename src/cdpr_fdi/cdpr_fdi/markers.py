@@ -1,18 +1,20 @@
 """What RViz and Foxglove draw of a run (/cdpr/markers), as plain shapes from numpy inputs.
 
-The cables run from their exit points A_i to the end-effector p, coloured by the
-sensorless tension τ̂ (residual.sensorless_tensions) on a scale from the robot's
-tension_min_n (blue) to tension_max_n (red); a broken cable hangs from its exit point,
-grey, thin and dashed. p is forward kinematics of the measured angles, over the remaining
-cables once a cable is broken, as the supervisor and the report find it. The twin's
-end-effector, the safe point, the residual SEW outline at the safe point's height and the
-path of the recovery setpoints complete the picture. A platform's safe pose is drawn as
-its body there (its origin joined to its attachment points at the safe orientation), and
-its residual workspace at the safe height as the points of the section it was found on
-(safe_pose.py): a platform's section need not be convex, so no outline is drawn.
+A frame per view tick, from the view topics of that tick (design.md §3) and the verdict:
+the cables run from their exit points A_i to the end-effector, coloured by their true
+tension on a scale from the robot's tension_min_n (blue) to tension_max_n (red); a broken
+cable hangs from its exit point, grey, thin and dashed. The end-effector is the true one
+(ground truth); on a real robot, which has none, the cables run to the twin's, uncoloured.
+The twin's end-effector, the reference, the safe point, the residual SEW outline at the
+safe point's height and the path the end-effector has taken since the naming complete
+the picture. A platform's safe pose is drawn as its body there (its origin joined to its
+attachment points at the safe orientation), and its residual workspace at the safe
+height as the points of the section it was found on (safe_pose.py): a platform's section
+need not be convex, so no outline is drawn.
 
-`Frame` gathers the messages of a run as they come and returns the shapes of one frame;
-the markers node publishes them, and bag_io writes them into an in-process run's bag.
+`Frame` gathers the view messages of a run as they come and gives the shapes of each view
+tick once that tick's messages are all in; the markers node publishes them, and bag_io
+writes them into an in-process run's bag.
 """
 from __future__ import annotations
 
@@ -21,16 +23,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from cdpr_control.config import Section
-from cdpr_control.friction import FrictionModel
-from cdpr_control.kinematics import KinematicsError
-from cdpr_control.pose_kinematics import end_effector_positions, pose_of_angles
 from cdpr_control.robot import Robot
 from cdpr_control.workspace import sew_cross_section
 
-from . import tick_arithmetic
 from .config import RecoveryConfig
 from .recovery import RecoveryInfeasible, safe_point_for, safe_pose_for
-from .residual import sensorless_tensions
 
 # Every point is in the world frame of docs/design.md §4 (z up).
 FRAME_ID = 'world'
@@ -41,6 +38,9 @@ LINE_LIST, LINE_STRIP, SPHERE_LIST = 'LINE_LIST', 'LINE_STRIP', 'SPHERE_LIST'
 TENSION_SCALE = np.array([[0.1, 0.3, 1.0, 1.0], [0.1, 0.9, 0.2, 1.0], [1.0, 0.1, 0.1, 1.0]])
 BROKEN_GREY = (0.55, 0.55, 0.55, 1.0)
 END_EFFECTOR_COLOUR = (0.85, 0.85, 0.9, 1.0)
+# A cable whose tension is not known (a real robot's: no ground truth).
+UNKNOWN_TENSION_COLOUR = (0.7, 0.7, 0.7, 1.0)
+REFERENCE_COLOUR = (0.1, 0.1, 0.1, 1.0)
 # Half transparent: the twin's ball shows through where it overlaps the robot's.
 TWIN_COLOUR = (0.2, 0.6, 1.0, 0.45)
 SAFE_POINT_COLOUR = (1.0, 0.8, 0.0, 1.0)
@@ -63,11 +63,11 @@ class Shape:
 @dataclass(frozen=True)
 class MarkerStyle:
     """The `markers` section (defaults/markers.yaml)."""
-    rate_hz: float
     cable_width_m: float
     broken_cable_width_m: float
     dash_length_m: float
     end_effector_diameter_m: float
+    reference_diameter_m: float
     safe_point_diameter_m: float
     line_width_m: float
     path_spacing_m: float
@@ -75,10 +75,6 @@ class MarkerStyle:
     @classmethod
     def from_section(cls, section: Section) -> 'MarkerStyle':
         return cls(**{name: section.number(name, positive=True) for name in cls.__dataclass_fields__})
-
-    def frame_ticks(self, period_s: float) -> int:
-        """Control ticks per frame (at least one)."""
-        return max(1, int(round(1.0 / (self.rate_hz * period_s))))
 
 
 def tension_colour(tension_n: np.ndarray, tension_min_n: float, tension_max_n: float) -> np.ndarray:
@@ -110,13 +106,14 @@ def _single(namespace: str, kind: str, points_m, colour, scale_m: float, id: int
 
 
 def cable_shapes(robot: Robot, style: MarkerStyle, ends_m: np.ndarray,
-                 tension_n: np.ndarray, broken_cables: list[int]) -> list[Shape]:
+                 tension_n: np.ndarray | None, broken_cables: list[int]) -> list[Shape]:
     """Per cable (id = its 1-based number): a line from its exit point to where it ends on
     the end-effector (`ends_m`, m × 3: Robot.cable_ends_m) coloured by its
-    tension, or, for a broken cable, a dashed grey line hanging straight down from its exit
-    point to its end's height (none when the end is found at that height or above: a
-    marker of no points has nothing to draw, nor a colour)."""
-    colours = tension_colour(tension_n, robot.tension_min_n, robot.tension_max_n)
+    tension (None: unknown, grey), or, for a broken cable, a dashed grey line hanging
+    straight down from its exit point to its end's height (none when the end is found at
+    that height or above: a marker of no points has nothing to draw, nor a colour)."""
+    colours = (np.tile(UNKNOWN_TENSION_COLOUR, (robot.cable_count, 1)) if tension_n is None
+               else tension_colour(tension_n, robot.tension_min_n, robot.tension_max_n))
     shapes = []
     for index, (exit_point, end) in enumerate(zip(robot.exit_points_m, ends_m)):
         cable = index + 1
@@ -139,52 +136,31 @@ def platform_body(robot: Robot, position_m, orientation) -> np.ndarray:
 
 
 class Frame:
-    """A run's markers as its messages arrive: the measured state of each tick, the
-    broken cables, the twin's pose, the recovery setpoints; `shapes()` gives those of one
-    frame.
+    """A run's markers as its view messages arrive: per view tick (its stamp, ns) the true
+    pose and tensions (`ground_truth`: a simulated run's), the twin's and the reference's
+    pose; and the broken cables as named. `take()` gives the shapes of the newest tick
+    whose messages are all in (once each; older incomplete ticks are passed over)."""
 
-    The tension a cable is coloured by is τ̂ averaged over the ticks since the last frame:
-    the mean of per-tick estimates, whose acceleration is then the speed change over the
-    whole frame, far less noisy than one tick's.
-    """
-
-    def __init__(self, robot: Robot, friction: FrictionModel, recovery: RecoveryConfig,
-                 style: MarkerStyle):
+    def __init__(self, robot: Robot, recovery: RecoveryConfig, style: MarkerStyle, ground_truth: bool = True):
         self.robot = robot
-        self.friction = friction
         self.recovery = recovery
         self.style = style
+        self.ground_truth = ground_truth
+        self.needed = {'twin', 'reference'} | ({'true_pose', 'true_tension'} if ground_truth else set())
         self.broken_cables: list[int] = []
-        self.angle_rad: np.ndarray | None = None
-        self.twin_position_m: np.ndarray | None = None
-        self.previous: tuple[float, np.ndarray] | None = None   # (time s, speed rad/s)
-        self.tension_sum_n = np.zeros(robot.cable_count)
-        self.tension_ticks = 0
-        self.tension_n = np.zeros(robot.cable_count)
-        self.recovery_path_m: list[np.ndarray] = []
+        # stamp ns → what arrived of that view tick: name → value
+        self.ticks: dict[int, dict] = {}
+        self.drawn_ns = -1
+        self.path_m: list[np.ndarray] = []
         self.safe_point_m: np.ndarray | None = None
         self.sew_outline_m: np.ndarray | None = None
         # a platform's: its body at the safe pose (pairs of points) and the section's points
         self.safe_body_m: np.ndarray | None = None
         self.residual_section_m: np.ndarray | None = None
-        # on_state's sensorless tensions ready before the first state arrives
-        tick_arithmetic.kernel().load_all()
 
     @property
     def attached(self) -> np.ndarray:
         return self.robot.cable_mask([cable - 1 for cable in self.broken_cables])
-
-    def on_state(self, time_s: float, angle_rad, angular_velocity_rad_s, applied_torque_nm) -> None:
-        """A measured tick: θ, θ̇ and the torque applied over the period that ended."""
-        speed = np.asarray(angular_velocity_rad_s, float)
-        if self.previous is not None and time_s > self.previous[0]:
-            before_s, before = self.previous
-            self.tension_sum_n += sensorless_tensions(
-                self.robot.motor, self.friction, np.asarray(applied_torque_nm, float), before,
-                speed, time_s - before_s)
-            self.tension_ticks += 1
-        self.previous = (time_s, speed)
-        self.angle_rad = np.asarray(angle_rad, float)
 
     def on_broken_cable(self, cable: int) -> None:
         """fdi/broken_cable: 0 while healthy, then each broken cable (1-based)."""
@@ -214,60 +190,42 @@ class Frame:
         self.residual_section_m = np.column_stack([pose.section_m, np.full(len(pose.section_m),
                                                                            pose.position_m[2])])
 
-    def on_twin_pose(self, position_m) -> None:
-        self.twin_position_m = np.asarray(position_m, float)
+    def on_view(self, name: str, stamp_ns: int, value) -> None:
+        """A view message of the tick stamped `stamp_ns`: `name` twin, reference or
+        true_pose ((position m, orientation or None)), true_tension (N per cable)."""
+        if stamp_ns > self.drawn_ns:
+            self.ticks.setdefault(stamp_ns, {})[name] = value
 
-    def on_recovery_reference(self, angle_rad) -> None:
-        """A recovery setpoint's angles: its pose joins the path when it is path_spacing_m
-        from the last one kept. Before the broken cable is known its free motor's angle
-        would enter the pose: such a setpoint is left out."""
-        if not self.broken_cables:
-            return
-        try:
-            position = end_effector_positions(self.robot, np.asarray(angle_rad, float), self.attached)
-        except (KinematicsError, np.linalg.LinAlgError):
-            return
-        if (not self.recovery_path_m
-                or np.linalg.norm(position - self.recovery_path_m[-1]) >= self.style.path_spacing_m):
-            self.recovery_path_m.append(position)
-
-    def end_effector_pose(self) -> tuple[np.ndarray, np.ndarray | None] | None:
-        """Forward kinematics of the last measured angles over the remaining cables:
-        position (m) and a platform's orientation; None before a state or where the
-        lengths admit no pose."""
-        if self.angle_rad is None:
+    def take(self) -> tuple[int, list[Shape]] | None:
+        """(stamp ns, shapes) of the newest complete view tick not drawn yet; None if none."""
+        complete = [stamp for stamp, seen in self.ticks.items() if self.needed <= seen.keys()]
+        if not complete:
             return None
-        try:
-            return pose_of_angles(self.robot, self.angle_rad, self.attached)
-        except (KinematicsError, np.linalg.LinAlgError):
-            return None
+        stamp = max(complete)
+        seen = self.ticks.pop(stamp)
+        self.ticks = {later: value for later, value in self.ticks.items() if later > stamp}
+        self.drawn_ns = stamp
+        return stamp, self.shapes(seen)
 
-    def take_tension_n(self) -> np.ndarray:
-        """τ̂ (N) averaged over the ticks since the last call (the last average if none)."""
-        if self.tension_ticks:
-            self.tension_n = self.tension_sum_n / self.tension_ticks
-            self.tension_sum_n = np.zeros(self.robot.cable_count)
-            self.tension_ticks = 0
-        return self.tension_n
-
-    def shapes(self) -> list[Shape]:
-        """The shapes of one frame; what is not known yet is left out."""
+    def shapes(self, seen: dict) -> list[Shape]:
+        """The shapes of one view tick's messages."""
         style = self.style
-        tension = self.take_tension_n()
-        shapes = []
-        pose = self.end_effector_pose()
-        if pose is not None:
-            position, orientation = pose
-            ends = self.robot.cable_ends_m(position, orientation)
-            shapes += cable_shapes(self.robot, style, ends, tension, self.broken_cables)
+        twin_position, _ = seen['twin']
+        position, orientation = seen['true_pose'] if self.ground_truth else seen['twin']
+        if self.broken_cables and (not self.path_m or np.linalg.norm(position - self.path_m[-1])
+                                   >= style.path_spacing_m):
+            self.path_m.append(np.asarray(position, float))
+        ends = self.robot.cable_ends_m(position, orientation)
+        shapes = cable_shapes(self.robot, style, ends, seen.get('true_tension'), self.broken_cables)
+        if self.ground_truth:
             shapes.append(_single('end_effector', SPHERE_LIST, position, END_EFFECTOR_COLOUR,
                                   style.end_effector_diameter_m))
             if self.robot.platform is not None:
                 shapes.append(_single('platform', LINE_LIST, platform_body(self.robot, position, orientation),
                                       END_EFFECTOR_COLOUR, style.cable_width_m))
-        if self.twin_position_m is not None:
-            shapes.append(_single('twin', SPHERE_LIST, self.twin_position_m, TWIN_COLOUR,
-                                  style.end_effector_diameter_m))
+        shapes.append(_single('twin', SPHERE_LIST, twin_position, TWIN_COLOUR, style.end_effector_diameter_m))
+        shapes.append(_single('reference', SPHERE_LIST, seen['reference'][0], REFERENCE_COLOUR,
+                              style.reference_diameter_m))
         if self.safe_point_m is not None:
             shapes.append(_single('safe_point', SPHERE_LIST, self.safe_point_m, SAFE_POINT_COLOUR,
                                   style.safe_point_diameter_m))
@@ -278,7 +236,6 @@ class Frame:
             shapes.append(_single('safe_pose', LINE_LIST, self.safe_body_m, SAFE_POINT_COLOUR, style.cable_width_m))
             shapes.append(_single('residual_section', SPHERE_LIST, self.residual_section_m, SEW_COLOUR,
                                   style.line_width_m))
-        if len(self.recovery_path_m) >= 2:
-            shapes.append(_single('recovery_path', LINE_STRIP, self.recovery_path_m, PATH_COLOUR,
-                                  style.line_width_m))
+        if len(self.path_m) >= 2:
+            shapes.append(_single('recovery_path', LINE_STRIP, self.path_m, PATH_COLOUR, style.line_width_m))
         return shapes

@@ -1,9 +1,10 @@
 """markers: the run for RViz and Foxglove on /cdpr/markers (visualization_msgs/MarkerArray,
-frame `world`), `markers.rate_hz` times a second of wall-clock time.
+frame `world`), a frame per view tick (streams.view_rate_hz), stamped with it.
 
-It reads what it draws and nothing more (joint_states, twin/pose, fdi/broken_cable,
-recovery/reference), takes no part in the start handshake and runs at background
-priority in realtime: the loop never waits for it. The shapes are cdpr_fdi.markers'.
+It reads the view topics of the tick it draws (ground_truth/pose and /tensions,
+twin/pose, reference/pose) and the verdict (fdi/broken_cable), no loop topic; it takes no
+part in the start handshake and runs at background priority in realtime: the loop never
+waits for it. The shapes are cdpr_fdi.markers'.
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import InvalidMessage, ns_to_stamp, pose_from_message
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
-from cdpr_msgs_py.stamps import NANOSECONDS
+from cdpr_msgs_py.stamps import stamp_to_ns
 
 from .config import settled_fdi
 from .markers import FRAME_ID, Frame, MarkerStyle, Shape
@@ -51,37 +52,41 @@ class MarkersNode(CdprNode):
         super().__init__(contract.MARKERS_NODE)
         settings = node_settings(self, contract.MARKERS_NODE)
         self.robot = settings.robot
-        fdi, recovery = settled_fdi(settings, self.robot)
+        _, recovery = settled_fdi(settings, self.robot)
         style = MarkerStyle.from_section(settings.section('markers'))
-        self.frame = Frame(self.robot, fdi.friction, recovery, style)
+        ground_truth = self.parameter('ground_truth', True,
+                                      'the graph has a plant simulator, whose ground truth is drawn '
+                                      '(false beside a hardware bridge: the twin is)')
+        self.frame = Frame(self.robot, recovery, style, ground_truth)
         self.names = contract.joint_names(self.robot.cable_count)
-        self.stamp_ns: int | None = None
         self.markers = self.create_publisher(MarkerArray, contract.MARKERS,
                                              qos.of_readers(contract.MARKERS))
-        self.create_subscription(JointState, contract.JOINT_STATES, self.on_state,
-                                 qos.of_readers(contract.JOINT_STATES))
-        self.create_subscription(PoseStamped, contract.TWIN_POSE, self.on_twin_pose,
-                                 qos.of_readers(contract.TWIN_POSE))
+        views = [(contract.TWIN_POSE, 'twin'), (contract.REFERENCE_POSE, 'reference')]
+        if ground_truth:
+            views.append((contract.GROUND_TRUTH_POSE, 'true_pose'))
+            self.create_subscription(JointState, contract.GROUND_TRUTH_TENSIONS, self.on_tensions,
+                                     qos.of_readers(contract.GROUND_TRUTH_TENSIONS))
+        for topic, name in views:
+            self.create_subscription(PoseStamped, topic, lambda message, t=topic, n=name: self.on_pose(t, n, message),
+                                     qos.of_readers(topic))
         self.create_subscription(Int32, contract.FDI_BROKEN_CABLE, self.on_broken_cable,
                                  qos.of_readers(contract.FDI_BROKEN_CABLE))
-        self.create_subscription(JointState, contract.RECOVERY_REFERENCE, self.on_recovery_reference,
-                                 qos.of_readers(contract.RECOVERY_REFERENCE))
-        self.create_timer(1.0 / style.rate_hz, self.publish_frame)
         settings.declare(self)
 
-    def on_state(self, message: JointState) -> None:
-        joints = self.joints_or_reject(message, contract.JOINT_STATES)
-        if joints is None:
-            return
-        self.stamp_ns = joints.stamp_ns
-        self.frame.on_state(joints.stamp_ns / NANOSECONDS, joints.position, joints.velocity,
-                            joints.effort)
-
-    def on_twin_pose(self, message: PoseStamped) -> None:
+    def on_pose(self, topic: str, name: str, message: PoseStamped) -> None:
         try:
-            self.frame.on_twin_pose(pose_from_message(message)[0])
+            pose = pose_from_message(message)
         except InvalidMessage as err:
-            self.diagnostics.reject(contract.TWIN_POSE, str(err))
+            self.diagnostics.reject(topic, str(err))
+            return
+        self.frame.on_view(name, stamp_to_ns(message.header.stamp), pose)
+        self.publish_frame()
+
+    def on_tensions(self, message: JointState) -> None:
+        joints = self.joints_or_reject(message, contract.GROUND_TRUTH_TENSIONS, ('effort',))
+        if joints is not None:
+            self.frame.on_view('true_tension', joints.stamp_ns, joints.effort)
+            self.publish_frame()
 
     def on_broken_cable(self, message: Int32) -> None:
         if not 0 <= message.data <= self.robot.cable_count:
@@ -89,16 +94,12 @@ class MarkersNode(CdprNode):
             return
         self.frame.on_broken_cable(message.data)
 
-    def on_recovery_reference(self, message: JointState) -> None:
-        joints = self.joints_or_reject(message, contract.RECOVERY_REFERENCE, ('position',))
-        if joints is not None:
-            self.frame.on_recovery_reference(joints.position)
-
     def publish_frame(self) -> None:
-        if self.stamp_ns is None:
-            return
-        self.markers.publish(marker_array(self.frame.shapes(), self.stamp_ns))
-        self.diagnostics.count('frames')
+        drawn = self.frame.take()
+        if drawn is not None:
+            stamp_ns, shapes = drawn
+            self.markers.publish(marker_array(shapes, stamp_ns))
+            self.diagnostics.count('frames')
 
 
 def main(args=None):

@@ -31,7 +31,7 @@ from cdpr_control.robot import Robot
 from cdpr_control.rotation import normalised
 from cdpr_control.steered_approach import SteeredApproach
 from cdpr_control.tension_distribution import FlooredLeastSquares, TensionDistribution
-from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
+from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 
 from .config import RecoveryConfig
 from .pose_recovery import PlatformRecovery, after_the_naming_tick, ease_in
@@ -126,24 +126,26 @@ class PoseApproach(PlatformRecovery):
         return table_reference(self.tables[row // ROWS_PER_STEP], row % ROWS_PER_STEP)
 
     def setpoint(self, tick: int, angle_rad, angular_velocity_rad_s):
-        """(mode, None, JointReference) for tick + 1: the approach's rows, then the arrival
-        pose at rest from the tick SAFE_HOLD starts."""
+        """(mode, None, JointReference) for tick + VERDICT_DELAY_TICKS: the approach's rows,
+        then the arrival pose at rest from the tick SAFE_HOLD starts."""
         if self.mode == SAFE_HOLD:
             return self.mode, None, None
-        reference = self.reference_at(tick + 1)
+        due = tick + VERDICT_DELAY_TICKS
+        reference = self.reference_at(due)
         if reference is None:
             self.mode = SAFE_HOLD
-            self.phase_ticks[SAFE_HOLD] = tick + 1
+            self.phase_ticks[SAFE_HOLD] = due
             reference = self.hold
         return self.mode, None, reference
 
     def planned_references(self, tick: int, count: int, due_tick: int | None = None) -> list[tuple[int, JointReference]]:
-        """(tick, joint reference) of the `count` ticks after tick + 1 (up to the arrival;
-        none outside RECOVERY_MOVE)."""
+        """(tick, joint reference) of the `count` ticks after tick + VERDICT_DELAY_TICKS (up
+        to the arrival; none outside RECOVERY_MOVE)."""
         if self.mode != RECOVERY_MOVE:
             return []
         planned = []
-        for later in range(tick + 2, tick + 2 + count):
+        first = tick + VERDICT_DELAY_TICKS + 1
+        for later in range(first, first + count):
             reference = self.reference_at(later)
             if reference is None:
                 break

@@ -58,7 +58,7 @@ from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTe
                                                TensionDistribution, make_tension_distribution)
 from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N
 from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence
-from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
+from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 
 from .config import RecoveryConfig
 from .planning import PlanAtOnce
@@ -81,23 +81,26 @@ def brake_from(state: PoseSample, duration_s: float, rest_m, rest_orientation) -
 
 def after_the_naming_tick(robot: Robot, attached: np.ndarray, position_m, orientation, velocity_m_s,
                           angular_velocity_rad_s, command_nm, period_s: float) -> PoseSample:
-    """The platform's state one period after the naming tick's (p, q, v, ω), where the
-    torques `command_nm` already commanded on that tick move it over that period (the
-    rigid model's direct dynamics, one period on by semi-implicit Euler as the steered
-    approach's rows are, platform_substeps.move): a recovery's
-    plans start there, on the tick after the naming — planned from the naming state with
-    their own motion over that period, the drives chased the difference at the takeover
-    (docs/platform.md). Its accelerations are zero (the plans set their own)."""
-    commanded = pose_dynamics.direct_dynamics(robot, position_m, orientation, velocity_m_s,
-                                              angular_velocity_rad_s, command_nm,
-                                              joint_velocity(robot, position_m, orientation, velocity_m_s,
-                                                             angular_velocity_rad_s), attached)
-    acceleration = np.concatenate([commanded.acceleration_m_s2, commanded.angular_acceleration_rad_s2])
+    """The platform's state on the tick its recovery takes over, VERDICT_DELAY_TICKS
+    periods after the naming tick's (p, q, v, ω): the torques `command_nm` commanded on
+    the naming tick move it over the first period, and the controller's nominal answer of
+    the tick after, not known here, is taken as the same (the rigid model's direct
+    dynamics, a period at a time by semi-implicit Euler as the steered approach's rows
+    are, platform_substeps.move). A recovery's plans start there — planned from the
+    naming state with their own motion over those periods, the drives chased the
+    difference at the takeover (docs/platform.md). Its accelerations are zero (the plans
+    set their own)."""
     pose = np.concatenate([np.asarray(position_m, dtype=float), normalised(orientation)])
     twist = np.concatenate([np.asarray(velocity_m_s, dtype=float), np.asarray(angular_velocity_rad_s, dtype=float)])
-    platform_substeps.kernel().move(pose, twist, acceleration, period_s)
+    for _ in range(VERDICT_DELAY_TICKS):
+        position, turned, velocity, angular_velocity = pose[:3], pose[3:], twist[:3], twist[3:]
+        commanded = pose_dynamics.direct_dynamics(robot, position, turned, velocity, angular_velocity, command_nm,
+                                                  joint_velocity(robot, position, turned, velocity, angular_velocity),
+                                                  attached)
+        acceleration = np.concatenate([commanded.acceleration_m_s2, commanded.angular_acceleration_rad_s2])
+        platform_substeps.kernel().move(pose, twist, acceleration, period_s)
     zero = np.zeros(3)
-    return PoseSample(pose[:3], pose[3:], twist[:3], twist[3:], zero, zero)
+    return PoseSample(pose[:3].copy(), pose[3:].copy(), twist[:3].copy(), twist[3:].copy(), zero, zero)
 
 
 def ease_in(table: PoseReferenceTable, command_nm: np.ndarray, step_share: float, attached: np.ndarray,
@@ -139,7 +142,7 @@ class PlatformRecovery:
         self.lowered = LoweredFloor(self.margin, robot.tension_min_n)
         self.mode = RECOVERY_MOVE
         self.phase_ticks = {RECOVERY_MOVE: start_tick}
-        self.first_tick = start_tick + 1
+        self.first_tick = start_tick + VERDICT_DELAY_TICKS
         self.timed_out = False
         self.notes: list[str] = []
 
@@ -355,12 +358,12 @@ class PoseRecovery(PlatformRecovery):
 
     def take_move(self, tick: int) -> None:
         """The move, once planned: its first row (the brake's rest) on the brake's last
-        tick, or on tick + 1 where the plan came later (the platform held at rest till
-        then). Raises what planning raised."""
+        tick, or on the tick the verdict on `tick` is due where the plan came later (the
+        platform held at rest till then). Raises what planning raised."""
         if self.move is not None or self.planned_move is None or not self.planned_move.done():
             return
         self.move, note = self.planned_move.result()
-        self.move_start_tick = max(self.brake_end_tick, tick + 1)
+        self.move_start_tick = max(self.brake_end_tick, tick + VERDICT_DELAY_TICKS)
         self.notes += [note] if note else []
         if self.move_start_tick > self.brake_end_tick:
             self.notes.append(f'the move to the safe pose was planned {self.move_start_tick - self.brake_end_tick} '
@@ -377,34 +380,36 @@ class PoseRecovery(PlatformRecovery):
         return table_reference(self.brake, min(row, len(self.brake) - 1))
 
     def setpoint(self, tick: int, angle_rad, angular_velocity_rad_s):
-        """(mode, None, JointReference or None) for tick + 1: the brake's rows, its rest
-        until the move is planned, the move's rows, the last on the tick SAFE_HOLD starts,
-        then nothing (the controller holds it at rest)."""
+        """(mode, None, JointReference or None) for tick + VERDICT_DELAY_TICKS: the brake's
+        rows, its rest until the move is planned, the move's rows, the last on the tick
+        SAFE_HOLD starts, then nothing (the controller holds it at rest)."""
         if self.mode == SAFE_HOLD:
             return self.mode, None, None
-        self.settle_brake(tick + 1)
+        due = tick + VERDICT_DELAY_TICKS
+        self.settle_brake(due)
         self.take_move(tick)
-        reference = self.reference_at(tick + 1)
+        reference = self.reference_at(due)
         if reference is None:
             self.mode = SAFE_HOLD
-            self.phase_ticks[SAFE_HOLD] = tick + 1
+            self.phase_ticks[SAFE_HOLD] = due
             reference = table_reference(self.move, len(self.move) - 1)
         return self.mode, None, reference
 
     def planned_references(self, tick: int, count: int, due_tick: int | None = None) -> list[tuple[int, JointReference]]:
-        """(tick, joint reference) of the `count` ticks after tick + 1 that the plans
-        already fix (the brake's rows up to its rest — settled first, as they are to be
+        """(tick, joint reference) of the `count` ticks after tick + VERDICT_DELAY_TICKS that
+        the plans already fix (the brake's rows up to its rest — settled first, as they are to be
         sent, by `due_tick` (settle_brake) —; the move's once taken); none outside
         RECOVERY_MOVE."""
         if self.mode != RECOVERY_MOVE:
             return []
-        self.settle_brake(tick + 1 + count, due_tick)
+        self.settle_brake(tick + VERDICT_DELAY_TICKS + count, due_tick)
         self.take_move(tick)
         # the brake's rows as far as they are settled, and its rest until the move is taken
         last = (self.switch_tick - 1 if self.continuation is not None
                 else self.brake_end_tick if self.move is None else None)
         planned = []
-        for later in range(tick + 2, tick + 2 + count):
+        first = tick + VERDICT_DELAY_TICKS + 1
+        for later in range(first, first + count):
             if last is not None and later > last:
                 break
             reference = self.reference_at(later)

@@ -39,7 +39,7 @@ from cdpr_control.tension_distribution import (InfeasibleTensionError, TensionDi
                                                floored_fit, make_tension_distribution)
 from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence, quintic_profile
 from cdpr_control.workspace import safe_point
-from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
+from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, VERDICT_DELAY_TICKS
 
 from .config import RecoveryConfig
 
@@ -174,25 +174,27 @@ class TabulatedMove:
         raise NotImplementedError
 
     def move_setpoint(self, tick: int) -> JointReference:
-        """The joint reference of tick + 1: the table's row, its last on the tick SAFE_HOLD
-        starts."""
+        """The joint reference of the tick the verdict on `tick` is due (tick +
+        VERDICT_DELAY_TICKS): the table's row, its last on the tick SAFE_HOLD starts."""
         start_tick, table = self.tabulated()
-        row = tick + 1 - start_tick
+        due = tick + VERDICT_DELAY_TICKS
+        row = due - start_tick
         if row >= len(table):
             self.mode = SAFE_HOLD
-            self.phase_ticks[SAFE_HOLD] = tick + 1
+            self.phase_ticks[SAFE_HOLD] = due
             row = len(table) - 1
         return table_reference(table, row)
 
     def planned_references(self, tick: int, count: int, due_tick: int | None = None) -> list[tuple[int, JointReference]]:
-        """(tick, joint reference) of the `count` ticks after tick + 1 that the move under
+        """(tick, joint reference) of the `count` ticks after the one the verdict on `tick`
+        is due (tick + VERDICT_DELAY_TICKS) that the move under
         way already fixes, as far as its table goes; none outside RECOVERY_MOVE. A point
         mass's move is tabulated whole when it starts: nothing waits for `due_tick`
         (PoseRecovery's does)."""
         if self.mode != RECOVERY_MOVE:
             return []
         start_tick, table = self.tabulated()
-        first = tick + 2 - start_tick
+        first = tick + VERDICT_DELAY_TICKS + 1 - start_tick
         return [(start_tick + row, table_reference(table, row))
                 for row in range(max(first, 0), min(first + count, len(table)))]
 
@@ -200,7 +202,8 @@ class TabulatedMove:
 class Recovery(TabulatedMove):
     """Steps through the recovery phases, one control tick at a time.
 
-    `setpoint(tick, angle, speed)` returns the mode and the setpoint for the next tick:
+    `setpoint(tick, angle, speed)` returns the mode and the setpoint for the tick the
+    verdict on `tick` is due (tick + VERDICT_DELAY_TICKS):
     tensions (N) in phase 1, a joint reference in phase 2, nothing in SAFE_HOLD.
     Phase 1 goes from `start_tensions_n` (t_R) to the static tensions at
     `entry_point_m` (see `entry_point`); it is skipped when the end-effector was `inside`
@@ -353,7 +356,7 @@ class Recovery(TabulatedMove):
         return self.move
 
     def setpoint(self, tick: int, angle_rad: np.ndarray, angular_velocity_rad_s: np.ndarray):
-        """(mode, tensions or None, JointReference or None) for tick + 1."""
+        """(mode, tensions or None, JointReference or None) for tick + VERDICT_DELAY_TICKS."""
         state = None
         if self.mode == RECOVERY_TENSION and self.planning_due(tick):
             state = position, velocity = self.end_effector_state(angle_rad, angular_velocity_rad_s)
@@ -379,7 +382,7 @@ class Recovery(TabulatedMove):
                     state = self.end_effector_state(angle_rad, angular_velocity_rad_s)
                 except (ValueError, np.linalg.LinAlgError):
                     state = None
-            return self.mode, self.damped_tension_setpoint(tick + 1, state), None
+            return self.mode, self.damped_tension_setpoint(tick + VERDICT_DELAY_TICKS, state), None
         if self.mode == RECOVERY_MOVE:
             reference = self.move_setpoint(tick)
             return self.mode, None, reference

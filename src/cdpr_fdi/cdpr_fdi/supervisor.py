@@ -3,7 +3,8 @@
 Tick k brings the measured θ_k, θ̇_k and the torque applied over the previous period
 (what the drive reports), the controller's answer c_k, the twin's c_DT,k and θ̇_DT,k, and
 the reference of tick k. The verdict of tick k (broken cables, mode, setpoints) is what
-the controller uses from tick k + 1 on.
+the controller uses from tick k + contract.VERDICT_DELAY_TICKS on, the setpoints those
+of that tick.
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from cdpr_control.kinematics import KinematicsError, forward_kinematics
 from cdpr_control.robot import Robot
 from cdpr_control.safe_pose import tension_margin_n
 from cdpr_control.tension_distribution import TensionDistribution
-from cdpr_msgs_py.contract import FAULT, NOMINAL
+from cdpr_msgs_py.contract import FAULT, NOMINAL, VERDICT_DELAY_TICKS
 
 from . import tick_arithmetic
 from .config import FdiConfig, RecoveryConfig
@@ -80,7 +81,8 @@ class AlarmEvidence:
 
 @dataclass
 class Verdict:
-    """The supervisor's output of one tick; cables 1-based, setpoints for the next tick."""
+    """The supervisor's output of one tick; cables 1-based, setpoints for the tick it is
+    due (tick + VERDICT_DELAY_TICKS)."""
 
     tick: int
     residual_nm: np.ndarray
@@ -224,7 +226,7 @@ class Supervisor:
             if isinstance(self.recovery, PlatformRecovery):
                 events += self.recovery.take_notes()
             if self.mode != previous_mode:
-                events.append(f'{self.mode} from tick {tick + 1}'
+                events.append(f'{self.mode} from tick {tick + VERDICT_DELAY_TICKS}'
                               + (f': {self.fault_reason}' if self.mode == FAULT else ''))
         self.previous_speed = speed.copy()
         self.previous_command = np.array(command_nm, dtype=float)
@@ -399,11 +401,11 @@ class Supervisor:
                             position, orientation, twist[:3], twist[3:], command_nm, self.planner)
 
     def planned_references(self, tick: int, count: int, due_tick: int | None = None) -> list[tuple[int, JointReference]]:
-        """(tick, joint reference) of the `count` ticks after tick + 1 that the recovery's
+        """(tick, joint reference) of the `count` ticks after tick + VERDICT_DELAY_TICKS that the recovery's
         move already fixes (none outside one): sent ahead, a realtime controller that runs
         ahead of the supervisor finds its own tick's, not one 10 ticks old (supervisor_node).
         `due_tick`: the first tick whose reference the drives may want before the next
-        call (a platform's brake waits for its tries till then; tick + 1 + count where not
+        call (a platform's brake waits for its tries till then; tick + VERDICT_DELAY_TICKS + count where not
         given)."""
         if self.recovery is None or self.mode == FAULT:
             return []

@@ -1,13 +1,14 @@
 """supervisor: failure detection, identification and recovery setpoints (paper §3).
 
-Per tick it pairs /cdpr/joint_states, /cdpr/effort_command, /cdpr/twin/joint_states and
+Per tick k it pairs /cdpr/joint_states, /cdpr/effort_command, /cdpr/twin/joint_states and
 /cdpr/reference by stamp, runs the Supervisor core, and publishes, in this order: the
-recovery setpoint for the next tick (in a tabulated move, also those of the ticks up to
-`reference_lead_cycles` after the controller's, once each: a realtime controller running
-ahead of this node finds its own tick's), /cdpr/fdi/broken_cable and /cdpr/mode when they
-change (latched), then /cdpr/fdi/residual of the tick — the controller, in lockstep,
-answers the next state only after that residual, so every verdict applies on the same
-tick as in the in-process engine. It reads the commands of the graph's controller only
+recovery setpoint for the tick its verdict is due (k + contract.VERDICT_DELAY_TICKS; in a
+tabulated move, also those of the ticks up to `reference_lead_cycles` after the
+controller's, once each: a realtime controller running ahead of this node finds its own
+tick's), /cdpr/fdi/broken_cable and /cdpr/mode when they change (latched), then
+/cdpr/fdi/residual of the tick — which tells, in lockstep, which tick the unstamped
+verdict judged: the controller answers state k + 2 only after it, and applies the verdict
+from that tick on, as the in-process engine does. It reads the commands of the graph's controller only
 (parameter `command_writer`), those the plant obeys: another writer's raise no alarm.
 """
 from __future__ import annotations
@@ -24,7 +25,7 @@ from cdpr_control.settings import node_settings
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.contract import NOMINAL
-from cdpr_msgs_py.conversions import joint_state
+from cdpr_msgs_py.conversions import joint_state_bytes
 from cdpr_msgs_py.health import unjudged_problem, verdict_problems
 from cdpr_msgs_py.runtime.diagnostics import LOG_THROTTLE_S
 from cdpr_msgs_py.runtime.node import CdprNode
@@ -135,9 +136,10 @@ class SupervisorNode(CdprNode):
         verdict = self.supervisor.update(
             tick, state.position, state.velocity, state.effort, command.effort, twin.effort,
             twin.velocity, JointReference(reference.position, reference.velocity, reference.effort))
-        following = stamp + self.period_ns
+        # the verdict's setpoints are for the tick it is due
+        following = stamp + contract.VERDICT_DELAY_TICKS * self.period_ns
         if verdict.tension_setpoint_n is not None:
-            self.tensions.publish(joint_state(self.names, following, effort=verdict.tension_setpoint_n))
+            self.tensions.publish(joint_state_bytes(self.names, following, effort=verdict.tension_setpoint_n))
         if verdict.reference is not None:
             # ahead of the controller's tick, not of the one judged, which may trail it: in
             # realtime the plant's clock's, beyond the states this node has had (a stall
@@ -150,7 +152,7 @@ class SupervisorNode(CdprNode):
                                                            tick + behind_ticks + DUE_AHEAD_TICKS)]
             for at_ns, reference in [(following, verdict.reference)] + ahead:
                 if at_ns > self.reference_sent_ns:
-                    self.recovery_reference.publish(joint_state(
+                    self.recovery_reference.publish(joint_state_bytes(
                         self.names, at_ns, reference.angle_rad, reference.angular_velocity_rad_s,
                         reference.feedforward_nm))
                     self.reference_sent_ns = at_ns
@@ -176,7 +178,7 @@ class SupervisorNode(CdprNode):
             if lockstep:
                 self.mode.wait_for_all_acked(ACK_TIMEOUT)
             self.published_mode = verdict.mode
-        self.residual.publish(joint_state(self.names, stamp, effort=verdict.residual_nm))
+        self.residual.publish(joint_state_bytes(self.names, stamp, effort=verdict.residual_nm))
         self.diagnostics.count('ticks')
         if self.supervisor.unjudged_ticks > unjudged:
             self.diagnostics.count('unjudged ticks')

@@ -1,5 +1,7 @@
 """The topic contract of docs/design.md §3: names (relative to the namespace), the one
-table of topics — type, QoS, writer and readers of each — and the modes.
+table of topics — type, QoS, writer, readers and rate of each — the modes, and what a
+tick delivers (design.md §3, "What a tick delivers"): loop topics every tick, view
+topics at the view rate, events on change.
 
 Imported by the core, which runs without ROS: message types are 'package/msg/Name'
 strings here, resolved by message_class() only where a node needs the class.
@@ -34,9 +36,9 @@ DIAGNOSTICS = '/diagnostics'
 # The plant simulator's /diagnostics key: {cable (1-based): instant it really parted (s)}
 # as JSON, ground truth for a run's failure_time_s.
 BROKEN_AT_KEY = 'plant broken_at_s'
-# The plant simulator's /diagnostics key: the true position (m) of the last state it
-# published, as JSON: where the run ended, whatever a recorder kept.
-LAST_TRUE_POSITION_KEY = 'plant last true position m'
+# The plant simulator's /diagnostics key: the figures of the end-effector from every tick
+# (cdpr_twin.run_figures), as JSON: where the run ended among them, whatever a recorder kept.
+RUN_FIGURES_KEY = 'plant run figures'
 
 # The nodes of the graph, by executable. A hardware bridge takes the plant simulator's
 # place on its topics (docs/hardware.md).
@@ -57,12 +59,67 @@ SETTINGS_OF = {
     CONTROLLER: ('control',),
     DIGITAL_TWIN: ('control', 'twin'),
     SUPERVISOR: ('control', 'fdi', 'recovery'),
-    PLANT_SIMULATOR: ('control', 'plant', 'run'),
+    PLANT_SIMULATOR: ('control', 'plant', 'run', 'motion'),
     BAG_RECORDER: ('control',),
     MARKERS_NODE: ('control', 'fdi', 'recovery', 'markers'),
     ROS2_CONTROL_BRIDGE: ('control', 'plant'),
 }
 SETTINGS_OF_EVERY_NODE = ('streams', 'health')
+
+
+class Rate(Enum):
+    """How often a topic is written."""
+    # Control, FDI and the record need every tick: every bag holds every one.
+    TICK = 'every tick'
+    # For people and their tools (RViz, Foxglove, plots): on the view ticks only
+    # (`streams.view_rate_hz`; ViewTicks), the same in both clock modes and both engines.
+    VIEW = 'view rate'
+    # Verdicts, modes, goals, injections, statuses: when there is something to say.
+    CHANGE = 'on change'
+
+
+# The verdict the supervisor gives on tick k (broken cables, mode, recovery setpoints),
+# from the twin's and its own judgement of that tick, steers the loop from tick k + this
+# on, in both engines alike: in lockstep the cycle's critical path is then plant →
+# controller → plant, and the twin and the supervisor run beside it a tick behind.
+VERDICT_DELAY_TICKS = 2
+
+
+# The default of `streams.view_rate_hz` (defaults/streams.yaml).
+VIEW_RATE_HZ = 50.0
+
+
+class ViewTicks:
+    """Which ticks are view ticks: every `every`-th from tick 0 (stamp 0), `every` =
+    the loop rate over `view_rate_hz`, which must divide it; 0 Hz: every tick."""
+
+    def __init__(self, view_rate_hz: float, period_s: float):
+        if view_rate_hz == 0.0:
+            self.every = 1
+        else:
+            ratio = 1.0 / (view_rate_hz * period_s)
+            self.every = max(round(ratio), 1)
+            if not (view_rate_hz > 0.0 and abs(ratio - self.every) < 1e-9 * ratio):
+                raise ValueError(f'{view_rate_hz:g} Hz must divide the loop rate {1.0 / period_s:g} Hz '
+                                 f'(or be 0: every tick)')
+        self.period_ns = round(period_s * 1e9)
+
+    @classmethod
+    def of_streams(cls, streams, period_s: float) -> 'ViewTicks':
+        """From the `streams` section (a cdpr_control.config.Section: this package reads no
+        file); a rate that does not divide the loop's is the key's error."""
+        rate = streams.number('view_rate_hz', VIEW_RATE_HZ, non_negative=True)
+        try:
+            return cls(rate, period_s)
+        except ValueError as err:
+            raise streams.error('view_rate_hz', str(err)) from None
+
+    def at(self, stamp_ns: int) -> bool:
+        """Whether the tick stamped `stamp_ns` is a view tick."""
+        return (stamp_ns // self.period_ns) % self.every == 0
+
+    def of_tick(self, tick: int) -> bool:
+        return tick % self.every == 0
 
 
 class Delivery(Enum):
@@ -103,10 +160,12 @@ class Reader:
 @dataclass(frozen=True)
 class Topic:
     """One topic of the contract. `writer` is None for a topic no node of the graph owns:
-    anyone may write it, or every node does (/diagnostics). `every_tick`: written from the
-    first tick on, so the start handshake has its readers matched before the plant starts
+    anyone may write it, or every node does (/diagnostics). `rate`: how often it is
+    written. `from_first_tick`: a loop or view topic, written from the first tick on, so
+    the start handshake has its readers matched before the plant starts
     (graph.graph_nodes); the rest need none: a latched topic reaches late readers, and the
-    others are written on demand or only in a recovery, long after every reader matched.
+    others are written on demand or only in a recovery, long after every reader matched
+    (`rate` TICK, `from_first_tick` False: recovery/*).
     `lockstep`: written in lockstep only. `simulated`: written by the plant simulator
     only, never by a hardware bridge in its place (the truth, the simulated clock)."""
     name: str
@@ -114,66 +173,72 @@ class Topic:
     delivery: Delivery
     writer: str | None
     readers: tuple[Reader, ...]
-    every_tick: bool = False
+    rate: Rate = Rate.CHANGE
+    from_first_tick: bool = False
     lockstep: bool = False
     simulated: bool = False
 
     @property
     def on_demand(self) -> bool:
-        """Written at every tick but read by no node of the loop, only by the recorder or
-        a display: its writer builds and publishes it only while it has a reader
+        """A view topic: read by no node of the loop, only by the recorder, a display or
+        people's tools, so its writer builds and publishes it only while it has a reader
         (GuardedPublisher.publish_if_subscribed). It keeps its place in the start
         handshake, so a recording has it from the first tick."""
-        return self.every_tick and all(reader.node == BAG_RECORDER or reader.display
-                                       for reader in self.readers)
+        return self.rate is Rate.VIEW
 
 
 # The recorder reads every topic; like the loop's nodes it is driven by joint_states.
 _RECORDER = Reader(BAG_RECORDER)
 _MARKERS = Reader(MARKERS_NODE, display=True)
 _STREAM, _LATCHED = Delivery.STREAM, Delivery.LATCHED
+_LOOP = dict(rate=Rate.TICK, from_first_tick=True)
+_VIEW = dict(rate=Rate.VIEW, from_first_tick=True)
 
 TOPICS = {topic.name: topic for topic in (
     Topic(JOINT_STATES, 'sensor_msgs/msg/JointState', _STREAM, PLANT_SIMULATOR,
           (Reader(TRAJECTORY_GENERATOR, tick=True), Reader(CONTROLLER, tick=True),
-           Reader(SUPERVISOR, tick=True), Reader(BAG_RECORDER, tick=True), _MARKERS),
-          every_tick=True),
+           Reader(SUPERVISOR, tick=True), Reader(BAG_RECORDER, tick=True)),
+          **_LOOP),
     Topic(REFERENCE, 'sensor_msgs/msg/JointState', _STREAM, TRAJECTORY_GENERATOR,
           (Reader(CONTROLLER), Reader(DIGITAL_TWIN, tick=True), Reader(SUPERVISOR), _RECORDER),
-          every_tick=True),
+          **_LOOP),
     Topic(REFERENCE_POSE, 'geometry_msgs/msg/PoseStamped', _STREAM, TRAJECTORY_GENERATOR,
-          (_RECORDER,), every_tick=True),
+          (_RECORDER, _MARKERS), **_VIEW),
+    # The plant's figures count the tracking error of the settled motion only (run_figures).
     Topic(GOAL, 'geometry_msgs/msg/PointStamped', _STREAM, None,
-          (Reader(TRAJECTORY_GENERATOR), _RECORDER)),
+          (Reader(TRAJECTORY_GENERATOR), Reader(PLANT_SIMULATOR, simulated=True), _RECORDER)),
     Topic(EFFORT_COMMAND, 'sensor_msgs/msg/JointState', _STREAM, CONTROLLER,
-          (Reader(PLANT_SIMULATOR), Reader(SUPERVISOR), _RECORDER), every_tick=True),
+          (Reader(PLANT_SIMULATOR), Reader(SUPERVISOR), _RECORDER), **_LOOP),
     Topic(TWIN_JOINT_STATES, 'sensor_msgs/msg/JointState', _STREAM, DIGITAL_TWIN,
-          (Reader(SUPERVISOR), _RECORDER), every_tick=True),
+          (Reader(SUPERVISOR), _RECORDER), **_LOOP),
     Topic(TWIN_POSE, 'geometry_msgs/msg/PoseStamped', _STREAM, DIGITAL_TWIN,
-          (_RECORDER, _MARKERS), every_tick=True),
+          (_RECORDER, _MARKERS), **_VIEW),
     Topic(FDI_RESIDUAL, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
           (Reader(CONTROLLER, pacing=True), Reader(PLANT_SIMULATOR, simulated=True, lockstep=True),
            _RECORDER),
-          every_tick=True),
+          **_LOOP),
     Topic(FDI_BROKEN_CABLE, 'std_msgs/msg/Int32', _LATCHED, SUPERVISOR,
-          (Reader(CONTROLLER), _RECORDER, _MARKERS)),
+          (Reader(CONTROLLER), Reader(PLANT_SIMULATOR, simulated=True), _RECORDER, _MARKERS)),
     Topic(MODE, 'std_msgs/msg/String', _LATCHED, SUPERVISOR,
           (Reader(CONTROLLER), Reader(PLANT_SIMULATOR), _RECORDER)),
+    # Every tick while a recovery runs.
     Topic(RECOVERY_TENSIONS, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
-          (Reader(CONTROLLER), _RECORDER)),
+          (Reader(CONTROLLER), _RECORDER), rate=Rate.TICK),
     Topic(RECOVERY_REFERENCE, 'sensor_msgs/msg/JointState', _STREAM, SUPERVISOR,
-          (Reader(CONTROLLER), _RECORDER, _MARKERS)),
+          (Reader(CONTROLLER), _RECORDER), rate=Rate.TICK),
     # The truth, for evaluation: never read by control or FDI.
     Topic(GROUND_TRUTH_POSE, 'geometry_msgs/msg/PoseStamped', _STREAM, PLANT_SIMULATOR,
-          (_RECORDER,), every_tick=True, simulated=True),
+          (_RECORDER, _MARKERS), **_VIEW, simulated=True),
     Topic(GROUND_TRUTH_TENSIONS, 'sensor_msgs/msg/JointState', _STREAM, PLANT_SIMULATOR,
-          (_RECORDER,), every_tick=True, simulated=True),
+          (_RECORDER, _MARKERS), **_VIEW, simulated=True),
     Topic(INJECT_FAILURE, 'std_msgs/msg/Int32', _STREAM, None,
           (Reader(PLANT_SIMULATOR), _RECORDER)),
+    # A frame per view tick, drawn from the view topics.
     Topic(MARKERS, 'visualization_msgs/msg/MarkerArray', Delivery.DISPLAY, MARKERS_NODE,
-          (_RECORDER,)),
+          (_RECORDER,), rate=Rate.VIEW),
+    # Simulated time, for viewers started with use_sim_time (no node of the graph reads it).
     Topic(CLOCK, 'rosgraph_msgs/msg/Clock', _STREAM, PLANT_SIMULATOR,
-          (_RECORDER,), every_tick=True, lockstep=True, simulated=True),
+          (_RECORDER,), **_VIEW, lockstep=True, simulated=True),
     Topic(DIAGNOSTICS, 'diagnostic_msgs/msg/DiagnosticArray', Delivery.DIAGNOSTICS, None,
           (_RECORDER,)),
     # The stamp of the newest tick the recorder has written: a plant told to wait for it
@@ -182,6 +247,15 @@ TOPICS = {topic.name: topic for topic in (
     Topic(RECORDER_PROGRESS, 'std_msgs/msg/Header', _LATCHED, BAG_RECORDER,
           (Reader(PLANT_SIMULATOR, simulated=True),)),
 )}
+
+
+def raw_stream(topic: str) -> bool:
+    """Whether `topic` is one of the contract's JointState streams, which the graph's nodes
+    publish and take as CDR bytes (cdr.JointStateCodec): no message object is built on
+    either side, ~50 µs of CPU less a delivery here (docs/performance.md)."""
+    known = TOPICS.get(topic)
+    return (known is not None and known.delivery is Delivery.STREAM
+            and known.type == 'sensor_msgs/msg/JointState')
 
 
 def topics_read_by(node: str) -> list[Topic]:

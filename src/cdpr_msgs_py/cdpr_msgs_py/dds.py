@@ -12,10 +12,12 @@ then adds the shared-memory transport back.
 from __future__ import annotations
 
 import ctypes
+import fcntl
 import os
 import select
 import signal
 import sys
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -124,3 +126,74 @@ def follow_launcher(stop) -> None:
     libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
     if not Path(f'/proc/{launcher}').exists():
         stop(signal.SIGTERM, None)
+
+
+# Two cdpr graphs in one ROS domain and namespace drive each other's nodes (a second
+# supervisor's latched NOMINAL takes the first's controller out of its recovery), so a
+# domain is claimed machine-wide: a test session claims a whole domain, a launcher its
+# namespace in one. Lock files in the temp folder, held (flock) while the claim lasts.
+DOMAIN_CLAIM_VARIABLE = 'CDPR_DOMAIN_CLAIM'   # "<domain>:<pid>" of a whole-domain claim
+DOMAIN_IDS = range(1, 233)
+
+
+class DomainInUse(RuntimeError):
+    """Another cdpr process on this machine holds the domain (or its namespace there)."""
+
+
+def _lock(name: str, exclusive: bool):
+    """The open lock file `name`, locked, or None when another process holds it."""
+    file = open(Path(tempfile.gettempdir()) / f'cdpr-ros-domain-{name}.lock', 'a+')
+    try:
+        fcntl.flock(file, (fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH) | fcntl.LOCK_NB)
+    except BlockingIOError:
+        file.close()
+        return None
+    return file
+
+
+def _claimed_by_an_ancestor(domain: int) -> bool:
+    held, _, pid = os.environ.get(DOMAIN_CLAIM_VARIABLE, '').partition(':')
+    return held == str(domain) and pid.isdigit() and Path(f'/proc/{pid}').exists()
+
+
+def _claim(domain: int, namespace: str | None) -> list | None:
+    if namespace is None:
+        if _claimed_by_an_ancestor(domain):
+            return []   # a session started by the holder (colcon test's pytest) is part of it
+        whole = _lock(str(domain), exclusive=True)
+        return None if whole is None else [whole]
+    files = [] if _claimed_by_an_ancestor(domain) else [_lock(str(domain), exclusive=False)]
+    files.append(_lock(f'{domain}{namespace.replace("/", "_")}', exclusive=True))
+    if None in files:
+        for file in files:
+            if file is not None:
+                file.close()
+        return None
+    return files
+
+
+def claim_domain(namespace: str | None = None, start: int | None = None) -> list:
+    """Claim ROS_DOMAIN_ID machine-wide (all of it without `namespace`, else that namespace
+    in it) and set it in os.environ: the one set (DomainInUse if another process holds it),
+    else the first free one from `start`. Returns the held lock files: closing them ends
+    the claim, as does this process's end."""
+    given = os.environ.get('ROS_DOMAIN_ID')
+    if given is not None:
+        files = _claim(int(given), namespace)
+        if files is None:
+            raise DomainInUse(f'ROS_DOMAIN_ID={given} is in use by another cdpr graph or test session on '
+                              f'this machine' + (f' (namespace {namespace})' if namespace else '')
+                              + '; give this run a domain of its own, or unset ROS_DOMAIN_ID')
+    else:
+        first = (start if start is not None else 1 + os.getpid() % len(DOMAIN_IDS)) - DOMAIN_IDS.start
+        for offset in range(len(DOMAIN_IDS)):
+            given = str(DOMAIN_IDS[(first + offset) % len(DOMAIN_IDS)])
+            files = _claim(int(given), namespace)
+            if files is not None:
+                break
+        else:
+            raise DomainInUse('every ROS domain id is claimed on this machine')
+        os.environ['ROS_DOMAIN_ID'] = given
+    if namespace is None:
+        os.environ[DOMAIN_CLAIM_VARIABLE] = f'{given}:{os.getpid()}'
+    return files

@@ -1,4 +1,5 @@
-"""digital_twin: the healthy model and its own controller, fed /cdpr/reference only."""
+"""digital_twin: the healthy model and its own controller, fed /cdpr/reference only;
+/cdpr/twin/joint_states every tick, /cdpr/twin/pose on the view ticks."""
 from __future__ import annotations
 
 import numpy as np
@@ -9,7 +10,7 @@ from cdpr_control.controller import JointReference, PdGains
 from cdpr_control.pose_kinematics import pose_of_angles
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import joint_state, pose_stamped
+from cdpr_msgs_py.conversions import joint_state_bytes, pose_stamped
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 
@@ -65,11 +66,12 @@ class DigitalTwinNode(CdprNode):
                 return
         self.last_reference = JointReference(joints.position, joints.velocity, joints.effort)
         output = self.twin.step(self.last_reference, self.period_s)
-        self.joints.publish(joint_state(self.names, joints.stamp_ns, output.angle_rad,
+        self.joints.publish(joint_state_bytes(self.names, joints.stamp_ns, output.angle_rad,
                                         output.angular_velocity_rad_s, output.torque_nm))
-        # for the markers, the recorder and viewers only (contract.Topic.on_demand)
-        self.pose.publish_if_subscribed(lambda: pose_stamped(joints.stamp_ns, output.position_m,
-                                                             output.orientation))
+        if self.view_ticks.at(joints.stamp_ns):
+            # a view topic: for the markers, the recorder and viewers only (contract.Topic.on_demand)
+            self.pose.publish_if_subscribed(lambda: pose_stamped(joints.stamp_ns, output.position_m,
+                                                                 output.orientation))
         self.diagnostics.count('ticks')
 
 

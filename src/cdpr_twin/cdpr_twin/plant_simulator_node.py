@@ -21,14 +21,15 @@ import json
 import math
 import time
 
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PointStamped, PoseStamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header, Int32, String
 
+from cdpr_control.motions import reference_poses
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, pose_stamped
+from cdpr_msgs_py.conversions import joint_state_bytes, ns_to_stamp, pose_stamped
 from cdpr_msgs_py.health import loop_problem
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
@@ -36,6 +37,7 @@ from cdpr_msgs_py.stamps import stamp_to_ns
 
 from .plant import PlantConfig, PlantSimulator, settled_pushes
 from .recorder_pacing import RecorderPacing
+from .run_figures import RunFigures
 from .run_length import RunLength
 from .watchdog import BRAKING, CommandWatchdog
 from .tick_timing import TickTiming
@@ -61,6 +63,11 @@ class PlantSimulatorNode(CdprNode):
                                     failures, settled_pushes(run),
                                     None if self.robot.platform is None else run.vector(
                                         'start_orientation', 4, self.robot.platform.home_orientation.tolist()))
+        # The figures of the end-effector from every tick (run_figures), against the settled
+        # motion's reference poses (none when started alone without one).
+        self.figures = RunFigures(self.robot.cable_count, self.period_s, self.robot.platform is not None)
+        self.reference_poses = (reference_poses(self.robot, settings.section('motion'), self.period_s)
+                                if settings.has('motion') else None)
         self.run_length = RunLength(
             run.integer('last_tick', minimum=0) if run.has('last_tick') else math.inf,
             run.integer('hold_after_ticks', minimum=0) if run.has('hold_after_ticks') else None)
@@ -76,8 +83,6 @@ class PlantSimulatorNode(CdprNode):
         self.timing = TickTiming(self.period_s, deadlines=self.clock_mode == 'realtime')
         self.started = False
         self.sent_at = 0.0
-        # The true position of the last state published (m).
-        self.last_true_position_m = self.plant.position_m.copy()
         # Until the first command arrives, hold the load.
         self.command = self.plant.holding_torque_nm()
         self.state = self.create_stream_publisher(JointState, contract.JOINT_STATES)
@@ -89,7 +94,11 @@ class PlantSimulatorNode(CdprNode):
         # mode, says which tick it was (so that a run ends at the same tick as in the
         # engine); in realtime the mode applies from the plant's next tick.
         self.learnt_mode: str | None = None
+        # The same for the first naming of a broken cable, the run's detection (its figures).
+        self.learnt_naming = False
         self.create_subscription(String, contract.MODE, self.on_mode, qos.LATCHED)
+        self.create_subscription(Int32, contract.FDI_BROKEN_CABLE, self.on_broken_cable, qos.LATCHED)
+        self.create_subscription(PointStamped, contract.GOAL, self.on_goal, qos.STREAM)
         if self.clock_mode == 'lockstep':
             self.create_subscription(JointState, contract.FDI_RESIDUAL, self.on_residual, qos.STREAM)
         self.create_sole_writer_subscription(JointState, contract.EFFORT_COMMAND, self.on_command,
@@ -133,21 +142,35 @@ class PlantSimulatorNode(CdprNode):
     def publish_state(self) -> None:
         stamp = self.stamp_ns()
         angle, speed = self.plant.measure()
-        self.last_state = joint_state(self.names, stamp, angle, speed, self.command)
+        self.last_state = joint_state_bytes(self.names, stamp, angle, speed, self.command)
         self.timing.state_published(stamp)
         self.state.publish(self.last_state)
-        # The state first: the controller answers while the rest goes out, to the
-        # recorder only (contract.Topic.on_demand).
-        if self.clock_mode == 'lockstep':
-            self.clock.publish_if_subscribed(lambda: Clock(clock=ns_to_stamp(stamp)))
-        self.truth_pose.publish_if_subscribed(lambda: pose_stamped(stamp, self.plant.position_m,
-                                                                   self.plant.orientation))
-        self.truth_tensions.publish_if_subscribed(
-            lambda: joint_state(self.names, stamp, effort=self.plant.tension_n))
-        self.last_true_position_m = self.plant.position_m.copy()
+        # The state first: the controller answers while the rest is done. The truth goes
+        # out on the view ticks, to readers only (contract.Topic.on_demand); its figures
+        # come from every tick.
+        if self.view_ticks.at(stamp):
+            if self.clock_mode == 'lockstep':
+                self.clock.publish_if_subscribed(lambda: Clock(clock=ns_to_stamp(stamp)))
+            self.truth_pose.publish_if_subscribed(lambda: pose_stamped(stamp, self.plant.position_m,
+                                                                       self.plant.orientation))
+            self.truth_tensions.publish_if_subscribed(
+                lambda: joint_state_bytes(self.names, stamp, effort=self.plant.tension_n))
+        self.add_figures()
         self.published_tick = self.tick
         self.sent_at = time.monotonic()
         self.diagnostics.count('states')
+
+    def add_figures(self) -> None:
+        """This tick's truth into the run's figures, with the settled motion's reference pose
+        of the tick (held at its end) where there is one."""
+        reference = orientation = None
+        if self.reference_poses is not None:
+            positions, orientations = self.reference_poses
+            row = min(self.tick, len(positions) - 1)
+            reference = positions[row]
+            orientation = None if orientations is None else orientations[row]
+        self.figures.add(self.tick, self.plant.position_m, self.plant.orientation, self.plant.tension_n,
+                         reference, orientation)
 
     def resend_state(self) -> None:
         """The same measurement again: a second draw of noise would break repeatability."""
@@ -158,11 +181,12 @@ class PlantSimulatorNode(CdprNode):
     def current_facts(self) -> dict[str, str]:
         # Timing figures only when diagnostics go out: percentiles cost more than a tick.
         # The instants cables really parted (1-based), for the run's metrics: the field
-        # plant's electromagnet parts its cable after the failure it was told. And where
-        # the run ended, whatever a recorder kept.
+        # plant's electromagnet parts its cable after the failure it was told. And the
+        # figures of the end-effector from every tick, where the run ended among them,
+        # whatever a recorder kept.
         run = {contract.BROKEN_AT_KEY: json.dumps({str(cable + 1): at for cable, at
                                                   in self.plant.broken_at_s.items()}),
-               contract.LAST_TRUE_POSITION_KEY: json.dumps(self.last_true_position_m.tolist())}
+               contract.RUN_FIGURES_KEY: json.dumps(self.figures.summary())}
         return {**super().current_facts(), **self.timing.facts(), **run}
 
     def current_problems(self) -> tuple[list[str], list[str]]:
@@ -222,6 +246,7 @@ class PlantSimulatorNode(CdprNode):
 
     def advance(self) -> None:
         self.plant.step(self.command, self.period_s)
+        self.figures.take_breaks(self.plant.broken_at_s)
         self.tick += 1
         if self.tick > self.run_length.last_tick:
             self.finished = True
@@ -260,13 +285,31 @@ class PlantSimulatorNode(CdprNode):
         else:
             self.run_length.mode(message.data, self.tick + 1)
 
+    def on_broken_cable(self, message: Int32) -> None:
+        if not message.data or self.learnt_naming:
+            return
+        if self.clock_mode == 'lockstep':
+            self.learnt_naming = True
+        else:
+            # realtime: the verdict judged a tick of the last few (the supervisor trails)
+            self.figures.detection_at(self.published_tick)
+
+    def on_goal(self, _message: PointStamped) -> None:
+        self.figures.goal_at(self.published_tick)
+
     def on_residual(self, message: JointState) -> None:
-        if self.learnt_mode is None:
+        if self.learnt_mode is None and not self.learnt_naming:
             return
         joints = self.joints_or_reject(message, contract.FDI_RESIDUAL, ('effort',))
-        if joints is not None:
-            # the verdict on tick k steers the loop from tick k + 1
-            self.run_length.mode(self.learnt_mode, joints.stamp_ns // self.period_ns + 1)
+        if joints is None:
+            return
+        judged = joints.stamp_ns // self.period_ns
+        if self.learnt_naming:
+            self.figures.detection_at(judged)
+            self.learnt_naming = False
+        if self.learnt_mode is not None:
+            # the verdict on tick k steers the loop from tick k + VERDICT_DELAY_TICKS
+            self.run_length.mode(self.learnt_mode, judged + contract.VERDICT_DELAY_TICKS)
             self.learnt_mode = None
 
     def refuse_injection(self, message: Int32) -> None:

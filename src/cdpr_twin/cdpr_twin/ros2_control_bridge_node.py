@@ -21,7 +21,7 @@ from std_msgs.msg import Float64MultiArray, Int32
 
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
-from cdpr_msgs_py.conversions import joint_state
+from cdpr_msgs_py.conversions import joint_state_bytes
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import seconds_to_ns, stamp_to_ns
@@ -85,7 +85,7 @@ class Ros2ControlBridgeNode(CdprNode):
             return
         self.robot_data.arrived(time.monotonic())
         self.angle_rad = joints['position']
-        self.state.publish(joint_state(self.names, stamp_ns, joints['position'],
+        self.state.publish(joint_state_bytes(self.names, stamp_ns, joints['position'],
                                        joints['velocity'], joints['effort']))
         self.diagnostics.count('states')
 

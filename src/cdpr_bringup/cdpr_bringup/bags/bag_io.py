@@ -26,8 +26,9 @@ from cdpr_fdi.markers import FRAME_ID, Frame, Shape
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.stamps import NANOSECONDS, ns_parts, stamp_to_ns
 
-from . import bulk_cdr
+from cdpr_msgs_py import cdr as bulk_cdr
 from ..runs.recording import Recording
+from ..runs.metrics import STATES_TOTAL_KEY
 
 # A chunk is what survives a SIGKILL whole, so chunks stay small; the recorder also
 # flushes the open one on a timer when traffic is too slow to fill it.
@@ -202,64 +203,74 @@ def read_topics(bag: str | Path, topics: list[str]) -> dict[str, dict[int, objec
             for topic, messages in read_messages(bag, topics).items()}
 
 
+# The loop topics a Recording's rows are read from (every tick), and the view topics its
+# view rows are (every view tick).
+LOOP_TOPICS = (contract.JOINT_STATES, contract.EFFORT_COMMAND, contract.TWIN_JOINT_STATES, contract.REFERENCE)
+VIEW_TOPICS = (contract.TWIN_POSE, contract.REFERENCE_POSE)
+TRUTH_TOPICS = (contract.GROUND_TRUTH_POSE, contract.GROUND_TRUTH_TENSIONS)
+
+
 def recording_from_bag(bag: str | Path, namespace: str = '/cdpr', orientations: bool = False) -> Recording:
-    """The Recording of a lockstep or realtime run, on the ticks that have a state, a
-    command, the twin's state and pose, and the reference (a killed recorder's last tick
-    may lack some).
+    """The Recording of a lockstep or realtime run: its loop rows on the ticks that have a
+    state, a command, the twin's state and the reference (a killed recorder's last tick
+    may lack some), its view rows on the view ticks that have the twin's and the
+    reference's pose (and the truth, where there is some).
 
     Ground truth exists only in simulation: without it the true pose and tensions are NaN;
     the residual is None without the supervisor's /fdi/residual (NaN on ticks it lacks).
-    With `orientations` (a platform's bag) the poses' orientations are read too.
+    With `orientations` (a platform's bag) the poses' orientations are read too. The
+    figures from every tick are the plant's, which metrics.take_statuses adds.
     """
-    names = {key: f'{namespace}/{key}' for key in (
-        'joint_states', 'effort_command', 'twin/joint_states', 'twin/pose', 'reference',
-        'reference/pose', 'ground_truth/pose', 'ground_truth/tensions', 'fdi/residual')}
+    names = {key: f'{namespace}/{key}' for key in LOOP_TOPICS + VIEW_TOPICS + TRUTH_TOPICS
+             + (contract.FDI_RESIDUAL,)}
     found = read_topics(bag, list(names.values()))
-    required = ['joint_states', 'effort_command', 'twin/joint_states', 'twin/pose', 'reference',
-                'reference/pose']
-    # the plant publishes the truth with every state, so where there is some it is required
-    required += [key for key in ('ground_truth/pose', 'ground_truth/tensions') if found[names[key]]]
-    stamps = sorted(set(found[names['joint_states']]).intersection(
-        *(found[names[key]] for key in required)))
+    stamps = sorted(set(found[names[contract.JOINT_STATES]]).intersection(
+        *(found[names[key]] for key in LOOP_TOPICS)))
     if not stamps:
-        raise ValueError(f'{bag}: no tick has all of {", ".join(names[key] for key in required)}')
-    cables = len(found[names['joint_states']][stamps[0]].position)
+        raise ValueError(f'{bag}: no tick has all of {", ".join(names[key] for key in LOOP_TOPICS)}')
+    # the plant publishes the truth with the view topics, so where there is some it is required
+    viewed = list(VIEW_TOPICS) + [key for key in TRUTH_TOPICS if found[names[key]]]
+    view_stamps = sorted(set(found[names[viewed[0]]]).intersection(*(found[names[key]] for key in viewed)))
+    cables = len(found[names[contract.JOINT_STATES]][stamps[0]].position)
 
-    def joints(key, field):
+    def joints(key, field, at=stamps):
         messages = found[names[key]]
         return np.array([getattr(messages[s], field) if s in messages else np.full(cables, np.nan)
-                         for s in stamps], dtype=float)
+                         for s in at], dtype=float).reshape(len(at), cables)
 
     def points(key):
         messages = found[names[key]]
         return np.array([[messages[s].pose.position.x, messages[s].pose.position.y, messages[s].pose.position.z]
-                         if s in messages else [np.nan] * 3 for s in stamps])
+                         if s in messages else [np.nan] * 3 for s in view_stamps]).reshape(len(view_stamps), 3)
 
     def quaternions(key):
         messages = found[names[key]]
         return np.array([[messages[s].pose.orientation.w, messages[s].pose.orientation.x,
                           messages[s].pose.orientation.y, messages[s].pose.orientation.z]
-                         if s in messages else [np.nan] * 4 for s in stamps])
+                         if s in messages else [np.nan] * 4 for s in view_stamps]).reshape(len(view_stamps), 4)
 
+    truth = bool(found[names[contract.GROUND_TRUTH_POSE]])
     # a real robot's bag has no ground truth: its orientation is then unknown, not NaN
-    turned = ({'twin_orientation': quaternions('twin/pose'),
-               'reference_orientation': quaternions('reference/pose'),
-               'true_orientation': quaternions('ground_truth/pose') if found[names['ground_truth/pose']] else None}
+    turned = ({'twin_orientation': quaternions(contract.TWIN_POSE),
+               'reference_orientation': quaternions(contract.REFERENCE_POSE),
+               'true_orientation': quaternions(contract.GROUND_TRUTH_POSE) if truth else None}
               if orientations else {})
     return Recording(
         time_s=np.array(stamps) / NANOSECONDS,
-        angle_rad=joints('joint_states', 'position'),
-        angular_velocity_rad_s=joints('joint_states', 'velocity'),
-        command_nm=joints('effort_command', 'effort'),
-        twin_angle_rad=joints('twin/joint_states', 'position'),
-        twin_angular_velocity_rad_s=joints('twin/joint_states', 'velocity'),
-        twin_torque_nm=joints('twin/joint_states', 'effort'),
-        twin_position_m=points('twin/pose'),
-        reference_position_m=points('reference/pose'),
-        reference_angle_rad=joints('reference', 'position'),
-        true_position_m=points('ground_truth/pose'),
-        true_tension_n=joints('ground_truth/tensions', 'effort'),
-        residual_nm=joints('fdi/residual', 'effort') if found[names['fdi/residual']] else None,
+        angle_rad=joints(contract.JOINT_STATES, 'position'),
+        angular_velocity_rad_s=joints(contract.JOINT_STATES, 'velocity'),
+        command_nm=joints(contract.EFFORT_COMMAND, 'effort'),
+        twin_angle_rad=joints(contract.TWIN_JOINT_STATES, 'position'),
+        twin_angular_velocity_rad_s=joints(contract.TWIN_JOINT_STATES, 'velocity'),
+        twin_torque_nm=joints(contract.TWIN_JOINT_STATES, 'effort'),
+        reference_angle_rad=joints(contract.REFERENCE, 'position'),
+        view_time_s=np.array(view_stamps, dtype=float) / NANOSECONDS,
+        twin_position_m=points(contract.TWIN_POSE),
+        reference_position_m=points(contract.REFERENCE_POSE),
+        true_position_m=points(contract.GROUND_TRUTH_POSE),
+        true_tension_n=joints(contract.GROUND_TRUTH_TENSIONS, 'effort', view_stamps),
+        residual_nm=(joints(contract.FDI_RESIDUAL, 'effort') if found[names[contract.FDI_RESIDUAL]]
+                     else None),
         ticks_held={key: len(found[name]) for key, name in names.items()},
         **turned,
     )
@@ -268,19 +279,21 @@ def recording_from_bag(bag: str | Path, namespace: str = '/cdpr', orientations: 
 def write_recording(writer: BagWriter, recording: Recording,
                     namespace: str = contract.DEFAULT_NAMESPACE, frame: Frame | None = None) -> None:
     """An in-process Recording into an open bag as the graph would have recorded it, so
-    that it gets the same report: the per-tick topics, the residual, the verdict and mode
-    changes of the supervisor's summary (`recording.fdi`), and that summary on
-    /diagnostics at the last tick. Bag times are the tick stamps plus 1 ns per message in
-    the graph's order: the state, the command and the twin, then the supervisor's verdict
-    and mode, then its residual of that tick. With a `frame` (cdpr_fdi.markers, the
-    markers node's core) also `markers`, every frame_ticks ticks after the residual, from
-    what the node reads of the same ticks, so that a viewer shows the run from its bag."""
+    that it gets the same report: the loop topics every tick, the view topics on the view
+    ticks, the residual, the verdict and mode changes of the supervisor's summary
+    (`recording.fdi`), and that summary on /diagnostics at the last tick. Bag times are the
+    tick stamps plus 1 ns per message in the graph's order: the state, the command, the
+    reference and the twin, then the supervisor's verdict and mode, then its residual of
+    that tick. With a `frame` (cdpr_fdi.markers, the markers node's core) also `markers`,
+    a frame per view tick after the residual, from the view topics of the same tick, so
+    that a viewer shows the run from its bag."""
     types = TYPESTORE.types
     stamps = np.round(recording.time_s * NANOSECONDS).astype(np.int64)
+    view_stamps = np.round(recording.view_time_s * NANOSECONDS).astype(np.int64)
     names = contract.joint_names(recording.angle_rad.shape[1])
 
-    def header(k):
-        sec, nanosec = ns_parts(int(stamps[k]))
+    def header(stamp):
+        sec, nanosec = ns_parts(int(stamp))
         return types['std_msgs/msg/Header'](
             stamp=types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec),
             frame_id='')
@@ -293,18 +306,23 @@ def write_recording(writer: BagWriter, recording: Recording,
         contract.JOINT_STATES: (joint_state, bulk_cdr.joint_states(
             stamps, names, r.angle_rad, r.angular_velocity_rad_s, applied)),
         contract.EFFORT_COMMAND: (joint_state, bulk_cdr.joint_states(stamps, names, effort=r.command_nm)),
+        contract.REFERENCE: (joint_state, bulk_cdr.joint_states(stamps, names, r.reference_angle_rad)),
         contract.TWIN_JOINT_STATES: (joint_state, bulk_cdr.joint_states(
             stamps, names, r.twin_angle_rad, r.twin_angular_velocity_rad_s, r.twin_torque_nm)),
-        contract.TWIN_POSE: (pose_stamped, bulk_cdr.pose_stampeds(stamps, r.twin_position_m, r.twin_orientation)),
-        contract.REFERENCE: (joint_state, bulk_cdr.joint_states(stamps, names, r.reference_angle_rad)),
-        contract.REFERENCE_POSE: (pose_stamped, bulk_cdr.pose_stampeds(stamps, r.reference_position_m,
-                                                                       r.reference_orientation)),
+    }
+    # topic → (type, serialised message of each view tick)
+    per_view_tick = {
+        contract.TWIN_POSE: (pose_stamped, bulk_cdr.pose_stampeds(view_stamps, r.twin_position_m,
+                                                                   r.twin_orientation)),
+        contract.REFERENCE_POSE: (pose_stamped, bulk_cdr.pose_stampeds(view_stamps, r.reference_position_m,
+                                                                        r.reference_orientation)),
     }
     if r.has_ground_truth:
-        per_tick[contract.GROUND_TRUTH_POSE] = (pose_stamped, bulk_cdr.pose_stampeds(stamps, r.true_position_m,
-                                                                                     r.true_orientation))
-        per_tick[contract.GROUND_TRUTH_TENSIONS] = (joint_state,
-                                                    bulk_cdr.joint_states(stamps, names, effort=r.true_tension_n))
+        per_view_tick[contract.GROUND_TRUTH_POSE] = (pose_stamped, bulk_cdr.pose_stampeds(
+            view_stamps, r.true_position_m, r.true_orientation))
+        per_view_tick[contract.GROUND_TRUTH_TENSIONS] = (joint_state, bulk_cdr.joint_states(
+            view_stamps, names, effort=r.true_tension_n))
+    view_row = {int(stamp): row for row, stamp in enumerate(view_stamps)}
     if r.residual_nm is not None:
         residual = bulk_cdr.joint_states(stamps, names, effort=r.residual_nm)
     int32, string = types['std_msgs/msg/Int32'], types['std_msgs/msg/String']
@@ -318,43 +336,54 @@ def write_recording(writer: BagWriter, recording: Recording,
         events += [(tick, contract.MODE, string(data=mode))
                    for mode, tick in r.fdi['phase_ticks'].items()]
         events.append((stamps.size - 1, contract.DIAGNOSTICS, supervisor_diagnostics(
-            r.fdi, header(stamps.size - 1), namespace)))
+            r.fdi, header(stamps[-1]), namespace)))
+    if r.figures is not None:
+        events.append((stamps.size - 1, contract.DIAGNOSTICS, plant_diagnostics(
+            r, header(stamps[-1]), namespace)))
     events.sort(key=lambda event: event[0])
     connections = {}
-    # a run of one tick has one frame
-    frame_ticks = (1 if frame is None or stamps.size < 2
-                   else frame.style.frame_ticks(float(r.time_s[1] - r.time_s[0])))
 
-    def write_bytes(topic, msgtype, k, data, order_ns):
+    def write_bytes(topic, msgtype, stamp, data, order_ns):
         if topic not in connections:
             # as ROS resolves names: /diagnostics stays outside the namespace
             name = topic if topic.startswith('/') else f'{namespace}/{topic}'
             connections[topic] = writer.add_topic(name, msgtype)
-        writer.write(connections[topic], int(stamps[k]) + order_ns, data)
+        writer.write(connections[topic], int(stamp) + order_ns, data)
 
-    def write(topic, k, message, order_ns):
-        write_bytes(topic, message.__msgtype__, k,
-                    TYPESTORE.serialize_cdr(message, message.__msgtype__), order_ns)
+    def write(topic, stamp, message, order_ns):
+        write_bytes(topic, message.__msgtype__, stamp, TYPESTORE.serialize_cdr(message, message.__msgtype__),
+                    order_ns)
 
-    for k in range(stamps.size):
-        for order, (topic, (msgtype, rows)) in enumerate(per_tick.items()):
-            write_bytes(topic, msgtype, k, rows[k].tobytes(), order)
-        while events and events[0][0] == k:
+    for k, stamp in enumerate(stamps):
+        order = 0
+        for topic, (msgtype, rows) in per_tick.items():
+            write_bytes(topic, msgtype, stamp, rows[k].tobytes(), order)
             order += 1
+        view = view_row.get(int(stamp))
+        if view is not None:
+            for topic, (msgtype, rows) in per_view_tick.items():
+                write_bytes(topic, msgtype, stamp, rows[view].tobytes(), order)
+                order += 1
+        while events and events[0][0] == k:
             _, topic, message = events.pop(0)
-            write(topic, k, message, order)
+            write(topic, stamp, message, order)
+            order += 1
             if frame is not None and topic == contract.FDI_BROKEN_CABLE:
                 frame.on_broken_cable(message.data)
         if r.residual_nm is not None:
-            write_bytes(contract.FDI_RESIDUAL, joint_state, k, residual[k].tobytes(), order + 1)
-        if frame is not None:
-            frame.on_state(r.time_s[k], r.angle_rad[k], r.angular_velocity_rad_s[k], applied[k])
-            frame.on_twin_pose(r.twin_position_m[k])
-            if (r.recovery_reference_angle_rad is not None
-                    and np.isfinite(r.recovery_reference_angle_rad[k]).all()):
-                frame.on_recovery_reference(r.recovery_reference_angle_rad[k])
-            if k % frame_ticks == 0:
-                write(contract.MARKERS, k, marker_array(frame.shapes(), header(k)), order + 2)
+            write_bytes(contract.FDI_RESIDUAL, joint_state, stamp, residual[k].tobytes(), order)
+            order += 1
+        if frame is not None and view is not None:
+            frame.on_view('twin', stamp, (r.twin_position_m[view], None if r.twin_orientation is None
+                                          else r.twin_orientation[view]))
+            frame.on_view('reference', stamp, (r.reference_position_m[view], None if r.reference_orientation is None
+                                               else r.reference_orientation[view]))
+            frame.on_view('true_pose', stamp, (r.true_position_m[view], None if r.true_orientation is None
+                                               else r.true_orientation[view]))
+            frame.on_view('true_tension', stamp, r.true_tension_n[view])
+            drawn = frame.take()
+            if drawn is not None:
+                write(contract.MARKERS, stamp, marker_array(drawn[1], header(stamp)), order)
 
 
 def marker_array(shapes: list[Shape], header):
@@ -389,6 +418,20 @@ def marker_array(shapes: list[Shape], header):
 
     return types['visualization_msgs/msg/MarkerArray'](
         markers=[make(marker.DELETEALL)] + [make(marker.ADD, shape) for shape in shapes])
+
+
+def plant_diagnostics(recording: Recording, header, namespace: str):
+    """What the plant simulator's last status says of the run, as its node reports it on
+    /diagnostics: the instants it parted cables, its states, the figures from every tick."""
+    types = TYPESTORE.types
+    status = types['diagnostic_msgs/msg/DiagnosticStatus']
+    values = {contract.BROKEN_AT_KEY: json.dumps({str(cable + 1): at for cable, at
+                                                 in (recording.broken_at_s or {}).items()}),
+              STATES_TOTAL_KEY: str(recording.time_s.size),
+              contract.RUN_FIGURES_KEY: json.dumps(recording.figures)}
+    return types['diagnostic_msgs/msg/DiagnosticArray'](header=header, status=[status(
+        level=status.OK, name=f'{namespace}/{contract.PLANT_SIMULATOR}', message='', hardware_id='cdpr',
+        values=[types['diagnostic_msgs/msg/KeyValue'](key=key, value=value) for key, value in values.items()])])
 
 
 def supervisor_diagnostics(summary: dict, header, namespace: str):

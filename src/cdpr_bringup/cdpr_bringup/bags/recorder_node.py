@@ -16,8 +16,9 @@ of a per-tick topic is still there (at most runtime.spin.DRAIN_LIMIT_S), and clo
 bag; if it is killed, the bag keeps every chunk flushed so far (at most
 `flush_period_s` old, see bag_io).
 
-A bag is the evidence of what the robot did, so a hole in it is said: per per-tick topic
-the recorder counts the ticks it lacks from the stamps (tick_gaps), keeps the counts in
+A bag is the evidence of what the robot did, so a hole in it is said: per loop topic (and
+per view topic, on its view ticks) the recorder counts the ticks it lacks from the stamps
+(tick_gaps), keeps the counts in
 the bag's metadata (bag_io.MISSING_TICKS_KEY), in /diagnostics, and says them in its last
 log line (WARN when a tick is missing).
 """
@@ -108,8 +109,11 @@ class BagRecorderNode(CdprNode):
             profile = qos.of_readers(topic)
             kind = contract.TOPICS[topic].type
             connection = self.writer.add_topic(name, kind, [bag_qos(profile)])
-            if contract.TOPICS[topic].every_tick:
-                self.gaps[connection.id] = (topic, TickGaps(settings.period_ns))
+            written = contract.TOPICS[topic]
+            if written.from_first_tick:
+                # a view topic's ticks are the view ticks
+                every = self.view_ticks.every if written.rate is contract.Rate.VIEW else 1
+                self.gaps[connection.id] = (topic, TickGaps(settings.period_ns * every))
                 self.per_tick_names.append(name)
             if topic == contract.EFFORT_COMMAND:
                 others = self.writer.add_topic(f'{name}/{OTHER_WRITERS}', kind, [bag_qos(profile)])

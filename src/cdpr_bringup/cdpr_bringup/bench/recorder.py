@@ -5,9 +5,9 @@ RUNS realtime runs of the paper's circle (RUN_S each, the graph with its recorde
 control loop scheduled as `scheduling` says), in each of two conditions, alternated:
 
 - frozen: one outside reader (cdpr_bringup.bench.outside_reader: plain rclpy, reliable,
-  keep-all) of every per-tick topic, suspended (SIGSTOP) FREEZE_AFTER_S after it first
+  keep-all) of every loop topic, suspended (SIGSTOP) FREEZE_AFTER_S after it first
   has every topic, for the rest of the run — a user's `ros2 topic echo` stopped by Ctrl-Z;
-- two readers: two such readers of every per-tick topic, reading all along.
+- two readers: two such readers of every loop topic, reading all along.
 
 Per run: the ticks the plant published against the joint states in the bag (lost), the
 recorder's own count of the ticks it lacks (the bag's metadata), the plant's tick rate
@@ -25,7 +25,7 @@ import time
 
 from cdpr_msgs_py import contract
 
-from .graph import NAMESPACE, DiagnosticsListener, graph_parameters, run_graph
+from .graph import NAMESPACE, graph_parameters, run_graph
 from ..graph.launcher import launch_environment, node_environment
 
 RUN_S = 20.0
@@ -35,12 +35,14 @@ FREEZE_AFTER_S = 2.0
 RECEIVING_TIMEOUT_S = 30.0
 READER_LIFETIME_S = 600.0
 CONDITIONS = {'frozen': 1, 'two readers': 2}
-# Every per-tick topic of the graph that a user's tool might read.
-TOPICS = [topic.name for topic in contract.TOPICS.values() if topic.every_tick and topic.name != contract.CLOCK]
+# Every loop topic of the graph (written every tick from the first), which a user's tool
+# might read.
+TOPICS = [topic.name for topic in contract.TOPICS.values()
+          if topic.rate is contract.Rate.TICK and topic.from_first_tick]
 
 
 class OutsideReader:
-    """An outside reader process of every per-tick topic; `freeze_after_s` (None: never)
+    """An outside reader process of every loop topic; `freeze_after_s` (None: never)
     after it first has them all, it is suspended."""
 
     def __init__(self, freeze_after_s: float | None):
@@ -72,13 +74,13 @@ class OutsideReader:
         self.process.wait(timeout=10)
 
 
-def recorded_run(parameters: dict, listener: DiagnosticsListener, condition: str, log) -> dict:
+def recorded_run(parameters: dict, condition: str, log) -> dict:
     """One run in `condition`: the plant's figures, what the bag lost and what its
     recorder says it lacks."""
     readers = [OutsideReader(FREEZE_AFTER_S if condition == 'frozen' else None)
                for _ in range(CONDITIONS[condition])]
     try:
-        facts, cpu = run_graph(parameters, listener, log, recorded=True)
+        facts, cpu = run_graph(parameters, log, recorded=True)
     finally:
         for reader in readers:
             reader.end()
@@ -93,14 +95,10 @@ def recorded_run(parameters: dict, listener: DiagnosticsListener, condition: str
 def bench_recorder(config: str, log=lambda line: None) -> dict:
     launch_environment()
     parameters = graph_parameters(config, 'realtime', RUN_S)
-    listener = DiagnosticsListener()
     runs = {condition: [] for condition in CONDITIONS}
-    try:
-        for _ in range(RUNS):
-            for condition in CONDITIONS:
-                runs[condition].append(recorded_run(parameters, listener, condition, log))
-    finally:
-        listener.close()
+    for _ in range(RUNS):
+        for condition in CONDITIONS:
+            runs[condition].append(recorded_run(parameters, condition, log))
     return {'run_s': RUN_S, 'runs': runs}
 
 

@@ -6,7 +6,8 @@ process on one executor, as `cdpr-graph --graph-form composed` starts the contro
 FILE holds each node's parameters under its own name (`/**/controller:`), as
 graph.NodeSpec.parameters_document lays it out. Each node is the very class its own executable runs
 (`ros2 run cdpr_control controller`); composed, the messages between them stay inside
-this process (ROS 2 composition): a third less CPU per tick than five processes here
+this process, handed over as objects without DDS (ROS 2's intra-process communication:
+cdpr_msgs_py.runtime.local_bus), and go out on DDS only to readers outside it
 (docs/graph.md, "Graph forms").
 """
 from __future__ import annotations
@@ -38,7 +39,7 @@ def main(args=None) -> int:
               + (f'; not composable: {", ".join(unknown)}' if unknown else ''), file=sys.stderr)
         return USAGE_EXIT_CODE
     classes = [getattr(import_module(module), name) for module, name in map(COMPOSABLE.get, names)]
-    return run_composed(classes, ['composed_loop', *argv[len(names):]])
+    return run_composed(classes, ['composed_loop', *argv[len(names):]], names)
 
 
 if __name__ == '__main__':

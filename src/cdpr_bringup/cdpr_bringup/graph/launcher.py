@@ -25,11 +25,12 @@ from cdpr_msgs_py import contract
 from cdpr_control.config import Section
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 from cdpr_twin.plant import FIDELITIES
-from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, shipped_environment,
-                              use_shipped_setup)
+from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, DomainInUse, claim_domain,
+                              shipped_environment, use_shipped_setup)
 from cdpr_msgs_py.runtime.spin import READY_MARK, SHUTDOWN_LIMIT_S, STACK_DUMP_SIGNAL
 
 from ..cli import INTERRUPTED_EXIT_CODE, command
+from .composed_loop import COMPOSABLE
 from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT
 from ..runs.settle import ScenarioOptions, add_graph_form_option, add_push_option, build_scenario
 
@@ -85,7 +86,6 @@ def composed(specs: list[NodeSpec]) -> list[NodeSpec]:
     """`specs` with the control loop's nodes (those composed_loop can run) in one process
     on one executor; the others (recorder, markers) stay apart. SCHED_FIFO is a process's:
     the loop's process gets the highest priority any of its nodes asks for."""
-    from .composed_loop import COMPOSABLE
     loop = [spec for spec in specs if spec.name in COMPOSABLE]
     if len(loop) < 2:
         return specs
@@ -110,13 +110,26 @@ def executable_command(package: str, executable: str) -> list[str]:
                      f'(looked in {", ".join(map(str, candidates))})')
 
 
-def launch_environment() -> str:
+def launch_environment(namespace: str = DEFAULT_NAMESPACE) -> str:
     """Settle this launcher's DDS environment before it or its nodes start a participant:
     the shipped set-up (dds.py) and a domain of its own unless the caller set
     ROS_DOMAIN_ID, so that two users (or two runs) on one machine never see each other's
-    robot. Returns the domain id."""
+    robot; `namespace` in that domain is claimed for this process's life (dds.claim_domain:
+    GraphError when another graph or test session on this machine holds it). Returns the
+    domain id."""
     use_shipped_setup()
-    return os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 230))
+    key = (os.environ.get('ROS_DOMAIN_ID'), namespace)
+    if key not in _CLAIMS:
+        try:
+            files = claim_domain(namespace)
+        except DomainInUse as err:
+            raise GraphError(str(err)) from None
+        _CLAIMS[(os.environ['ROS_DOMAIN_ID'], namespace)] = files
+    return os.environ['ROS_DOMAIN_ID']
+
+
+# (domain, namespace) claimed by this process: its graphs follow one another
+_CLAIMS: dict[tuple[str, str], list] = {}
 
 
 def node_environment() -> dict:
@@ -163,7 +176,7 @@ class Graph:
         self.folder = Path(tempfile.mkdtemp(prefix=f'{TEMP_PREFIX}{os.getpid()}-'))
 
     def start(self) -> None:
-        self.log(f'[cdpr-graph] ROS_DOMAIN_ID={launch_environment()} (set it to listen from another shell)')
+        self.log(f'[cdpr-graph] ROS_DOMAIN_ID={launch_environment(self.namespace)} (set it to listen from another shell)')
         for spec in self.nodes:
             params = self.folder / f'{spec.name}.yaml'
             params.write_text(yaml.safe_dump(spec.parameters_document()))
@@ -299,7 +312,7 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
         specs.append(('cdpr_fdi', 'supervisor', {}))
     if bag_path is not None:
         specs.append(('cdpr_bringup', 'bag_recorder', {'bag_path': bag_path}))
-    specs.append(('cdpr_fdi', 'markers', {}))
+    specs.append(('cdpr_fdi', 'markers', {'ground_truth': plant}))
     if plant:
         specs.append(('cdpr_twin', 'plant_simulator', {'wait_for_recorder': bag_path is not None}))
     realtime = parameters['controller']['clock_mode'] == 'realtime'
@@ -307,7 +320,7 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
     # commands and writes the states, but not what only a simulation has.
     started = {executable for _, executable, _ in specs}
     handshake = start_handshake(started | {contract.PLANT_SIMULATOR}, lockstep=not realtime,
-                                simulated=plant)
+                                simulated=plant, composed=set(COMPOSABLE) & started if form == 'composed' else set())
     # A node with nothing to match gets no `matches`: ROS cannot type an empty array (the
     # node died declaring one), and the node's default is to wait for nothing.
     nodes = [NodeSpec(package, executable, dict(parameters[executable], **extra,
@@ -319,21 +332,25 @@ def graph_nodes(parameters: dict[str, dict], bag_path: str | None = None,
     return composed(nodes) if form == 'composed' else nodes
 
 
-def start_handshake(nodes: set[str], lockstep: bool, simulated: bool = True) -> dict[str, list[str]]:
+def start_handshake(nodes: set[str], lockstep: bool, simulated: bool = True,
+                    composed: set[str] = frozenset()) -> dict[str, list[str]]:
     """Per node of `nodes`, the `matches` of its start (CdprNode.start_when_matched), from
-    the topics written at every tick (contract.TOPICS) by a node of `nodes` (the plant
+    the topics written from the first tick (contract.TOPICS: loop and view topics) by a node of `nodes` (the plant
     simulator's simulated topics only when it is one, not a bridge in its place): their
     writer waits until it has all their readers in `nodes`; each reader, except on its
     tick (which it subscribes to only once started), waits until it has the writer. A
     display's reader (the markers') waits for nothing, but its writer counts it: it is
-    one of the graph's readers, whose lag is never reported as an outside reader's."""
+    one of the graph's readers, whose lag is never reported as an outside reader's. Of the
+    nodes `composed` in one process, a reader of another's topic takes it inside the
+    process (cdpr_msgs_py.runtime.local_bus): that pair has nothing to match."""
     publishers = {node: [] for node in nodes}
     subscriptions = {node: [] for node in nodes}
     for topic in contract.TOPICS.values():
-        if (not topic.every_tick or topic.writer not in nodes or (topic.lockstep and not lockstep)
+        if (not topic.from_first_tick or topic.writer not in nodes or (topic.lockstep and not lockstep)
                 or (topic.simulated and not simulated)):
             continue
         readers = [reader for reader in topic.readers if reader.node in nodes
+                   and not (reader.node in composed and topic.writer in composed)
                    and (not reader.pacing or (lockstep and topic.writer in nodes))
                    and (not reader.lockstep or lockstep)
                    and (simulated or not reader.simulated)]

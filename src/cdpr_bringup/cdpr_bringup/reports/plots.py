@@ -1,4 +1,5 @@
-"""The paper's figures of one run (matplotlib, Agg), drawn from a report.Run.
+"""The paper's figures of one run (matplotlib, Agg), drawn from a report.Run: the loop
+topics at every tick, the view topics (poses, true tensions) on the view ticks.
 
 Each function writes one PNG and returns its one-line caption, or None when the bag
 holds nothing for it. Colours follow the paper: robot red and twin blue (Fig. 4); x, y,
@@ -214,9 +215,9 @@ def position(run, path) -> str:
     for column, (twin, reference, robot, unit, name) in enumerate(series):
         for axis, ax in enumerate(axes[:, column]):
             colour = AXIS_COLOURS[axis]
-            ax.plot(run.time_s, twin[:, axis], color=colour, alpha=0.45, lw=3, label='digital twin')
-            ax.plot(run.time_s, reference[:, axis], color='black', ls='--', lw=1, label='reference')
-            ax.plot(run.time_s, robot[:, axis], color=colour, lw=1.2, label=run.position_label)
+            ax.plot(recording.view_time_s, twin[:, axis], color=colour, alpha=0.45, lw=3, label='digital twin')
+            ax.plot(recording.view_time_s, reference[:, axis], color='black', ls='--', lw=1, label='reference')
+            ax.plot(run.pose_time_s, robot[:, axis], color=colour, lw=1.2, label=run.position_label)
             ax.set_ylabel(f'{name}{"xyz"[axis]} ({unit})')
             ax.grid(alpha=0.3)
         axes[-1, column].set_xlabel('time (s)')
@@ -231,9 +232,9 @@ def position(run, path) -> str:
 
 
 def phase_segments(run):
-    """(colour, label, tick mask) of the path's pieces: by the supervisor's mode once it
-    left NOMINAL, else before / after the failure."""
-    time_s = run.time_s
+    """(colour, label, mask of `run.pose_time_s`) of the path's pieces: by the supervisor's
+    mode once it left NOMINAL, else before / after the failure."""
+    time_s = run.pose_time_s
     if any(mode != NOMINAL for _, mode in run.modes):
         starts = [-np.inf] + [t for t, _ in run.modes[1:]] + [np.inf]
         for (_, mode), start, end in zip(run.modes, starts, starts[1:]):
@@ -273,7 +274,7 @@ def safe_border(run):
 def mark_failure(run, ax, project) -> None:
     """A circle where the end-effector was when the cable broke (paper Fig. 13/16)."""
     if run.event_time_s is not None:
-        tick = min(np.searchsorted(run.time_s, run.event_time_s), run.time_s.size - 1)
+        tick = min(np.searchsorted(run.pose_time_s, run.event_time_s), run.pose_time_s.size - 1)
         ax.scatter(*project(run.position_m[tick:tick + 1]), s=60, facecolor='none',
                    edgecolor='black', lw=1.5, label='failure point', zorder=5)
 
@@ -357,7 +358,7 @@ def tensions(run, path) -> str:
     figure, axes = motor_rows(run, 'tension (N)', unit='cable')
     for i, ax in enumerate(axes):
         if run.has_ground_truth:
-            ax.plot(run.time_s, run.recording.true_tension_n[:, i], color='black', lw=2.5,
+            ax.plot(run.recording.view_time_s, run.recording.true_tension_n[:, i], color='black', lw=2.5,
                     alpha=0.35, label='true (ground truth)')
         ax.plot(times, estimate[:, i], color='tab:orange', lw=0.8, label='sensorless estimate τ̂')
         ax.axhline(0.0, color='0.5', lw=0.8)

@@ -37,7 +37,8 @@ from cdpr_msgs_py.stamps import NANOSECONDS
 from . import plots
 from ..bags.bag_io import missing_ticks, read_messages, recording_from_bag, stamp_ns
 from ..cli import command
-from ..runs.metrics import KnownRun, RunSettings, metrics_json, statuses_beside, take_statuses
+from ..runs.metrics import (KnownRun, RunSettings, figures_from_rows, metrics_json, period_of, statuses_beside,
+                            take_statuses, view_figures)
 from ..paths import DEFAULT_ROBOT, SETTLED_RUN, config_file
 from ..runs.recording import Recording, holes_said
 
@@ -123,21 +124,26 @@ class Run:
         return 'true (ground truth)' if self.has_ground_truth else 'measured (forward kinematics)'
 
     @property
+    def pose_time_s(self) -> np.ndarray:
+        """The times (s) of `pose`'s rows: the view ticks' with ground truth, else every tick's."""
+        return self.recording.view_time_s if self.has_ground_truth else self.recording.time_s
+
+    @property
     def position_m(self) -> np.ndarray:
         """The end-effector's position (m): `pose`'s."""
         return self.pose[0]
 
     @property
     def orientation(self) -> np.ndarray | None:
-        """A platform's orientation (unit quaternions, a row per tick): `pose`'s; None for a
-        point mass."""
+        """A platform's orientation (unit quaternions, a row per `pose_time_s`): `pose`'s;
+        None for a point mass."""
         return self.pose[1]
 
     @cached_property
     def pose(self) -> tuple[np.ndarray, np.ndarray | None]:
-        """The end-effector's positions (m) and a platform's orientations: ground truth,
-        else forward kinematics of the measured angles, over the remaining cables once a
-        failure was detected."""
+        """The end-effector's positions (m) and a platform's orientations: ground truth on
+        the view ticks, else forward kinematics of the measured angles on every tick, over
+        the remaining cables once a failure was detected."""
         if self.has_ground_truth:
             return self.recording.true_position_m, self.recording.true_orientation
         angles = self.recording.angle_rad
@@ -163,26 +169,40 @@ class Run:
             self.robot.motor, self.friction, recording.command_nm[:-1],
             speed[:-1], speed[1:], period)
 
+    @cached_property
+    def figures(self) -> dict:
+        """The figures of the end-effector (cdpr_twin.run_figures): the plant's from every
+        tick where it said them; else from what the bag holds — the view ticks' truth, or a
+        real robot's pose and tensions as measured and estimated at every tick (noted)."""
+        if self.recording.figures is not None:
+            return self.recording.figures
+        if self.has_ground_truth:
+            self.notes.append('figures of the end-effector from the view ticks\' ground truth (the plant '
+                              'simulator\'s own, from every tick, are not beside the bag)')
+            return view_figures(self.robot, self.recording, self.failure_time_s,
+                                self.true_broken_cables or [], self.detection_time_s)
+        times, tensions = self.tension_estimate_n
+        return figures_from_rows(self.robot, period_of(self.recording), times, self.position_m[:-1],
+                                 None if self.orientation is None else self.orientation[:-1], tensions,
+                                 None, None, self.failure_time_s, self.broken_cables, self.detection_time_s)
+
     @property
     def known(self) -> KnownRun:
         """What the bag tells about the run, as `metrics_json` takes it: the recovery
-        phases from the mode changes, the pose and tensions true or else measured and
-        estimated, the safe point the supervisor's (/diagnostics) or else the config's."""
+        phases from the mode changes, the figures of the end-effector (`figures`), the
+        safe point the supervisor's (/diagnostics) or else the config's."""
         phase_times = {}
         for t, mode in self.modes:
             if mode != NOMINAL:
                 phase_times.setdefault(mode, t)
         return KnownRun(
-            robot=self.robot, recording=self.recording, position_m=self.position_m,
-            tension_n=(self.recording.true_tension_n if self.has_ground_truth
-                       else self.tension_estimate_n[1]),
+            robot=self.robot, recording=self.recording, figures=self.figures,
             epsilon_nm=self.epsilon_nm, failure_time_s=self.failure_time_s,
             true_broken_cables=self.true_broken_cables, detection_time_s=self.detection_time_s,
             identified_cables=self.identified_cables,
             mode=self.modes[-1][1] if self.modes else None, phase_times_s=phase_times,
             safe_point_m=self.safe_point_m, reached_tolerance_m=self.reached_tolerance_m,
-            supervisor=self.supervisor, wall_time_s=self.wall_time_s,
-            final_position_m=self.recording.last_true_position_m)
+            supervisor=self.supervisor, wall_time_s=self.wall_time_s)
 
 
 def load_run(bag: str | Path, settings: RunSettings,
@@ -332,8 +352,8 @@ def failure_of(bag: Path, recording: Recording) -> tuple[float | None, list[int]
     if broke.size == 0:
         return None, [], 'no failure: every cable taut at the end of the run (ground truth)'
     tick = int(np.min(last_taut[broke])) + 1
-    return (float(recording.time_s[tick]), [int(c) + 1 for c in broke],
-            'failure time: first tick from which a true cable tension stays 0 (ground truth)')
+    return (float(recording.view_time_s[tick]), [int(c) + 1 for c in broke],
+            'failure time: first view tick from which a true cable tension stays 0 (ground truth)')
 
 
 def write_report(bag_path: str | Path, out_dir: str | Path, settings: RunSettings,

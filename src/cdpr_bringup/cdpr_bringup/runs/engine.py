@@ -4,7 +4,10 @@ Per cycle k, as the node graph does it: the plant reports θ, θ̇ (and the torq
 applied); the controller answers with c from the setpoint of tick k (the reference, or
 the recovery's: cdpr_control.setpoints, as the controller node); the twin computes c_DT
 from the same reference and the supervisor judges tick k (cdpr_fdi.monitor); its verdict
-steers the controller from tick k + 1; the plant steps under c.
+steers the controller from tick k + contract.VERDICT_DELAY_TICKS; the plant steps under
+c. The view topics' rows are kept on the view ticks only, as the graph publishes them;
+the figures of the end-effector come from every tick (cdpr_twin.run_figures), as the
+plant simulator computes them.
 """
 from __future__ import annotations
 
@@ -14,8 +17,10 @@ from cdpr_control.controller import JointController, JointReference, command_lea
 from cdpr_control.setpoints import Setpoints
 from cdpr_fdi.monitor import Monitor
 from cdpr_fdi.supervisor import Supervisor, Verdict
+from cdpr_msgs_py.contract import VERDICT_DELAY_TICKS
 from cdpr_msgs_py.stamps import seconds_to_ns
 from cdpr_twin.plant import PlantSimulator
+from cdpr_twin.run_figures import RunFigures
 from cdpr_twin.run_length import RunLength
 from cdpr_twin.twin import DigitalTwin
 
@@ -31,16 +36,15 @@ def reference_at(scenario: Scenario, k: int) -> JointReference:
                           table.feedforward_nm[row])
 
 
-def steer(setpoints: Setpoints, verdict: Verdict, next_stamp_ns: int) -> None:
+def steer(setpoints: Setpoints, verdict: Verdict, due_ns: int) -> None:
     """What the supervisor node publishes of a verdict, handed to the controller's setpoints:
-    the broken cables, the mode, and the recovery's setpoint for the next tick."""
-    for cable in verdict.broken_cables:
-        setpoints.cable_broken(cable)
-    setpoints.set_mode(verdict.mode)
+    the broken cables and the mode, due from the tick stamped `due_ns`, and the recovery's
+    setpoint for that tick."""
+    setpoints.verdict(due_ns, verdict.broken_cables, verdict.mode)
     if verdict.tension_setpoint_n is not None:
-        setpoints.put_recovery_tensions(next_stamp_ns, verdict.tension_setpoint_n)
+        setpoints.put_recovery_tensions(due_ns, verdict.tension_setpoint_n)
     if verdict.reference is not None:
-        setpoints.put_recovery_reference(next_stamp_ns, verdict.reference)
+        setpoints.put_recovery_reference(due_ns, verdict.reference)
 
 
 def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
@@ -57,14 +61,17 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     monitor = Monitor(twin, supervisor, scenario.period_s)
     period_ns = seconds_to_ns(scenario.period_s)
     cycles, m = scenario.cycles, robot.cable_count
-    rows = {name: np.empty((cycles, width)) for name, width in (
-        ('angle', m), ('speed', m), ('command', m), ('twin_angle', m), ('twin_speed', m),
-        ('twin_torque', m), ('twin_position', 3), ('true_position', 3), ('true_tension', m),
-        ('residual', m), ('recovery_reference_angle', m))}
-    rows['recovery_reference_angle'][:] = np.nan
     platform = robot.platform is not None
-    if platform:
-        rows.update({name: np.empty((cycles, 4)) for name in ('true_orientation', 'twin_orientation')})
+    rows = {name: np.empty((cycles, m)) for name in (
+        'angle', 'speed', 'command', 'twin_angle', 'twin_speed', 'twin_torque', 'residual',
+        'recovery_reference_angle')}
+    rows['recovery_reference_angle'][:] = np.nan
+    # the view topics' rows, on the view ticks (design.md §3)
+    view = {name: [] for name in ('tick', 'twin_position', 'true_position', 'true_tension')
+            + (('true_orientation', 'twin_orientation') if platform else ())}
+    view_ticks = scenario.view_ticks
+    figures = RunFigures(m, scenario.period_s, platform)
+    table = scenario.reference
     applied = np.zeros(m)
     run_length = RunLength(cycles - 1, scenario.hold_after_cycles)
     ran = 0
@@ -76,51 +83,62 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             reference = reference_at(scenario, k)
             setpoints.put_reference(stamp, reference)
             angle, speed = plant.measure()
-            rows['true_position'][k] = plant.position_m
-            rows['true_tension'][k] = plant.tension_n
-            if platform:
-                rows['true_orientation'][k] = plant.orientation
+            row = min(k, len(table) - 1)
+            figures.add(k, plant.position_m, plant.orientation, plant.tension_n, table.position_m[row],
+                        table.orientation[row] if platform else None)
             command = setpoints.command(stamp, angle, speed)
             if command is None:
                 raise RuntimeError(f'tick {k}: no {controller.mode} setpoint from the supervisor')
             twin_output, verdict = monitor.step(k, angle, speed, applied, command, reference)
+            if view_ticks.of_tick(k):
+                view['tick'].append(k)
+                # copies: the models write their next state into arrays of their own
+                view['twin_position'].append(np.array(twin_output.position_m))
+                view['true_position'].append(np.array(plant.position_m))
+                view['true_tension'].append(np.array(plant.tension_n))
+                if platform:
+                    view['twin_orientation'].append(np.array(twin_output.orientation))
+                    view['true_orientation'].append(np.array(plant.orientation))
             if verdict is not None:
-                steer(setpoints, verdict, stamp + period_ns)
+                # as the graph's supervisor publishes it: due VERDICT_DELAY_TICKS on
+                due = k + VERDICT_DELAY_TICKS
+                steer(setpoints, verdict, due * period_ns)
+                if verdict.broken_cables:
+                    figures.detection_at(k)
                 rows['residual'][k] = verdict.residual_nm
                 if verdict.reference is not None:
                     rows['recovery_reference_angle'][k] = verdict.reference.angle_rad
-                # the graph's plant learns the verdict once it stands at the next tick
-                run_length.mode(verdict.mode, k + 1)
+                run_length.mode(verdict.mode, due)
             plant.step(command, scenario.period_s)
+            figures.take_breaks(plant.broken_at_s)
             applied = command
             rows['angle'][k], rows['speed'][k], rows['command'][k] = angle, speed, command
             rows['twin_angle'][k] = twin_output.angle_rad
             rows['twin_speed'][k] = twin_output.angular_velocity_rad_s
             rows['twin_torque'][k] = twin_output.torque_nm
-            rows['twin_position'][k] = twin_output.position_m
-            if platform:
-                rows['twin_orientation'][k] = twin_output.orientation
             ran = k + 1
     except KeyboardInterrupt:
         pass
     rows = {name: values[:ran] for name, values in rows.items()}
+    view_ticks_ran = np.array([tick for tick in view['tick'] if tick < ran], dtype=int)
+    views = {name: np.array(values[:view_ticks_ran.size], dtype=float).reshape(view_ticks_ran.size, -1)
+             for name, values in view.items() if name != 'tick'}
     # the reference of each tick that ran (reference_at's rows), taken at once
-    table, held = scenario.reference, np.minimum(np.arange(ran), len(scenario.reference) - 1)
-    rows['reference_position'], rows['reference_angle'] = table.position_m[held], table.angle_rad[held]
-    if platform:
-        rows['reference_orientation'] = table.orientation[held]
+    held = np.minimum(np.arange(ran), len(table) - 1)
+    view_held = held[view_ticks_ran]
     return Recording(
         time_s=np.arange(ran) * scenario.period_s,
         angle_rad=rows['angle'], angular_velocity_rad_s=rows['speed'], command_nm=rows['command'],
         twin_angle_rad=rows['twin_angle'], twin_angular_velocity_rad_s=rows['twin_speed'],
-        twin_torque_nm=rows['twin_torque'], twin_position_m=rows['twin_position'],
-        reference_position_m=rows['reference_position'],
-        reference_angle_rad=rows['reference_angle'],
-        true_position_m=rows['true_position'], true_tension_n=rows['true_tension'],
+        twin_torque_nm=rows['twin_torque'], reference_angle_rad=table.angle_rad[held],
+        view_time_s=view_ticks_ran * scenario.period_s,
+        twin_position_m=views['twin_position'], reference_position_m=table.position_m[view_held],
+        true_position_m=views['true_position'], true_tension_n=views['true_tension'],
         residual_nm=rows['residual'] if supervisor is not None else None,
         recovery_reference_angle_rad=rows['recovery_reference_angle'],
         fdi=supervisor.summary() if supervisor is not None else {},
         interrupted=ran <= run_length.last_tick,
         broken_at_s=dict(plant.broken_at_s),
-        **({name: rows[name] for name in ('true_orientation', 'twin_orientation', 'reference_orientation')}
-           if platform else {}))
+        figures=figures.summary(),
+        **({'true_orientation': views['true_orientation'], 'twin_orientation': views['twin_orientation'],
+            'reference_orientation': table.orientation[view_held]} if platform else {}))

@@ -12,48 +12,34 @@ from cdpr_control.pose_kinematics import end_effector_positions
 from cdpr_control.rotation import difference
 from cdpr_control.robot import Robot
 from cdpr_fdi.config import FdiConfig, RecoveryConfig
-from cdpr_msgs_py.contract import (BROKEN_AT_KEY, GROUND_TRUTH_POSE, GROUND_TRUTH_TENSIONS,
-                                   JOINT_STATES, LAST_TRUE_POSITION_KEY, PLANT_SIMULATOR,
-                                   SAFE_HOLD, SUPERVISOR)
+from cdpr_msgs_py.contract import BROKEN_AT_KEY, JOINT_STATES, PLANT_SIMULATOR, RUN_FIGURES_KEY, SAFE_HOLD, SUPERVISOR
+from cdpr_twin.run_figures import RunFigures
 
 from ..paths import LAST_DIAGNOSTICS
 from .recording import Recording
 
-# The per-tick topics the plant simulator writes with every state it publishes, and the
-# key of its /diagnostics that counts those states.
-PER_STATE_TOPICS = (JOINT_STATES, GROUND_TRUTH_POSE, GROUND_TRUTH_TENSIONS)
+# The loop topics the plant simulator writes with every state it publishes, and the key
+# of its /diagnostics that counts those states.
+PER_STATE_TOPICS = (JOINT_STATES,)
 STATES_TOTAL_KEY = 'states total'
 PAPER_KPI = {'K_c_m': 0.0143, 'K_j_rad': 0.0583, 'K_t_nm': 0.1566}
 
 
 def twin_kpis(robot: Robot, recording, ticks: slice = slice(None)) -> dict:
-    """Largest Cartesian (FK of the measured angles), joint and torque gap to the twin.
+    """Largest Cartesian (forward kinematics of the measured angles against the twin's:
+    the loop topics of every tick), joint and torque gap to the twin.
 
     Over `ticks`: after a failure the twin is meant to differ, so callers pass the
     ticks before it.
     """
     angles = recording.angle_rad[ticks]
     measured = end_effector_positions(robot, angles)
+    twin = end_effector_positions(robot, recording.twin_angle_rad[ticks])
     return {
-        'K_c_m': float(np.max(np.linalg.norm(measured - recording.twin_position_m[ticks], axis=1))),
+        'K_c_m': float(np.max(np.linalg.norm(measured - twin, axis=1))),
         'K_j_rad': float(np.max(np.abs(angles - recording.twin_angle_rad[ticks]))),
         'K_t_nm': float(np.max(np.abs(recording.command_nm[ticks] - recording.twin_torque_nm[ticks]))),
     }
-
-
-def tracking_error_m(recording, ticks: slice = slice(None)) -> float:
-    """Largest distance between the true end-effector and the reference pose (m)."""
-    return float(np.max(np.linalg.norm(recording.true_position_m[ticks]
-                                       - recording.reference_position_m[ticks], axis=1)))
-
-
-def orientation_tracking_error_rad(recording, ticks: slice = slice(None)) -> float | None:
-    """Largest angle between the true platform's orientation and the reference's (rad);
-    None for a point mass."""
-    if recording.true_orientation is None:
-        return None
-    return float(np.max(np.linalg.norm(difference(recording.true_orientation[ticks],
-                                                  recording.reference_orientation[ticks]), axis=-1)))
 
 
 def ticks_before(recording, time_s: float | None) -> int:
@@ -69,6 +55,42 @@ def ticks_before(recording, time_s: float | None) -> int:
     return int(np.searchsorted(recording.time_s, time_s, side='left'))
 
 
+def period_of(recording) -> float:
+    """The control period (s) of a recording's ticks."""
+    steps = np.diff(recording.time_s)
+    return float(np.median(steps)) if steps.size else 0.0
+
+
+def figures_from_rows(robot: Robot, period_s: float, time_s, position_m, orientation, tension_n,
+                      reference_position_m, reference_orientation, failure_time_s: float | None,
+                      broken_cables: list[int], detection_time_s: float | None) -> dict:
+    """The figures of cdpr_twin.run_figures from the rows a bag holds (times s), for a run
+    whose plant did not say them: its view ticks' truth, or a real robot's pose and
+    tensions as measured and estimated at every tick (`reference_position_m` None: no
+    tracking error). Cables 1-based."""
+    figures = RunFigures(robot.cable_count, period_s, robot.platform is not None)
+    for cable in broken_cables:
+        if failure_time_s is not None:
+            figures.failure_at(failure_time_s, cable - 1)
+        else:
+            figures.broken.add(cable - 1)
+    if detection_time_s is not None:
+        figures.detection_at(round(detection_time_s / period_s))
+    ticks = np.round(np.asarray(time_s) / period_s).astype(int)
+    figures.add_rows(ticks, position_m, orientation, tension_n, reference_position_m, reference_orientation)
+    return figures.summary()
+
+
+def view_figures(robot: Robot, recording, failure_time_s: float | None, broken_cables: list[int],
+                 detection_time_s: float | None) -> dict:
+    """figures_from_rows of a simulated run's view ticks (its truth where the plant did not
+    say its figures from every tick: a bag without its status)."""
+    return figures_from_rows(robot, period_of(recording), recording.view_time_s, recording.true_position_m,
+                             recording.true_orientation, recording.true_tension_n,
+                             recording.reference_position_m, recording.reference_orientation,
+                             failure_time_s, broken_cables, detection_time_s)
+
+
 @dataclass(frozen=True)
 class RunSettings:
     """Of a run's settings, what its report needs."""
@@ -81,14 +103,14 @@ class RunSettings:
 
 @dataclass
 class KnownRun:
-    """What is known about one run, from the run itself (cdpr-scenario: its recording and
-    the supervisor's summary) or from its bag (cdpr-report, where the ground truth or the
-    supervisor may be missing): the input of `metrics_json`. Times in s, cables 1-based."""
+    """What is known about one run, from the run itself (cdpr-scenario: its recording, the
+    plant's figures and the supervisor's summary) or from its bag (cdpr-report, where the
+    ground truth or the supervisor may be missing): the input of `metrics_json`. Times in
+    s, cables 1-based."""
 
     robot: Robot
     recording: Recording
-    position_m: np.ndarray            # end-effector per tick: true, else as measured (FK)
-    tension_n: np.ndarray             # per tick: true, else the sensorless estimate (N; one tick short)
+    figures: dict                     # cdpr_twin.run_figures' summary: from every tick, or what the bag holds
     epsilon_nm: float                 # the detection threshold ε
     failure_time_s: float | None      # the first cable's break; None: none, or unknown
     true_broken_cables: list[int] | None  # None: unknown (no ground truth)
@@ -100,9 +122,6 @@ class KnownRun:
     reached_tolerance_m: float | None  # distance to SP that counts as reached
     supervisor: dict                  # its last summary (Supervisor.summary()); {}: none
     wall_time_s: float
-    # where the run ended as the plant reported it, whatever a recorder kept; None: the
-    # last of position_m
-    final_position_m: np.ndarray | None = None
 
     @property
     def event_time_s(self) -> float | None:
@@ -110,41 +129,41 @@ class KnownRun:
         return self.failure_time_s if self.failure_time_s is not None else self.detection_time_s
 
     @property
-    def remaining(self) -> np.ndarray:
-        """Mask of the cables that still hold: all but the truly broken ones, else (the
-        truth unknown) all but the identified ones."""
-        broken = (self.true_broken_cables if self.true_broken_cables is not None
-                  else self.identified_cables)
-        return self.robot.cable_mask([cable - 1 for cable in broken])
+    def event_figures(self) -> dict:
+        """The figures relative to the event: the failure's, else the detection's."""
+        return self.figures['failure' if self.failure_time_s is not None else 'detection']
 
 
 def final_orientation_error_deg(run: KnownRun) -> float | None:
-    """The angle (deg) between a platform's last recorded true orientation and the safe
+    """The angle (deg) between a platform's last true orientation and the safe
     orientation its supervisor's recovery steered to; None before a recovery (or without
     the supervisor's word)."""
     safe = run.supervisor.get('safe_orientation')
-    if safe is None or not run.recording.true_orientation.size:
+    last = run.figures.get('final_orientation')
+    if safe is None or last is None:
         return None
-    return math.degrees(float(np.linalg.norm(difference(safe, run.recording.true_orientation[-1]))))
+    return math.degrees(float(np.linalg.norm(difference(safe, last))))
 
 
 def metrics_json(run: KnownRun) -> dict:
     """The metrics.json keys of docs/design.md §7 (and `epsilon_nm`).
 
-    The KPIs and the tracking error cover the ticks before the failure (or its
-    detection): from then on the twin is meant to differ. recovery.min_tension_n covers
-    the remaining cables from then on, min_height_m the whole run, duration_s the
-    detection to SAFE_HOLD. Unknowable figures are None: the tracking error without
-    ground truth, false_alarm when nothing tells whether a cable broke.
+    The KPIs cover the ticks before the failure (or its detection): from then on the twin
+    is meant to differ. The figures of the end-effector are `run.figures`: the tracking
+    error over the same ticks, recovery.min_tension_n and max_tension_n over the remaining
+    cables from then on, min_height_m the whole run; duration_s is the detection to
+    SAFE_HOLD. Unknowable figures are None: the tracking error without ground truth,
+    false_alarm when nothing tells whether a cable broke.
     """
     detection, failure = run.detection_time_s, run.failure_time_s
     nominal = slice(0, ticks_before(run.recording, run.event_time_s))
-    tensions_after = run.tension_n[nominal.stop:]
-    final = run.position_m[-1] if run.final_position_m is None else run.final_position_m
-    final_error = (None if run.safe_point_m is None
-                   else float(np.linalg.norm(final - np.asarray(run.safe_point_m))))
+    window = run.event_figures
+    final = run.figures['final_position_m']
+    final_error = (None if run.safe_point_m is None or final is None
+                   else float(np.linalg.norm(np.asarray(final) - np.asarray(run.safe_point_m))))
     hold = run.phase_times_s.get(SAFE_HOLD)
     failure_known = failure is not None or run.true_broken_cables is not None
+    platform = run.robot.platform is not None
     return {
         'epsilon_nm': run.epsilon_nm,
         'failure_time_s': failure,
@@ -165,26 +184,22 @@ def metrics_json(run: KnownRun) -> dict:
             'reached_safe_point': (None if final_error is None or run.reached_tolerance_m is None
                                    else final_error <= run.reached_tolerance_m),
             'final_error_m': final_error,
-            'min_tension_n': (float(np.min(tensions_after[:, run.remaining]))
-                              if tensions_after.size else None),
-            'max_tension_n': (float(np.max(tensions_after[:, run.remaining]))
-                              if tensions_after.size else None),
-            'min_height_m': float(np.min(run.position_m[:, 2])),
+            'min_tension_n': window['min_tension_n'],
+            'max_tension_n': window['max_tension_n'],
+            'min_height_m': run.figures['lowest_point_m'],
             'duration_s': None if hold is None or detection is None else hold - detection,
             'phase_times_s': dict(run.phase_times_s),
             'settle_timed_out': run.supervisor.get('settle_timed_out'),
             # a platform's: the angle (deg) from its last true orientation to the safe one
-            **({} if run.recording.true_orientation is None
-               else {'final_orientation_error_deg': final_orientation_error_deg(run)}),
+            **({'final_orientation_error_deg': final_orientation_error_deg(run)} if platform else {}),
         },
         'kpi': twin_kpis(run.robot, run.recording, nominal),
-        'tracking_error_m': (tracking_error_m(run.recording, nominal)
-                             if run.recording.has_ground_truth else None),
+        'tracking_error_m': window['tracking_error_m'] if run.recording.has_ground_truth else None,
         'cycles': int(run.recording.time_s.size),
         'wall_time_s': run.wall_time_s,
         # a platform's: the largest angle between its true and its reference orientation
-        **({} if run.recording.true_orientation is None
-           else {'orientation_tracking_error_rad': orientation_tracking_error_rad(run.recording, nominal)}),
+        **({'orientation_tracking_error_rad': window['orientation_tracking_error_rad']
+            if run.recording.has_ground_truth else None} if platform else {}),
     }
 
 
@@ -216,12 +231,12 @@ def broken_at_of(plant: dict[str, str] | None) -> dict[int, float] | None:
     return {int(cable) - 1: float(at) for cable, at in json.loads(plant[BROKEN_AT_KEY]).items()}
 
 
-def last_true_position_of(plant: dict[str, str] | None) -> np.ndarray | None:
-    """The true position (m) of the last state the plant simulator published, from its
-    status key-values (None when it never said)."""
-    if plant is None or LAST_TRUE_POSITION_KEY not in plant:
+def run_figures_of(plant: dict[str, str] | None) -> dict | None:
+    """The figures of the end-effector from every tick (cdpr_twin.run_figures) the plant
+    simulator said in its status key-values (None when it never said)."""
+    if plant is None or RUN_FIGURES_KEY not in plant:
         return None
-    return np.array(json.loads(plant[LAST_TRUE_POSITION_KEY]), dtype=float)
+    return json.loads(plant[RUN_FIGURES_KEY])
 
 
 def fdi_summary_of(supervisor: dict[str, str] | None) -> dict:
@@ -246,13 +261,13 @@ def statuses_beside(bag: Path, diagnostics) -> dict[str, dict[str, str]]:
 
 def take_statuses(recording: Recording, said: dict[str, dict[str, str]], counted: dict[str, int] | None) -> None:
     """Into a bag's `recording`, what its nodes said (`said`, statuses_beside): the
-    supervisor's summary, the instants cables parted and where the run ended (the
+    supervisor's summary, the instants cables parted and the figures from every tick (the
     plant's), and the ticks the bag lacks — its recorder's count (`counted`), and against
     the plant's own count of states."""
     plant = said.get(PLANT_SIMULATOR)
     recording.fdi = fdi_summary_of(said.get(SUPERVISOR))
     recording.broken_at_s = broken_at_of(plant)
-    recording.last_true_position_m = last_true_position_of(plant)
+    recording.figures = run_figures_of(plant)
     states = None if plant is None or STATES_TOTAL_KEY not in plant else int(plant[STATES_TOTAL_KEY])
     recording.missing_ticks = missing_against_the_plant(counted, states, recording.ticks_held or {})
 

@@ -1,5 +1,7 @@
-"""What a run produced, one row per control tick: the in-process engine's output, and
-what a bag of the graph reads back as."""
+"""What a run produced: one row per control tick of the loop topics, one per view tick of
+the view topics (design.md §3, "What a tick delivers"), and the figures the node holding
+the truth computed from every tick: the in-process engine's output, and what a bag of the
+graph (with the nodes' last statuses beside it) reads back as."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -9,7 +11,9 @@ import numpy as np
 
 @dataclass
 class Recording:
-    """What a run produced, one row per control cycle (SI units)."""
+    """What a run produced (SI units): the loop topics' rows, one per control tick
+    (`time_s`), and the view topics' rows, one per view tick (`view_time_s`: the twin's,
+    the reference's and the true pose, the true tensions)."""
 
     time_s: np.ndarray
     angle_rad: np.ndarray
@@ -18,9 +22,10 @@ class Recording:
     twin_angle_rad: np.ndarray
     twin_angular_velocity_rad_s: np.ndarray
     twin_torque_nm: np.ndarray
+    reference_angle_rad: np.ndarray
+    view_time_s: np.ndarray
     twin_position_m: np.ndarray
     reference_position_m: np.ndarray
-    reference_angle_rad: np.ndarray
     true_position_m: np.ndarray
     true_tension_n: np.ndarray
     residual_nm: np.ndarray | None = None
@@ -41,20 +46,21 @@ class Recording:
     missing_ticks: dict[str, int] | None = None
     # A bag's: per topic read (relative name), how many ticks it holds.
     ticks_held: dict[str, int] | None = None
-    # A graph run's: the true position (m) of the plant's last state as the plant
-    # reported it, which a bag that lost its last ticks does not hold; None: unknown.
-    last_true_position_m: np.ndarray | None = None
-    # A platform's orientations (unit quaternions, a row per cycle): the plant's true one,
-    # the twin's and the reference's; None for a point mass.
+    # The figures of the end-effector from every tick (cdpr_twin.run_figures: the summary
+    # of RunFigures), as the plant simulator said them in its last status or the in-process
+    # engine computed them; None: unknown (a bag without the plant's status).
+    figures: dict | None = None
+    # A platform's orientations (unit quaternions, a row per view tick): the plant's true
+    # one, the twin's and the reference's; None for a point mass.
     true_orientation: np.ndarray | None = None
     twin_orientation: np.ndarray | None = None
     reference_orientation: np.ndarray | None = None
 
     @property
     def has_ground_truth(self) -> bool:
-        """Whether the plant's true pose was recorded on every tick (only a simulated run
-        has it: a bag of the real robot reads back NaN there)."""
-        return bool(np.isfinite(self.true_position_m).all())
+        """Whether the plant's true pose was recorded on every view tick (only a simulated
+        run has it: a bag of the real robot reads back NaN there)."""
+        return bool(self.true_position_m.size) and bool(np.isfinite(self.true_position_m).all())
 
 
 def holes_said(missing: dict[str, int] | None) -> str:

@@ -22,7 +22,7 @@ from cdpr_control.tension_distribution import (InfeasibleTensionError, PseudoInv
 from cdpr_fdi.config import FdiConfig, RecoveryConfig, calibrated_fdi, settled_fdi
 from cdpr_fdi.markers import Frame, MarkerStyle
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
-from cdpr_msgs_py.contract import SETTINGS_OF, SETTINGS_OF_EVERY_NODE
+from cdpr_msgs_py.contract import SETTINGS_OF, SETTINGS_OF_EVERY_NODE, ViewTicks
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 from cdpr_twin.plant import FIDELITIES, PlantConfig, Push, settled_pushes
 
@@ -82,6 +82,7 @@ class Scenario:
     fdi: FdiConfig
     recovery: RecoveryConfig
     markers: MarkerStyle
+    view_ticks: ViewTicks                    # which ticks the view topics are written on
     pose_motion: PoseMotion | None = None    # a platform's motion, with its turn
 
     @property
@@ -90,8 +91,9 @@ class Scenario:
         return None if self.pose_motion is None else self.reference.orientation[0]
 
     def marker_frame(self) -> Frame:
-        """The markers node's core for this run, as the node settles it."""
-        return Frame(self.robot, self.fdi.friction, self.recovery, self.markers)
+        """The markers node's core for this run, as the node settles it (a simulated run:
+        the ground truth is drawn)."""
+        return Frame(self.robot, self.recovery, self.markers)
 
     @property
     def failure_time_s(self) -> float | None:
@@ -250,6 +252,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         fdi=fdi,
         recovery=recovery,
         markers=MarkerStyle.from_section(settings.section('markers')),
+        view_ticks=ViewTicks.of_streams(settings.section('streams'), period),
         pose_motion=settled.pose_motion,
     )
     settings.data['run']['last_tick'] = scenario.cycles - 1

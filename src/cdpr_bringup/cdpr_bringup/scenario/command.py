@@ -29,7 +29,7 @@ from cdpr_twin.plant import FIDELITIES
 
 from ..cli import INTERRUPTED_EXIT_CODE, command
 from ..runs.engine import run_inprocess
-from ..runs.metrics import KnownRun, RunSettings, metrics_json, statuses_beside, take_statuses
+from ..runs.metrics import KnownRun, RunSettings, metrics_json, statuses_beside, take_statuses, view_figures
 from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, LAST_DIAGNOSTICS, SETTLED_RUN
 from ..reports.summary import summary_lines
 from ..runs.settle import ScenarioOptions, add_graph_form_option, add_push_option, build_scenario
@@ -136,17 +136,21 @@ def metrics_of(scenario, recording, wall_time_s: float, interrupted: bool = Fals
         broken = sorted(cable + 1 for cable in recording.broken_at_s)
     supervisor = recording.fdi or {}
     identified_tick = supervisor.get('identified_tick')
+    detection = None if identified_tick is None else identified_tick * scenario.period_s
+    # the plant's figures from every tick; of a graph run whose plant said none (killed),
+    # those of the bag's view ticks
+    figures = (recording.figures if recording.figures is not None
+               else view_figures(scenario.robot, recording, failure, broken, detection))
     metrics.update(metrics_json(KnownRun(
-        robot=scenario.robot, recording=recording, position_m=recording.true_position_m,
-        tension_n=recording.true_tension_n, epsilon_nm=scenario.fdi.epsilon_nm,
+        robot=scenario.robot, recording=recording, figures=figures, epsilon_nm=scenario.fdi.epsilon_nm,
         failure_time_s=failure, true_broken_cables=broken,
-        detection_time_s=None if identified_tick is None else identified_tick * scenario.period_s,
+        detection_time_s=detection,
         identified_cables=supervisor.get('broken_cables') or [], mode=supervisor.get('mode'),
         phase_times_s={mode: tick * scenario.period_s
                        for mode, tick in (supervisor.get('phase_ticks') or {}).items()},
         safe_point_m=supervisor.get('safe_point_m'),
         reached_tolerance_m=scenario.recovery.reached_tolerance_m, supervisor=supervisor,
-        wall_time_s=wall_time_s, final_position_m=recording.last_true_position_m)))
+        wall_time_s=wall_time_s)))
     detection = metrics['detection_time_s']
     metrics['failure_signal_time_s'] = signal
     metrics['detection_delay_from_signal_ms'] = (None if detection is None or signal is None

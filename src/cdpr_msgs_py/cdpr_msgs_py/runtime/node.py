@@ -17,6 +17,7 @@ from ..health import AcknowledgementWatch, HealthLimits
 from ..scheduling import NICE_RANGE, PRIORITY_RANGE, apply_scheduling
 from .acknowledgements import ACKNOWLEDGE_LIMIT_S
 from .diagnostics import Diagnostics
+from . import local_bus
 from .handshake import StartHandshake, parse_matches
 from .parameters import DeclaredParameters
 from .publishers import GuardedPublisher
@@ -36,6 +37,9 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
     CHANGEABLE_SETTINGS = frozenset(f'health.{field.name}' for field in fields(HealthLimits))
 
     def __init__(self, name: str):
+        # composed with the loop's other nodes: their messages to this one stay in the
+        # process (local_bus); None alone. Before rclpy's Node makes its own publishers.
+        self.bus: local_bus.LocalBus | None = local_bus.current
         # /cdpr unless the command line says otherwise: a node started alone (ros2 run)
         # joins the graph's topics, and `-r __ns:=…` (what launchers pass) overrides this
         super().__init__(name, namespace=contract.DEFAULT_NAMESPACE)
@@ -49,6 +53,7 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
         self.diagnostics = Diagnostics(self)
         # configure() sets these from the config file, which this package cannot read
         self.stream_qos = None
+        self.view_ticks: contract.ViewTicks | None = None
         self.acknowledgements = AcknowledgementWatch(HealthLimits().reader_lag_limit_s)
         self.add_on_set_parameters_callback(self.on_parameter_changes)
         self.stream_publishers: list[GuardedPublisher] = []
@@ -78,9 +83,12 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
     def configure(self, config, period_s: float) -> None:
         """From the config file (a cdpr_control.config.Section of it: this package reads
         no file) and the control period: how deep the per-cycle writers' history is
-        (`streams`), and the limits of the /diagnostics levels (`health`); a missing
-        section or key takes its default. Before the first create_stream_publisher."""
-        self.stream_qos = qos.stream_writer(config.section('streams', {}), period_s)
+        (`streams`) and which ticks are view ticks, and the limits of the /diagnostics
+        levels (`health`); a missing section or key takes its default. Before the first
+        create_stream_publisher."""
+        streams = config.section('streams', {})
+        self.stream_qos = qos.stream_writer(streams, period_s)
+        self.view_ticks = contract.ViewTicks.of_streams(streams, period_s)
         self.set_health_limits(HealthLimits.from_section(config.section('health', {})))
 
     def set_health_limits(self, limits: HealthLimits) -> None:
@@ -101,12 +109,26 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
         return SetParametersResult(successful=True)
 
     def create_publisher(self, msg_type, topic, qos_profile, **options):
-        """As rclpy's, with publishing never fatal (GuardedPublisher)."""
+        """As rclpy's, with publishing never fatal (GuardedPublisher); composed, a topic
+        of the loop's goes to the process's other nodes inside it (local_bus)."""
         options.setdefault('publisher_class', GuardedPublisher)
         publisher = super().create_publisher(msg_type, topic, qos_profile, **options)
         # looked up when it fails: the diagnostics' own publisher exists before they do
         publisher.failed = lambda name, err: self.diagnostics.publish_failed(name, err)
+        if self.bus is not None and self.bus.writes(topic):
+            publisher.deliver_locally(self.bus)
         return publisher
+
+    def create_subscription(self, msg_type, topic, callback, qos_profile, **options):
+        """As rclpy's; composed, a topic another node of this process writes is taken from
+        it inside the process (local_bus), not from DDS (None is returned then). A
+        JointState stream of the contract is taken as its CDR bytes, which
+        conversions.joints_from_message reads in place (contract.raw_stream)."""
+        if self.bus is not None and self.bus.writes(topic):
+            self.bus.subscribe(self.resolve_topic_name(topic), callback)
+            return None
+        options.setdefault('raw', contract.raw_stream(topic))
+        return super().create_subscription(msg_type, topic, callback, qos_profile, **options)
 
     def create_stream_publisher(self, msg_type, topic: str) -> GuardedPublisher:
         """The writer of a per-cycle stream (qos.stream_writer), its readers' lag watched

@@ -14,6 +14,7 @@ from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.signals import SignalHandlerOptions
 
 from ..dds import bounded_initialisation, follow_launcher
+from . import local_bus
 from .acknowledgements import ACKNOWLEDGE_LIMIT_S, ACKNOWLEDGEMENT_WAIT_S, watching_acknowledgements
 
 SPIN_TIMEOUT_S = 0.05
@@ -48,12 +49,13 @@ def run(node_class, args=None) -> int:
     return run_composed([node_class], args)
 
 
-def run_composed(node_classes, args=None) -> int:
+def run_composed(node_classes, args=None, names=()) -> int:
     """Create a node of each of `node_classes` in this process, on one executor (ROS 2
-    composition: a message between them is delivered inside the process), and spin them
-    until a stop request or until one of them sets `finished`; then each drains and
-    closes as it would alone. A node that cannot be built from its parameters logs why
-    in one FATAL line and returns SET_UP_EXIT_CODE."""
+    composition), and spin them until a stop request or until one of them sets
+    `finished`; then each drains and closes as it would alone. The messages between the
+    nodes `names` (their node names) stay in the process (local_bus). A node that cannot
+    be built from its parameters logs why in one FATAL line and returns SET_UP_EXIT_CODE."""
+    bus = local_bus.current = local_bus.LocalBus(names) if len(names) > 1 else None
     stopping = []
 
     def request_stop(signum, _frame):
@@ -94,10 +96,12 @@ def run_composed(node_classes, args=None) -> int:
             for node in nodes:
                 watches.enter_context(watching_acknowledgements(node))
             while rclpy.ok() and not stopping and not any(node.finished for node in nodes):
-                executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+                executor.spin_once(timeout_sec=0.0 if bus is not None and bus.pending else SPIN_TIMEOUT_S)
+                if bus is not None:
+                    bus.dispatch()
                 for node in nodes:
                     node.idle()
-            drain(executor, nodes)
+            drain(executor, nodes, bus)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception:
@@ -116,7 +120,7 @@ def run_composed(node_classes, args=None) -> int:
             rclpy.shutdown()
     return 0
 
-def drain(executor, nodes) -> None:
+def drain(executor, nodes, bus=None) -> None:
     """Spin until none of `nodes` has done anything for DRAIN_QUIET_S and none keeps
     draining (CdprNode.keeps_draining), at most DRAIN_LIMIT_S.
 
@@ -130,7 +134,9 @@ def drain(executor, nodes) -> None:
     quiet_since = time.monotonic()
     seen = sum(node.diagnostics.activity for node in nodes)
     while rclpy.ok() and time.monotonic() < deadline:
-        executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+        executor.spin_once(timeout_sec=0.0 if bus is not None and bus.pending else SPIN_TIMEOUT_S)
+        if bus is not None:
+            bus.dispatch()
         for node in nodes:
             node.drain_step()
         activity = sum(node.diagnostics.activity for node in nodes)

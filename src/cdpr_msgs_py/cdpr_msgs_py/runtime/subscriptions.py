@@ -7,6 +7,7 @@ import time
 
 from rclpy.node import Node
 
+from ..contract import raw_stream
 from ..sole_writer import Endpoint, SoleWriter, qualified_name
 
 
@@ -47,8 +48,14 @@ class SoleWriterSubscription:
         self.core = SoleWriter(writer if writer.startswith('/')
                                else qualified_name(node.get_namespace(), writer))
         self.problem = ''
-        node.create_subscription(msg_type, topic, message_info_callback(self.on_message), qos_profile,
-                                 raw=raw)
+        # composed with its writer: only that node writes the topic inside the process, and
+        # nothing from outside it is heard (local_bus)
+        self.local = getattr(node, 'bus', None) is not None and node.bus.writes(topic, writer)
+        if self.local:
+            node.bus.subscribe(self.resolved_topic, handler)
+            return
+        Node.create_subscription(node, msg_type, topic, message_info_callback(self.on_message), qos_profile,
+                                 raw=raw or raw_stream(topic))
 
     def on_message(self, message, info) -> None:
         gid = info['publisher_gid']['data']
@@ -88,11 +95,15 @@ class SoleWriterSubscription:
 
     def known(self) -> bool:
         """Whether the writer is pinned; asks the graph while it is not (before the run)."""
+        if self.local:
+            return True
         if self.core.pinned is None:
             self.look_up()
         return self.core.pinned is not None
 
     def writer_fact(self) -> str:
+        if self.local:
+            return f'{self.core.writer}, in this process'
         if self.core.pinned is None:
             return f'{self.core.writer}, not seen yet' + (f': {self.problem}' if self.problem else '')
         return f'{self.core.writer} (GID {self.core.pinned.hex()})'

@@ -1,0 +1,194 @@
+"""A run's figures of the end-effector, from every tick: the node that holds the truth
+computes them as the run goes (the plant simulator; the in-process engine the same way),
+and says them in its last status, from where metrics.json takes them. The view topics,
+which carry the truth only on the view ticks, serve plots.
+
+Per tick: the end-effector's pose and the cables' tensions (true, or as estimated where
+there is no truth), and the reference pose of the tick where it is known. The figures:
+the lowest point over the run; the last pose; and relative to an event — the first
+cable's parting (`failure_at`) or, in a run where none parts, the first naming of a
+broken cable (`detection_at`) — the largest tracking error (position, and a platform's
+orientation) on the ticks before it, and the least and greatest tension of the cables
+left (all but those that parted) on the ticks from it on. A tick is before an event when
+its time (tick × period) is before the event's instant, as metrics.ticks_before counts.
+
+A naming is learnt a few ticks after the tick it judged: rows are kept HOLD_S before they
+are counted, so that a tick is judged against the events of its own time.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cdpr_control.rotation import difference
+
+# How long (s) a tick's row waits before it is counted: longer than a verdict takes to
+# reach the plant (VERDICT_DELAY_TICKS in lockstep; a realtime supervisor trails by a
+# few ms).
+HOLD_S = 1.0
+EVENTS = ('failure', 'detection')
+
+
+def first_tick_at_or_after(time_s: float, period_s: float) -> int:
+    """The first tick whose time (tick × period_s) is not before `time_s`."""
+    tick = max(int(math.floor(time_s / period_s)), 0)
+    while tick * period_s < time_s:
+        tick += 1
+    while tick > 0 and (tick - 1) * period_s >= time_s:
+        tick -= 1
+    return tick
+
+
+class _Window:
+    """The figures relative to one event: tracking before it, tensions from it on."""
+
+    def __init__(self, cable_count: int):
+        self.tracking_m = -math.inf
+        self.turn_rad = -math.inf
+        self.low_n = np.full(cable_count, math.inf)
+        self.high_n = np.full(cable_count, -math.inf)
+        self.after = 0
+
+    def fold(self, ticks, event, error_m, turn_rad, tension_n) -> None:
+        before = ticks < event if event is not None else np.ones(ticks.size, dtype=bool)
+        tracked = before & np.isfinite(error_m)
+        if tracked.any():
+            self.tracking_m = max(self.tracking_m, float(np.max(error_m[tracked])))
+            if turn_rad is not None:
+                self.turn_rad = max(self.turn_rad, float(np.max(turn_rad[tracked])))
+        after = ~before
+        if after.any():
+            self.low_n = np.minimum(self.low_n, tension_n[after].min(axis=0))
+            self.high_n = np.maximum(self.high_n, tension_n[after].max(axis=0))
+            self.after += int(np.count_nonzero(after))
+
+    def copy(self) -> '_Window':
+        other = _Window(self.low_n.size)
+        other.tracking_m, other.turn_rad, other.after = self.tracking_m, self.turn_rad, self.after
+        other.low_n, other.high_n = self.low_n.copy(), self.high_n.copy()
+        return other
+
+    def figures(self, remaining: np.ndarray, platform: bool) -> dict:
+        held = self.after and remaining.any()
+        return {
+            'tracking_error_m': None if self.tracking_m == -math.inf else self.tracking_m,
+            **({'orientation_tracking_error_rad': None if self.turn_rad == -math.inf else self.turn_rad}
+               if platform else {}),
+            'min_tension_n': float(np.min(self.low_n[remaining])) if held else None,
+            'max_tension_n': float(np.max(self.high_n[remaining])) if held else None,
+        }
+
+
+class RunFigures:
+    """The figures of a run, fed a row per tick (`add`), or a stack of rows (`add_rows`)."""
+
+    def __init__(self, cable_count: int, period_s: float, platform: bool, hold_s: float = HOLD_S):
+        self.cable_count = cable_count
+        self.period_s = period_s
+        self.platform = platform
+        self.hold_ticks = max(1, int(math.ceil(hold_s / period_s)))
+        self.rows: list[tuple] = []
+        self.windows = {event: _Window(cable_count) for event in EVENTS}
+        self.events: dict[str, int | None] = dict.fromkeys(EVENTS)
+        self.broken: set[int] = set()
+        self.lowest_m = math.inf
+        self.ticks = 0
+        self.last: tuple | None = None
+        # the tracking error counts the settled motion only: a goal moves the reference away
+        self.tracked_until: int | None = None
+
+    def failure_at(self, time_s: float, cable: int) -> None:
+        """Cable `cable` (0-based) really parted at `time_s`: its tension leaves the
+        figures, and the first parting is the run's event."""
+        self.broken.add(cable)
+        if self.events['failure'] is None:
+            self.events['failure'] = first_tick_at_or_after(time_s, self.period_s)
+
+    def take_breaks(self, broken_at_s: dict[int, float]) -> None:
+        """The plant's record of the cables it parted (0-based cable → instant s): those
+        not known yet, by `failure_at`."""
+        for cable, at in broken_at_s.items():
+            if cable not in self.broken:
+                self.failure_at(at, cable)
+
+    def detection_at(self, tick: int) -> None:
+        """The verdict on `tick` first named a broken cable."""
+        if self.events['detection'] is None:
+            self.events['detection'] = tick
+
+    def goal_at(self, tick: int) -> None:
+        """A goal reached the generator by `tick`: from then on the reference is not the
+        settled motion's, whose poses the tracking error is counted against."""
+        if self.tracked_until is None:
+            self.tracked_until = tick
+
+    def add(self, tick: int, position_m, orientation, tension_n, reference_position_m=None,
+            reference_orientation=None) -> None:
+        """One tick: the end-effector's pose (orientation None for a point mass), the
+        tensions (N), and the reference pose where known."""
+        # copies: a model may write its next state into the same arrays
+        position_m = np.array(position_m, dtype=float)
+        orientation = None if orientation is None else np.array(orientation, dtype=float)
+        self.rows.append((tick, position_m, orientation, np.array(tension_n, dtype=float),
+                          reference_position_m, reference_orientation))
+        self.last = (tick, position_m, orientation)
+        if len(self.rows) >= 2 * self.hold_ticks:
+            self._fold(self.rows[:-self.hold_ticks], self)
+            del self.rows[:-self.hold_ticks]
+
+    def add_rows(self, ticks, position_m, orientation, tension_n, reference_position_m=None,
+                 reference_orientation=None) -> None:
+        """A stack of rows at once, as a recorded run is read (events said beforehand)."""
+        count = len(ticks)
+        for k in range(count):
+            self.add(int(ticks[k]), position_m[k], None if orientation is None else orientation[k], tension_n[k],
+                     None if reference_position_m is None else reference_position_m[k],
+                     None if reference_orientation is None else reference_orientation[k])
+
+    def _fold(self, rows: list[tuple], into: 'RunFigures') -> None:
+        ticks = np.array([row[0] for row in rows])
+        position = np.array([row[1] for row in rows], dtype=float)
+        tension = np.array([row[3] for row in rows], dtype=float)
+        into.ticks += len(rows)
+        into.lowest_m = min(into.lowest_m, float(np.min(position[:, 2])))
+        known = np.array([row[4] is not None for row in rows])
+        if self.tracked_until is not None:
+            known &= ticks < self.tracked_until
+        error = np.full(len(rows), np.nan)
+        turn = np.full(len(rows), np.nan) if self.platform else None
+        if known.any():
+            reference = np.array([row[4] for row, used in zip(rows, known) if used], dtype=float)
+            error[known] = np.linalg.norm(position[known] - reference, axis=1)
+            if self.platform:
+                orientation = np.array([row[2] for row, used in zip(rows, known) if used], dtype=float)
+                wanted = np.array([row[5] for row, used in zip(rows, known) if used], dtype=float)
+                turn[known] = np.linalg.norm(difference(orientation, wanted), axis=-1)
+        for event, window in into.windows.items():
+            window.fold(ticks, self.events[event], error, turn, tension)
+
+    def summary(self) -> dict:
+        """The figures so far, in plain types (cables 1-based); the rows still held are
+        counted without being let go."""
+        whole = RunFigures(self.cable_count, self.period_s, self.platform)
+        whole.windows = {event: window.copy() for event, window in self.windows.items()}
+        whole.lowest_m, whole.ticks = self.lowest_m, self.ticks
+        if self.rows:
+            self._fold(self.rows, whole)
+        remaining = np.ones(self.cable_count, dtype=bool)
+        remaining[list(self.broken)] = False
+        tick, position, orientation = self.last if self.last is not None else (None, None, None)
+        return {
+            'ticks': whole.ticks,
+            'lowest_point_m': None if whole.lowest_m == math.inf else whole.lowest_m,
+            'final_tick': tick,
+            'final_position_m': None if position is None else [float(v) for v in position],
+            **({'final_orientation': None if orientation is None else [float(v) for v in orientation]}
+               if self.platform else {}),
+            'broken_cables': sorted(cable + 1 for cable in self.broken),
+            'failure_tick': self.events['failure'],
+            'detection_tick': self.events['detection'],
+            'tracked_until_tick': self.tracked_until,
+            'failure': whole.windows['failure'].figures(remaining, self.platform),
+            'detection': whole.windows['detection'].figures(remaining, self.platform),
+        }
