@@ -68,7 +68,6 @@ def test_a_killed_node_is_named_and_nothing_falls_or_false_alarms(victim, tmp_pa
     bag = tmp_path / 'bag'
     log = GraphLog()
     parameters = realtime_parameters()
-    period_s = parameters['plant_simulator']['control.period_s']
     # the ground-truth pose is a view topic: on the view ticks only
     view_period_s = 1.0 / parameters['plant_simulator']['streams.view_rate_hz']
     graph = Graph(graph_nodes(parameters, str(bag)), namespace,
