@@ -79,7 +79,11 @@ class Setpoints:
         steers the ticks stamped `due_ns` and later (ValueError for an unknown mode, now)."""
         if mode is not None:
             self.controller.check_mode(mode)
-        self.pending.append((due_ns, list(broken_cables), mode))
+        # what changes nothing is not kept (the in-process engine steers every tick)
+        latest = next((pending for _, _, pending in reversed(self.pending) if pending is not None),
+                      self.controller.mode)
+        if broken_cables or (mode is not None and mode != latest):
+            self.pending.append((due_ns, list(broken_cables), mode))
 
     def apply_due(self, stamp_ns: int) -> None:
         """The verdicts due by the tick stamped `stamp_ns`, in the order they came."""

@@ -127,11 +127,12 @@ class RunFigures:
             reference_orientation=None) -> None:
         """One tick: the end-effector's pose (orientation None for a point mass), the
         tensions (N), and the reference pose where known."""
-        # copies: a model may write its next state into the same arrays
-        position_m = np.array(position_m, dtype=float)
-        orientation = None if orientation is None else np.array(orientation, dtype=float)
-        self.rows.append((tick, position_m, orientation, np.array(tension_n, dtype=float),
-                          reference_position_m, reference_orientation))
+        # as lists, copies: a model may write its next state into the same arrays (a list
+        # of floats is the cheapest copy of a few, ~0.2 µs)
+        position_m = np.asarray(position_m).tolist()
+        orientation = None if orientation is None else np.asarray(orientation).tolist()
+        self.rows.append((tick, position_m, orientation, np.asarray(tension_n).tolist(), reference_position_m,
+                          reference_orientation))
         self.last = (tick, position_m, orientation)
         if len(self.rows) >= 2 * self.hold_ticks:
             self._fold(self.rows[:-self.hold_ticks], self)
@@ -139,31 +140,46 @@ class RunFigures:
 
     def add_rows(self, ticks, position_m, orientation, tension_n, reference_position_m=None,
                  reference_orientation=None) -> None:
-        """A stack of rows at once, as a recorded run is read (events said beforehand)."""
+        """A stack of rows at once, after those added so far, counted at once: the events
+        must be said beforehand (a recorded run, or the in-process engine's at its end)."""
+        if self.rows:
+            self._fold(self.rows, self)
+            self.rows = []
         count = len(ticks)
-        for k in range(count):
-            self.add(int(ticks[k]), position_m[k], None if orientation is None else orientation[k], tension_n[k],
-                     None if reference_position_m is None else reference_position_m[k],
-                     None if reference_orientation is None else reference_orientation[k])
+        if not count:
+            return
+        reference = (np.full((count, 3), np.nan) if reference_position_m is None
+                     else np.asarray(reference_position_m, dtype=float))
+        wanted = (None if not self.platform else np.full((count, 4), np.nan) if reference_orientation is None
+                  else np.asarray(reference_orientation, dtype=float))
+        self._fold_arrays(np.asarray(ticks), np.asarray(position_m, dtype=float),
+                          None if orientation is None else np.asarray(orientation, dtype=float),
+                          np.asarray(tension_n, dtype=float), reference, wanted, self)
+        self.last = (int(ticks[-1]), np.asarray(position_m[-1], dtype=float).tolist(),
+                     None if orientation is None else np.asarray(orientation[-1], dtype=float).tolist())
 
     def _fold(self, rows: list[tuple], into: 'RunFigures') -> None:
-        ticks = np.array([row[0] for row in rows])
-        position = np.array([row[1] for row in rows], dtype=float)
-        tension = np.array([row[3] for row in rows], dtype=float)
-        into.ticks += len(rows)
+        nan_position, nan_orientation = [np.nan] * 3, [np.nan] * 4
+        self._fold_arrays(np.array([row[0] for row in rows]), np.array([row[1] for row in rows], dtype=float),
+                          np.array([row[2] for row in rows], dtype=float) if self.platform else None,
+                          np.array([row[3] for row in rows], dtype=float),
+                          np.array([nan_position if row[4] is None else row[4] for row in rows], dtype=float),
+                          np.array([nan_orientation if row[5] is None else row[5] for row in rows], dtype=float)
+                          if self.platform else None, into)
+
+    def _fold_arrays(self, ticks, position, orientation, tension, reference, wanted, into: 'RunFigures') -> None:
+        """Rows as arrays (the references NaN where not known) into `into`'s figures."""
+        into.ticks += len(ticks)
         into.lowest_m = min(into.lowest_m, float(np.min(position[:, 2])))
-        known = np.array([row[4] is not None for row in rows])
+        error = np.linalg.norm(position - reference, axis=1)
+        turn = None
+        if self.platform:
+            turn = np.full(len(ticks), np.nan)
+            known = np.isfinite(wanted).all(axis=1)
+            if known.any():
+                turn[known] = np.linalg.norm(difference(orientation[known], wanted[known]), axis=-1)
         if self.tracked_until is not None:
-            known &= ticks < self.tracked_until
-        error = np.full(len(rows), np.nan)
-        turn = np.full(len(rows), np.nan) if self.platform else None
-        if known.any():
-            reference = np.array([row[4] for row, used in zip(rows, known) if used], dtype=float)
-            error[known] = np.linalg.norm(position[known] - reference, axis=1)
-            if self.platform:
-                orientation = np.array([row[2] for row, used in zip(rows, known) if used], dtype=float)
-                wanted = np.array([row[5] for row, used in zip(rows, known) if used], dtype=float)
-                turn[known] = np.linalg.norm(difference(orientation, wanted), axis=-1)
+            error[ticks >= self.tracked_until] = np.nan
         for event, window in into.windows.items():
             window.fold(ticks, self.events[event], error, turn, tension)
 

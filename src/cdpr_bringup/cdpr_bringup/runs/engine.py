@@ -64,13 +64,16 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     platform = robot.platform is not None
     rows = {name: np.empty((cycles, m)) for name in (
         'angle', 'speed', 'command', 'twin_angle', 'twin_speed', 'twin_torque', 'residual',
-        'recovery_reference_angle')}
+        'recovery_reference_angle', 'true_tension')}
+    rows['true_position'] = np.empty((cycles, 3))
+    if robot.platform is not None:
+        rows['true_orientation'] = np.empty((cycles, 4))
     rows['recovery_reference_angle'][:] = np.nan
     # the view topics' rows, on the view ticks (design.md §3)
     view = {name: [] for name in ('tick', 'twin_position', 'true_position', 'true_tension')
             + (('true_orientation', 'twin_orientation') if platform else ())}
     view_ticks = scenario.view_ticks
-    figures = RunFigures(m, scenario.period_s, platform)
+    named = None    # the tick whose verdict first named a cable
     table = scenario.reference
     applied = np.zeros(m)
     run_length = RunLength(cycles - 1, scenario.hold_after_cycles)
@@ -83,9 +86,9 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             reference = reference_at(scenario, k)
             setpoints.put_reference(stamp, reference)
             angle, speed = plant.measure()
-            row = min(k, len(table) - 1)
-            figures.add(k, plant.position_m, plant.orientation, plant.tension_n, table.position_m[row],
-                        table.orientation[row] if platform else None)
+            rows['true_position'][k], rows['true_tension'][k] = plant.position_m, plant.tension_n
+            if platform:
+                rows['true_orientation'][k] = plant.orientation
             command = setpoints.command(stamp, angle, speed)
             if command is None:
                 raise RuntimeError(f'tick {k}: no {controller.mode} setpoint from the supervisor')
@@ -103,14 +106,13 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
                 # as the graph's supervisor publishes it: due VERDICT_DELAY_TICKS on
                 due = k + VERDICT_DELAY_TICKS
                 steer(setpoints, verdict, due * period_ns)
-                if verdict.broken_cables:
-                    figures.detection_at(k)
+                if verdict.broken_cables and named is None:
+                    named = k
                 rows['residual'][k] = verdict.residual_nm
                 if verdict.reference is not None:
                     rows['recovery_reference_angle'][k] = verdict.reference.angle_rad
                 run_length.mode(verdict.mode, due)
             plant.step(command, scenario.period_s)
-            figures.take_breaks(plant.broken_at_s)
             applied = command
             rows['angle'][k], rows['speed'][k], rows['command'][k] = angle, speed, command
             rows['twin_angle'][k] = twin_output.angle_rad
@@ -126,6 +128,13 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     # the reference of each tick that ran (reference_at's rows), taken at once
     held = np.minimum(np.arange(ran), len(table) - 1)
     view_held = held[view_ticks_ran]
+    # the figures of every tick, as the plant simulator computes them tick by tick
+    figures = RunFigures(m, scenario.period_s, platform)
+    figures.take_breaks(plant.broken_at_s)
+    if named is not None:
+        figures.detection_at(named)
+    figures.add_rows(np.arange(ran), rows['true_position'], rows.get('true_orientation'), rows['true_tension'],
+                     table.position_m[held], table.orientation[held] if platform else None)
     return Recording(
         time_s=np.arange(ran) * scenario.period_s,
         angle_rad=rows['angle'], angular_velocity_rad_s=rows['speed'], command_nm=rows['command'],
