@@ -26,7 +26,7 @@ from cdpr_bringup.reports.report import (SETTLED_RUN, load_run, main, run_of_rec
                                  write_run_report)
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 
-from conftest import CONFIG_DIR, MOTIONS, PAPER_ROBOT
+from conftest import CONFIG_DIR, MOTIONS, PAPER_ROBOT, assert_close_figures, every_tick_scenario
 
 DESIGN_KEYS = {'failure_time_s', 'detection_time_s', 'detection_delay_ms', 'identified_cables',
                'true_broken_cables', 'false_alarm', 'recovery', 'kpi', 'cycles', 'wall_time_s'}
@@ -393,3 +393,25 @@ def test_a_platforms_report_plots_its_orientation_beside_its_position(tmp_path):
     assert_figure(tmp_path / 'plots' / 'position.png')
     assert matplotlib.image.imread(tmp_path / 'plots' / 'position.png').shape[1] > 1500   # two columns
     assert 'orientation as the rotation vector' in (tmp_path / 'plots' / 'report.md').read_text()
+
+
+SHIPPED_ROBOTS = [('paper_robot', 'motions', 4), ('six_cable_robot', 'six_cable_motions', 2),
+                  ('eight_cable_robot', 'eight_cable_motions', 3), ('tall_frame_robot', 'tall_frame_motions', 1),
+                  ('crossed_platform_robot', 'crossed_platform_motions', 5)]
+
+
+@pytest.mark.parametrize('robot, motions, cable', SHIPPED_ROBOTS, ids=[robot for robot, _, _ in SHIPPED_ROBOTS])
+def test_the_figures_from_every_tick_are_those_of_a_full_rate_bag(robot, motions, cable):
+    """metrics.json from the plant's figures of every tick (cdpr_twin.run_figures) gives,
+    key for key, what the full-rate truth of every tick gives (the view topics on every
+    tick, streams.view_rate_hz 0, counted as a bag of it is): on every shipped robot,
+    a cable broken on its circle and recovered."""
+    scenario = every_tick_scenario(ScenarioOptions(config=str(CONFIG_DIR / 'robots' / f'{robot}.yaml'),
+                                                   motions=str(CONFIG_DIR / f'{motions}.yaml'), motion='circle',
+                                                   fail_cables=[cable], fidelity='rigid'))
+    recording = run_inprocess(scenario)
+    assert recording.view_time_s.size == recording.time_s.size
+    ticked = scenario_cli.metrics_of(scenario, recording, wall_time_s=0.0)
+    full_rate = scenario_cli.metrics_of(scenario, dataclasses.replace(recording, figures=None), wall_time_s=0.0)
+    assert ticked['identified_cables'] == [cable] and ticked['recovery']['min_tension_n'] is not None
+    assert_close_figures(ticked, full_rate)
