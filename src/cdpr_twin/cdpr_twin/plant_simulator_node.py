@@ -1,8 +1,9 @@
 """plant_simulator: the stand-in for the hardware, publishing what a real drive reports.
 
 lockstep: publishes the state of tick k (and /clock), steps only when the command
-stamped with tick k has arrived; bit-for-bit repeatable. realtime: steps on a wall
-clock timer with zero-order hold of the last command, as hardware does. Exits with
+stamped with tick k has arrived; bit-for-bit repeatable. realtime: steps on the wall
+clock, a period at a time from its first tick (CdprNode.due_s: no drift), with zero-order
+hold of the last command, as hardware does. Exits with
 code 0 after the settled run's `run.last_tick` (the run is complete; sooner, as
 cdpr_twin.run_length says, once a recovery is over). The run's start, failures and
 length are values the launcher settled (cdpr_control.settings): the plant knows no motion.
@@ -132,7 +133,9 @@ class PlantSimulatorNode(CdprNode):
         # A state held until the recorder catches up.
         self.held = False
         self.published_tick = -1
-        self.timer = None
+        # realtime: the plant's own clock, periods from its first tick (monotonic s)
+        self.clock_start_s = 0.0
+        self.periods = 0
         self.watchdog = CommandWatchdog(plant_section.integer('command_timeout_cycles', minimum=1))
         settings.declare(self)
 
@@ -208,7 +211,9 @@ class PlantSimulatorNode(CdprNode):
                 self.get_logger().info(f'starting, {self.clock_mode}, {self.run_length.last_tick} ticks at most')
                 self.publish_state()
                 if self.clock_mode == 'realtime':
-                    self.timer = self.create_timer(self.period_s, self.realtime_step)
+                    self.clock_start_s = time.monotonic()
+                    self.periods = 1
+                    self.due_s = self.clock_start_s + self.period_s
         elif self.clock_mode == 'lockstep' and not self.held and time.monotonic() - self.sent_at > self.resend_s:
             self.resend_state()
 
@@ -250,11 +255,21 @@ class PlantSimulatorNode(CdprNode):
         self.tick += 1
         if self.tick > self.run_length.last_tick:
             self.finished = True
-            if self.timer is not None:
-                # the run is over: no more steps (nor watchdog braking) while the node drains
-                self.timer.cancel()
+            # the run is over: no more steps (nor watchdog braking) while the node drains
+            self.due_s = None
             # The run's figures now, while the node still spins to deliver them.
             self.diagnostics.publish()
+
+    def on_due(self) -> None:
+        """Realtime, a period has ended on the plant's clock: its step, and the next
+        period's end, on the clock from the first tick (a drive's cycle does not drift
+        with the loop's latencies); periods slept through are missed, as a drive's are."""
+        self.realtime_step()
+        if self.finished:
+            return
+        now = time.monotonic()
+        self.periods = max(self.periods + 1, int((now - self.clock_start_s) / self.period_s) + 1)
+        self.due_s = self.clock_start_s + self.periods * self.period_s
 
     def realtime_step(self) -> None:
         """The period that just ended ran under the latest command (sample and hold: the

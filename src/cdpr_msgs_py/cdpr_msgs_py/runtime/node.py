@@ -181,6 +181,14 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
             self.diagnostics.reject(topic, str(err))
             return None
 
+    # When the node's clocked work is due next (monotonic s; None: it has none): the spin
+    # loop waits no longer than that, and calls on_due once it is (spin.run_composed).
+    due_s: float | None = None
+
+    def on_due(self) -> None:
+        """The node's clocked work, at `due_s` (a realtime plant's period): the node sets
+        `due_s` again for the next."""
+
     def idle(self) -> None:
         """Called after every spin: periodic work that needs no timer."""
         self.diagnostics.maybe_publish()
