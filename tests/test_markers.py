@@ -221,6 +221,16 @@ def test_the_recovery_path_is_where_the_end_effector_went_since_the_naming(run):
     assert not any(('recovery_path', 0) in s for _, k, s in frames if k < identified)
 
 
+def assert_colours(marker, shape) -> None:
+    """A marker's colours are the shape's: per point where they differ, else the marker's
+    one colour alone (a viewer takes it for every point)."""
+    per_point = [[c.r, c.g, c.b, c.a] for c in marker.colors]
+    uniform = np.allclose(shape.colours, shape.colours[0])
+    assert (per_point == []) == uniform
+    assert np.allclose(per_point or [[marker.color.r, marker.color.g, marker.color.b, marker.color.a]] * len(shape.colours),
+                       shape.colours, atol=1e-6)
+
+
 def test_an_inprocess_bag_carries_the_same_markers(run, tmp_path):
     scenario, recording, frames = run
     writer = BagWriter(tmp_path / 'bag')
@@ -241,7 +251,7 @@ def test_an_inprocess_bag_carries_the_same_markers(run, tmp_path):
             shape = shapes[m.ns, m.id]
             assert m.type == getattr(m, shape.kind) and m.scale.x == shape.scale_m
             assert np.allclose([[p.x, p.y, p.z] for p in m.points], shape.points_m)
-            assert np.allclose([[c.r, c.g, c.b, c.a] for c in m.colors], shape.colours, atol=1e-6)
+            assert_colours(m, shape)
     # as a viewer of MCAP files (Foxglove) decodes them: from the schema the file embeds
     with open(next((tmp_path / 'bag').glob('*.mcap')), 'rb') as file:
         reader = make_reader(file, decoder_factories=[DecoderFactory()])
@@ -267,7 +277,7 @@ def test_the_node_sends_the_shapes_as_markers(run):
         assert (m.ns, m.id, m.type) == (shape.namespace, shape.id, getattr(Marker, shape.kind))
         assert m.header.frame_id == 'world' and m.header.stamp.nanosec == 123
         assert np.allclose([[p.x, p.y, p.z] for p in m.points], shape.points_m)
-        assert np.allclose([[c.r, c.g, c.b, c.a] for c in m.colors], shape.colours, atol=1e-6)
+        assert_colours(m, shape)
 
 
 def test_a_platforms_safe_pose_is_drawn_as_its_body_over_the_section_it_was_found_on():

@@ -59,6 +59,13 @@ class Shape:
     colours: np.ndarray
     scale_m: float
 
+    @property
+    def point_colours(self) -> list:
+        """The colour of each point as a marker carries it: none where they are all the
+        marker's colour (the first), which a viewer then takes for every point."""
+        colours = self.colours.tolist()
+        return [] if all(colour == colours[0] for colour in colours) else colours
+
 
 @dataclass(frozen=True)
 class MarkerStyle:

@@ -397,7 +397,8 @@ def marker_array(shapes: list[Shape], header):
 
     def make(action, shape: Shape | None = None):
         scale = 0.0 if shape is None else float(shape.scale_m)
-        colours = [] if shape is None else [colour(*map(float, rgba)) for rgba in shape.colours]
+        colours = [] if shape is None else [colour(*rgba) for rgba in shape.point_colours]
+        first = colour(0.0, 0.0, 0.0, 0.0) if shape is None else colour(*shape.colours[0].tolist())
         return marker(
             header=header, ns='' if shape is None else shape.namespace,
             id=0 if shape is None else shape.id,
@@ -406,7 +407,7 @@ def marker_array(shapes: list[Shape], header):
                 position=point(0.0, 0.0, 0.0),
                 orientation=types['geometry_msgs/msg/Quaternion'](0.0, 0.0, 0.0, 1.0)),
             scale=types['geometry_msgs/msg/Vector3'](scale, scale, scale),
-            color=colours[0] if colours else colour(0.0, 0.0, 0.0, 0.0),
+            color=first,
             lifetime=types['builtin_interfaces/msg/Duration'](sec=0, nanosec=0),
             frame_locked=False,
             points=[] if shape is None else [point(*map(float, xyz)) for xyz in shape.points_m],

@@ -206,11 +206,13 @@ class Run:
 
 
 def load_run(bag: str | Path, settings: RunSettings,
-             namespace: str = contract.DEFAULT_NAMESPACE) -> Run:
-    """The run in `bag`, recorded with `settings`."""
+             namespace: str = contract.DEFAULT_NAMESPACE, recording: Recording | None = None) -> Run:
+    """The run in `bag`, recorded with `settings`; `recording`: the bag's, where the caller
+    has read it already (cdpr-scenario's graph run)."""
     bag = Path(bag)
     robot, fdi = settings.robot, settings.fdi
-    recording = recording_from_bag(bag, namespace, robot.platform is not None)
+    if recording is None:
+        recording = recording_from_bag(bag, namespace, robot.platform is not None)
     if recording.angle_rad.shape[1] != robot.cable_count:
         raise ValueError(f'{bag} has {recording.angle_rad.shape[1]} motors, robot {robot.name} '
                          f'{robot.cable_count} ({settings.source}): pass the robot the bag was '
@@ -357,13 +359,13 @@ def failure_of(bag: Path, recording: Recording) -> tuple[float | None, list[int]
 
 
 def write_report(bag_path: str | Path, out_dir: str | Path, settings: RunSettings,
-                 namespace: str = contract.DEFAULT_NAMESPACE) -> dict:
+                 namespace: str = contract.DEFAULT_NAMESPACE, recording: Recording | None = None) -> dict:
     """Plots (out_dir/*.png), metrics.json and report.md of the run in `bag_path`, recorded
-    with `settings`; the metrics."""
+    with `settings` (`recording`: the bag's, read already); the metrics."""
     bag, out = Path(bag_path), Path(out_dir)
     if out.resolve() == bag.parent.resolve():
         raise ValueError(f'{out}: the run\'s own metrics.json is there; choose another folder')
-    return write_run_report(load_run(bag, settings, namespace), bag, out)
+    return write_run_report(load_run(bag, settings, namespace, recording), bag, out)
 
 
 def write_run_report(run: Run, bag: Path, out: Path) -> dict:

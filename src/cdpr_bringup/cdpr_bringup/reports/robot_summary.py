@@ -90,12 +90,9 @@ def print_settings(config, robot):
 def motion_extremes(robot, tension_distribution, motion, period_s):
     """Least and greatest tension (N) and largest |torque| (N·m) along a motion."""
     times = np.arange(0.0, motion.trajectory.duration_s, period_s)
-    tensions, torques = [], []
-    for t in times:
-        result = inverse_dynamics(robot, tension_distribution, *motion.trajectory.sample(t))
-        tensions.append(result.tension_n)
-        torques.append(result.torque_nm)
-    return np.min(tensions), np.max(tensions), np.max(np.abs(torques))
+    # the whole motion as one stack (each row what its pose alone gives)
+    result = inverse_dynamics(robot, tension_distribution, *motion.trajectory.sample(times))
+    return np.min(result.tension_n), np.max(result.tension_n), np.max(np.abs(result.torque_nm))
 
 
 # The grid the platform's wrench-feasible workspace is sampled on (m), and the turns it is

@@ -223,7 +223,8 @@ def outputs(args, scenario, out: Path, recording, interrupted: bool, wall_time_s
                                f'settings: the run\'s own, {out / SETTLED_RUN}')
         if drawer is None:
             from ..reports.report import write_report
-            write_report(out / 'bag', out / 'plots', settings, args.namespace)
+            # the bag as the run read it already: not read again
+            write_report(out / 'bag', out / 'plots', settings, args.namespace, recording)
         elif not record_beside_report(drawer, recording, settings, metrics, out, args.namespace,
                                       scenario.marker_frame()):
             return 1
