@@ -280,28 +280,28 @@ def descendants(pid: int) -> list[int]:
     return found
 
 
-# Which processes each stop holds, in turn: the recorder (the plant then holds its states
-# for it), the loop, both.
+# Which processes each stop holds, in turn, over and over: the recorder (the plant then
+# holds its states for it), the loop, both.
 STOPPED = (('bag_recorder',), ('composed_loop',), ('bag_recorder', 'composed_loop'))
 
 
-def stall(root: int, bag: Path, done: threading.Event) -> None:
-    """Once the run's bag holds ticks, until `done`: stop the processes of each of STOPPED
-    in turn for STALL_S, 0.3 s apart."""
-    while not done.wait(0.05):
-        if any(path.stat().st_size > 100_000 for path in bag.glob('*.mcap')):
-            break
-    for stopped in STOPPED:
-        if done.wait(0.3):
-            return
+def stall(root: int, done: threading.Event) -> None:
+    """Until `done`, from the first moment the loop's and the recorder's processes are
+    there: stop the processes of each of STOPPED in turn for STALL_S, 0.3 s apart."""
+    turn = 0
+    while not done.wait(0.3):
         names = {pid: open(f'/proc/{pid}/cmdline').read() for pid in descendants(root)
                  if os.path.exists(f'/proc/{pid}/cmdline')}
+        stopped = STOPPED[turn % len(STOPPED)]
         chosen = [pid for pid, line in names.items() if any(name in line for name in stopped)]
+        if len(chosen) < len(stopped):
+            continue
         for pid in chosen:
             os.kill(pid, signal.SIGSTOP)
         time.sleep(STALL_S)
         for pid in chosen:
             os.kill(pid, signal.SIGCONT)
+        turn += 1
 
 
 def test_a_lockstep_run_stalled_and_loaded_equals_the_run_alone(failure_run, tmp_path):
@@ -324,7 +324,7 @@ def test_a_lockstep_run_stalled_and_loaded_equals_the_run_alone(failure_run, tmp
         process = subprocess.Popen(scenario_command(tmp_path / 'loaded', *FAILURE_RUN),
                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                    start_new_session=True, env=node_environment())
-        staller = threading.Thread(target=stall, args=(process.pid, tmp_path / 'loaded' / 'bag', done))
+        staller = threading.Thread(target=stall, args=(process.pid, done))
         staller.start()
         _, err = process.communicate(timeout=RUN_LIMIT_S)
     finally:
