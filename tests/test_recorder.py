@@ -26,10 +26,11 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Int32, String
 
 from cdpr_bringup.bags.bag_io import BagWriter, is_complete, missing_ticks, read_messages
-from cdpr_bringup.bags.tick_gaps import TickGaps, cdr_stamp_ns
+from cdpr_bringup.bags.tick_gaps import TickGaps
 from cdpr_bringup.bags.recorder_node import RECORDED
 from cdpr_bringup.graph.launcher import executable_command, node_environment
 from cdpr_control.config import load_section
+from cdpr_msgs_py.cdr import cdr_stamp_ns
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp
 from cdpr_msgs_py.stamps import NANOSECONDS

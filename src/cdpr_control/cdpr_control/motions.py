@@ -136,8 +136,8 @@ def reference_poses(robot, motion: Section, period_s: float) -> tuple[np.ndarray
     """The poses (positions n × 3, a platform's orientations n × 4, else None) of the
     settled `motion` at every tick, as the trajectory generator tabulates them (its
     reference table's rows, to the bit): what the plant simulator tracks its truth against."""
-    path = motion_from_settled(motion)
     if robot.platform is None:
-        return path.trajectory.sample(tick_times(period_s, path.trajectory.duration_s))[0], None
-    sample = sampled(with_turn(path, motion, robot.platform.home_orientation).trajectory, period_s)
+        path = motion_from_settled(motion).trajectory
+        return path.sample(tick_times(period_s, path.duration_s))[0], None
+    sample = sampled(pose_motion_from_settled(motion, robot.platform.home_orientation).trajectory, period_s)
     return sample.position_m, sample.orientation

@@ -79,12 +79,11 @@ class Setpoints:
         steers the ticks stamped `due_ns` and later (ValueError for an unknown mode, now)."""
         if mode is not None:
             self.controller.check_mode(mode)
-        # what changes nothing is not kept (the in-process engine steers every tick)
-        if not broken_cables and (mode is None or (not self.pending and mode == self.controller.mode)):
-            return
+        # what changes nothing is not kept (the in-process engine steers every tick): the
+        # mode is news only against the one the verdicts pending already leave
         latest = next((pending for _, _, pending in reversed(self.pending) if pending is not None),
                       self.controller.mode)
-        if broken_cables or mode != latest:
+        if broken_cables or (mode is not None and mode != latest):
             self.pending.append((due_ns, list(broken_cables), mode))
 
     def apply_due(self, stamp_ns: int) -> None:

@@ -21,6 +21,18 @@ import numpy as np
 from .stamps import NANOSECONDS, ns_parts
 
 ENCAPSULATION = b'\x00\x01\x00\x00'   # CDR, little endian
+# CDR encapsulation identifiers (the first 2 bytes of a serialized message), by byte order.
+CDR_BYTE_ORDER = {b'\x00\x00': '>', b'\x00\x01': '<'}
+
+
+def cdr_stamp_ns(data: bytes) -> int:
+    """The stamp (ns) a serialized message starts with (builtin_interfaces/Time first: a
+    std_msgs/Header, or the Clock's Time); ValueError for bytes that are not plain CDR."""
+    order = CDR_BYTE_ORDER.get(bytes(data[:2]))
+    if order is None:
+        raise ValueError(f'not a plain CDR message (encapsulation {bytes(data[:2]).hex()})')
+    sec, nanosec = struct.unpack_from(f'{order}iI', data, len(ENCAPSULATION))
+    return sec * NANOSECONDS + nanosec
 
 
 class Layout:
@@ -119,7 +131,6 @@ class JointStateLayout:
         start = len(ENCAPSULATION)
         self.stamp_offset = start + layout.slots[0][0]
         self.value_offsets = [start + offset for offset, _ in layout.slots[2:]]
-        self.sizes = sizes
 
 
 class JointStateCodec:

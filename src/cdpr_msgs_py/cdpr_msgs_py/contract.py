@@ -118,9 +118,6 @@ class ViewTicks:
         """Whether the tick stamped `stamp_ns` is a view tick."""
         return (stamp_ns // self.period_ns) % self.every == 0
 
-    def of_tick(self, tick: int) -> bool:
-        return tick % self.every == 0
-
 
 class Delivery(Enum):
     """The QoS kind of a topic; cdpr_msgs_py.qos holds the profile of each."""

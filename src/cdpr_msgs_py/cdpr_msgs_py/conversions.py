@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from math import isfinite
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -11,7 +10,7 @@ from geometry_msgs.msg import PointStamped, PoseStamped
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
-from .cdr import JointStateCodec, all_finite
+from .cdr import JointStateCodec, all_finite, cdr_stamp_ns
 from .stamps import ns_parts, stamp_to_ns
 
 
@@ -103,10 +102,10 @@ def joints_from_message(message: JointState | bytes, names: list[str],
 def stamp_of(message) -> int:
     """The header stamp (ns) of a message, or of its CDR bytes (the stamp comes first)."""
     if isinstance(message, (bytes, bytearray, memoryview)):
-        if len(message) < 12:
-            raise InvalidMessage('too short for a header')
-        sec, nanosec = struct.unpack_from('<iI', message, 4)
-        return sec * 1_000_000_000 + nanosec
+        try:
+            return cdr_stamp_ns(message)
+        except (ValueError, struct.error) as err:
+            raise InvalidMessage(f'no header stamp: {err}') from None
     return stamp_to_ns(message.header.stamp)
 
 
@@ -142,7 +141,7 @@ def pose_from_message(message: PoseStamped) -> tuple[np.ndarray, np.ndarray]:
     orientation that is not a unit quaternion."""
     position, orientation = message.pose.position, message.pose.orientation
     values = (position.x, position.y, position.z, orientation.w, orientation.x, orientation.y, orientation.z)
-    if not all(map(isfinite, values)):
+    if not all_finite(values):
         raise InvalidMessage('pose holds a non-finite value')
     if abs(sum(v * v for v in values[3:]) - 1.0) > QUATERNION_NORM_TOLERANCE:
         raise InvalidMessage('orientation is not a unit quaternion')
@@ -151,6 +150,6 @@ def pose_from_message(message: PoseStamped) -> tuple[np.ndarray, np.ndarray]:
 
 def point_from_message(message: PointStamped) -> np.ndarray:
     values = (message.point.x, message.point.y, message.point.z)
-    if not all(map(isfinite, values)):   # as joints_from_message: np.isfinite costs more
+    if not all_finite(values):
         raise InvalidMessage('point holds a non-finite value')
     return np.array(values)

@@ -98,10 +98,14 @@ class RunFigures:
         # the tracking error counts the settled motion only: a goal moves the reference away
         self.tracked_until: int | None = None
 
+    def cable_broken(self, cable: int) -> None:
+        """Cable `cable` (0-based) is broken, when is not known: its tension leaves the figures."""
+        self.broken.add(cable)
+
     def failure_at(self, time_s: float, cable: int) -> None:
         """Cable `cable` (0-based) really parted at `time_s`: its tension leaves the
         figures, and the first parting is the run's event."""
-        self.broken.add(cable)
+        self.cable_broken(cable)
         if self.events['failure'] is None:
             self.events['failure'] = first_tick_at_or_after(time_s, self.period_s)
 

@@ -33,13 +33,14 @@ from std_msgs.msg import Header
 
 from cdpr_control.settings import node_settings
 from cdpr_msgs_py import contract, qos
+from cdpr_msgs_py.cdr import cdr_stamp_ns
 from cdpr_msgs_py.conversions import ns_to_stamp
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import ns_parts
 
 from .bag_io import MISSING_TICKS_KEY, BagWriter
-from .tick_gaps import TickGaps, cdr_stamp_ns
+from .tick_gaps import TickGaps
 
 # topic (relative to the namespace unless absolute) → message class: every topic of the
 # contract (contract.TOPICS)

@@ -8,23 +8,6 @@ the holes only, not with the ticks.
 """
 from __future__ import annotations
 
-import struct
-
-from cdpr_msgs_py.stamps import NANOSECONDS
-
-# CDR encapsulation identifiers (the first 2 bytes of a serialized message), by byte order.
-CDR_BYTE_ORDER = {b'\x00\x00': '>', b'\x00\x01': '<'}
-ENCAPSULATION_BYTES = 4
-
-
-def cdr_stamp_ns(data: bytes) -> int:
-    """The stamp (ns) a serialized message starts with (builtin_interfaces/Time first)."""
-    order = CDR_BYTE_ORDER.get(bytes(data[:2]))
-    if order is None:
-        raise ValueError(f'not a plain CDR message (encapsulation {bytes(data[:2]).hex()})')
-    sec, nanosec = struct.unpack_from(f'{order}iI', data, ENCAPSULATION_BYTES)
-    return sec * NANOSECONDS + nanosec
-
 
 class TickGaps:
     """The ticks of one topic: `seen(stamp_ns)` for each message; `missing` is how many

@@ -65,14 +65,10 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     rows = {name: np.empty((cycles, m)) for name in (
         'angle', 'speed', 'command', 'twin_angle', 'twin_speed', 'twin_torque', 'residual',
         'recovery_reference_angle', 'true_tension')}
-    rows['true_position'] = np.empty((cycles, 3))
-    if robot.platform is not None:
-        rows['true_orientation'] = np.empty((cycles, 4))
+    rows.update({name: np.empty((cycles, 3)) for name in ('true_position', 'twin_position')})
+    if platform:
+        rows.update({name: np.empty((cycles, 4)) for name in ('true_orientation', 'twin_orientation')})
     rows['recovery_reference_angle'][:] = np.nan
-    # the view topics' rows, on the view ticks (design.md §3)
-    view = {name: [] for name in ('tick', 'twin_position', 'true_position', 'true_tension')
-            + (('true_orientation', 'twin_orientation') if platform else ())}
-    view_ticks = scenario.view_ticks
     named = None    # the tick whose verdict first named a cable
     table = scenario.reference
     applied = np.zeros(m)
@@ -93,15 +89,6 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             if command is None:
                 raise RuntimeError(f'tick {k}: no {controller.mode} setpoint from the supervisor')
             twin_output, verdict = monitor.step(k, angle, speed, applied, command, reference)
-            if view_ticks.of_tick(k):
-                view['tick'].append(k)
-                # copies: the models write their next state into arrays of their own
-                view['twin_position'].append(np.array(twin_output.position_m))
-                view['true_position'].append(np.array(plant.position_m))
-                view['true_tension'].append(np.array(plant.tension_n))
-                if platform:
-                    view['twin_orientation'].append(np.array(twin_output.orientation))
-                    view['true_orientation'].append(np.array(plant.orientation))
             if verdict is not None:
                 # as the graph's supervisor publishes it: due VERDICT_DELAY_TICKS on
                 due = k + VERDICT_DELAY_TICKS
@@ -118,16 +105,20 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             rows['twin_angle'][k] = twin_output.angle_rad
             rows['twin_speed'][k] = twin_output.angular_velocity_rad_s
             rows['twin_torque'][k] = twin_output.torque_nm
+            rows['twin_position'][k] = twin_output.position_m
+            if platform:
+                rows['twin_orientation'][k] = twin_output.orientation
             ran = k + 1
     except KeyboardInterrupt:
         pass
     rows = {name: values[:ran] for name, values in rows.items()}
-    view_ticks_ran = np.array([tick for tick in view['tick'] if tick < ran], dtype=int)
-    views = {name: np.array(values[:view_ticks_ran.size], dtype=float).reshape(view_ticks_ran.size, -1)
-             for name, values in view.items() if name != 'tick'}
+    # the view topics' rows: those of the view ticks, as the graph publishes them (design.md §3)
+    viewed = np.arange(0, ran, scenario.view_ticks.every)
+    views = {name: rows[name][viewed] for name in ('twin_position', 'true_position', 'true_tension')
+             + (('true_orientation', 'twin_orientation') if platform else ())}
     # the reference of each tick that ran (reference_at's rows), taken at once
     held = np.minimum(np.arange(ran), len(table) - 1)
-    view_held = held[view_ticks_ran]
+    view_held = held[viewed]
     # the figures of every tick, as the plant simulator computes them tick by tick
     figures = RunFigures(m, scenario.period_s, platform)
     figures.take_breaks(plant.broken_at_s)
@@ -140,7 +131,7 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
         angle_rad=rows['angle'], angular_velocity_rad_s=rows['speed'], command_nm=rows['command'],
         twin_angle_rad=rows['twin_angle'], twin_angular_velocity_rad_s=rows['twin_speed'],
         twin_torque_nm=rows['twin_torque'], reference_angle_rad=table.angle_rad[held],
-        view_time_s=view_ticks_ran * scenario.period_s,
+        view_time_s=viewed * scenario.period_s,
         twin_position_m=views['twin_position'], reference_position_m=table.position_m[view_held],
         true_position_m=views['true_position'], true_tension_n=views['true_tension'],
         residual_nm=rows['residual'] if supervisor is not None else None,

@@ -73,7 +73,7 @@ def figures_from_rows(robot: Robot, period_s: float, time_s, position_m, orienta
         if failure_time_s is not None:
             figures.failure_at(failure_time_s, cable - 1)
         else:
-            figures.broken.add(cable - 1)
+            figures.cable_broken(cable - 1)
     if detection_time_s is not None:
         figures.detection_at(round(detection_time_s / period_s))
     ticks = np.round(np.asarray(time_s) / period_s).astype(int)
