@@ -274,7 +274,7 @@ def pytest_terminal_summary(terminalreporter):
 def load_robot(path):
     # imported here: cdpr_msgs_py's tests share this file, and that package (colcon test)
     # has no cdpr_control
-    from cdpr_control.robot import load_robot
+    from cdpr_control.setup.robot_file import load_robot
     return load_robot(path)
 
 

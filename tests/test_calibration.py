@@ -6,8 +6,8 @@ import pytest
 
 from cdpr_bringup.campaigns import calibrate as cdpr_calibrate
 from cdpr_control.config import ConfigError
-from cdpr_control.friction import FrictionModel
-from cdpr_control.robot import load_robot
+from cdpr_control.model.friction import FrictionModel
+from cdpr_control.setup.robot_file import load_robot
 from cdpr_fdi.calibration import (FailureFreeRun, calibrate, cusum_trace, fit_coulomb_friction,
                                   gumbel_threshold)
 from cdpr_fdi.config import load_fdi_config

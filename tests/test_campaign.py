@@ -12,8 +12,8 @@ from cdpr_bringup.campaigns.campaign import (CSV_COLUMNS, PAPER_DETECTION_MS, RA
                                    build_matrix, completed, expand_motion_set, main, outcome, outcome_lines,
                                    progress_bar, run_campaign, summarize, summary_markdown,
                                    write_summary_csv)
-from cdpr_control.motions import motion_names
-from cdpr_control.robot import load_robot
+from cdpr_control.geometry.motions import motion_names
+from cdpr_control.setup.robot_file import load_robot
 
 from conftest import CONFIG_DIR, MOTIONS
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from cdpr_control.config import ConfigError, load_section
-from cdpr_control.controller import JointController, JointReference, PdGains, command_lead_periods
-from cdpr_control.friction import FrictionModel
+from cdpr_control.control.controller import JointController, JointReference, PdGains, command_lead_periods
+from cdpr_control.model.friction import FrictionModel
 from cdpr_msgs_py.contract import FAULT, NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
 
 from conftest import CONFIG_DIR, PAPER_ROBOT

@@ -6,9 +6,9 @@ import subprocess
 import sys
 
 CORE = ['cdpr_msgs_py.contract', 'cdpr_msgs_py.stamps', 'cdpr_msgs_py.health', 'cdpr_msgs_py.sole_writer',
-        'cdpr_control.controller', 'cdpr_control.dynamics', 'cdpr_control.reference',
-        'cdpr_control.setpoints', 'cdpr_control.settings', 'cdpr_fdi.monitor',
-        'cdpr_control.reference_schedule',
+        'cdpr_control.control.controller', 'cdpr_control.point_mass.dynamics', 'cdpr_control.point_mass.reference',
+        'cdpr_control.control.setpoints', 'cdpr_control.setup.settings', 'cdpr_fdi.monitor',
+        'cdpr_control.control.reference_schedule',
         'cdpr_twin.twin', 'cdpr_twin.plant', 'cdpr_twin.run_length', 'cdpr_twin.joint_mapping',
         'cdpr_fdi.supervisor', 'cdpr_fdi.recovery', 'cdpr_fdi.calibration', 'cdpr_fdi.markers',
         'cdpr_bringup.runs.engine', 'cdpr_bringup.runs.settle']

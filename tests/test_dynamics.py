@@ -6,11 +6,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cdpr_control.dynamics import direct_dynamics, inverse_dynamics
-from cdpr_control.kinematics import (inverse_kinematics, joint_acceleration, joint_velocity, structure_matrix,
+from cdpr_control.point_mass.dynamics import direct_dynamics, inverse_dynamics
+from cdpr_control.point_mass.kinematics import (inverse_kinematics, joint_acceleration, joint_velocity, structure_matrix,
                                      structure_matrix_rate)
 from cdpr_control.tension_distribution import InfeasibleTensionError, make_tension_distribution
-from cdpr_control.trajectories import StraightLine
+from cdpr_control.geometry.trajectories import StraightLine
 from conftest import cable_masks, random_positions, random_unit_vectors
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
-from cdpr_control.robot import load_robot
+from cdpr_control.setup.robot_file import load_robot
 from cdpr_twin.elastic_model import ElasticCableRobot
 from cdpr_control.kernels import KERNELS
 

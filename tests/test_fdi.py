@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from cdpr_control.config import ConfigError
-from cdpr_control.controller import JointReference
-from cdpr_control.friction import FrictionModel
-from cdpr_control.kinematics import cable_vectors, inverse_kinematics
-from cdpr_control.reference import ReferenceTable
-from cdpr_control.statics import static_tensions
+from cdpr_control.control.controller import JointReference
+from cdpr_control.model.friction import FrictionModel
+from cdpr_control.point_mass.kinematics import cable_vectors, inverse_kinematics
+from cdpr_control.model.reference_table import ReferenceTable
+from cdpr_control.point_mass.statics import static_tensions
 from cdpr_control.tension_distribution import make_tension_distribution
-from cdpr_control.workspace import polygon_centroid, safe_point, sew_cross_section
+from cdpr_control.point_mass.workspace import polygon_centroid, safe_point, sew_cross_section
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.detectors import CusumDetector, ThresholdDetector
 from cdpr_fdi.identification import identify_broken_cables

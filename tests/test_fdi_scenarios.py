@@ -17,10 +17,10 @@ from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions
 from cdpr_control.config import Section
-from cdpr_control.controller import PdGains
-from cdpr_control.kinematics import forward_kinematics
-from cdpr_control.motions import motion_names
-from cdpr_control.workspace import contains, sew_cross_section
+from cdpr_control.control.controller import PdGains
+from cdpr_control.point_mass.kinematics import forward_kinematics
+from cdpr_control.geometry.motions import motion_names
+from cdpr_control.point_mass.workspace import contains, sew_cross_section
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 from cdpr_twin.run_length import RunLength
 

@@ -39,13 +39,13 @@ import cdpr_control.config
 import cdpr_fdi.config
 from cdpr_bringup.runs.settle import realtime_scheduling
 from cdpr_control.config import ConfigError, load_config, load_section, load_yaml, paper_defaults
-from cdpr_control.controller import PdGains
-from cdpr_control.controller_node import ControllerNode
-from cdpr_control.friction import FrictionModel
-from cdpr_control.kinematics import inverse_kinematics
-from cdpr_control.robot import load_robot
+from cdpr_control.control.controller import PdGains
+from cdpr_control.control.controller_node import ControllerNode
+from cdpr_control.model.friction import FrictionModel
+from cdpr_control.point_mass.kinematics import inverse_kinematics
+from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.tension_distribution import configured_tension_distribution
-from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
+from cdpr_control.control.trajectory_generator_node import TrajectoryGeneratorNode
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.markers import MarkerStyle
 from cdpr_fdi.supervisor_node import SupervisorNode

@@ -10,7 +10,10 @@ import importlib
 import numpy as np
 import pytest
 
-from cdpr_control import kernels, platform_substeps, point_mass_substeps, tracking
+from cdpr_control import kernels
+from cdpr_control.platform import substeps as platform_substeps
+from cdpr_control.point_mass import substeps as point_mass_substeps
+from cdpr_control.control import tracking
 from cdpr_fdi import tick_arithmetic
 from cdpr_twin import elastic_substeps
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from cdpr_control.kinematics import (KinematicsError, cable_vectors, forward_kinematics,
+from cdpr_control.point_mass.kinematics import (KinematicsError, cable_vectors, forward_kinematics,
                                      inverse_kinematics, joint_acceleration, joint_velocity,
                                      structure_matrix, structure_matrix_rate)
 from conftest import cable_masks, random_positions, random_unit_vectors

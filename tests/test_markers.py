@@ -11,7 +11,7 @@ from mcap_ros2.decoder import DecoderFactory
 from cdpr_bringup.bags.bag_io import BagWriter, read_messages, write_recording
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
-from cdpr_control.workspace import contains
+from cdpr_control.point_mass.workspace import contains
 from cdpr_fdi.markers import (BROKEN_GREY, LINE_LIST, LINE_STRIP, SPHERE_LIST, TENSION_SCALE,
                               UNKNOWN_TENSION_COLOUR, Frame, cable_shapes, dashes, tension_colour)
 from cdpr_msgs_py import contract
@@ -285,7 +285,7 @@ def test_a_platforms_safe_pose_is_drawn_as_its_body_over_the_section_it_was_foun
     rigid plant): once named, the safe pose's body (origin to attachment points at the
     safe orientation), its section's points at the safe height, each held by the seven
     cables there, and the recovery path ending at the safe point."""
-    from cdpr_control.safe_pose import tension_margin_n
+    from cdpr_control.platform.safe_pose import tension_margin_n
     from cdpr_fdi.recovery import safe_pose_for
     from conftest import CONFIG_DIR
     scenario = build_scenario(ScenarioOptions(config=str(CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'),

@@ -16,8 +16,8 @@ from rclpy.parameter import Parameter
 from cdpr_bringup.graph.launcher import executable_command, node_environment, parser
 from cdpr_bringup.graph.params_files import parameter_files
 from cdpr_control.config import load_yaml
-from cdpr_control.controller_node import ControllerNode
-from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
+from cdpr_control.control.controller_node import ControllerNode
+from cdpr_control.control.trajectory_generator_node import TrajectoryGeneratorNode
 from cdpr_fdi.supervisor_node import SupervisorNode
 from cdpr_msgs_py import contract
 from cdpr_twin.digital_twin_node import DigitalTwinNode

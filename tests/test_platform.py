@@ -9,13 +9,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from cdpr_control import pose_dynamics, pose_kinematics
+from cdpr_control.platform import dynamics as pose_dynamics
+from cdpr_control.platform import kinematics as pose_kinematics
 from cdpr_control.config import ConfigError, Section
-from cdpr_control.dynamics import direct_dynamics as point_mass_direct_dynamics
-from cdpr_control.kinematics import KinematicsError, structure_matrix
-from cdpr_control.robot import Platform, load_robot, robot_from_section
-from cdpr_control.pose_trajectories import BrakedTurn, Turn
-from cdpr_control.rotation import (IDENTITY, conjugate, difference, from_axis_angle, from_rotation_vector,
+from cdpr_control.point_mass.dynamics import direct_dynamics as point_mass_direct_dynamics
+from cdpr_control.point_mass.kinematics import KinematicsError, structure_matrix
+from cdpr_control.platform.body import Platform
+from cdpr_control.setup.robot_file import load_robot, robot_from_section
+from cdpr_control.geometry.pose_trajectories import BrakedTurn, Turn
+from cdpr_control.geometry.rotation import (IDENTITY, conjugate, difference, from_axis_angle, from_rotation_vector,
                                    normalised, product, rotation_matrix, to_rotation_vector)
 from cdpr_control.tension_distribution import InfeasibleTensionError, LoweredFloor, make_tension_distribution
 from cdpr_control.tension_distribution.lowered_floor import FLOOR_BISECTIONS
@@ -57,20 +59,20 @@ def moved(position, orientation, step):
 
 def test_the_platform_robot_loads_with_six_degrees_and_the_point_masses_are_unchanged(robot):
     assert robot.degrees_of_freedom == 6 and robot.cable_count == 8
-    assert robot.platform.inertia_kg_m2[0, 0] == pytest.approx(5.0 * (0.15 ** 2 + 0.1 ** 2) / 12, rel=1e-5)
+    assert robot.body.inertia_kg_m2[0, 0] == pytest.approx(5.0 * (0.15 ** 2 + 0.1 ** 2) / 12, rel=1e-5)
     for path in (PAPER_ROBOT, EIGHT_CABLE_ROBOT):
         point_mass = load_robot(path)
-        assert point_mass.platform is None and point_mass.degrees_of_freedom == 3
+        assert not point_mass.body.has_orientation and point_mass.degrees_of_freedom == 3
     # the home pose's lengths are the offsets: θ = 0 there
     assert np.allclose(pose_kinematics.inverse_kinematics(robot, robot.home_position_m,
-                                                          robot.platform.home_orientation), 0.0, atol=1e-13)
+                                                          robot.body.home_orientation), 0.0, atol=1e-13)
 
 
 def test_a_platform_of_points_at_its_origin_is_the_point_mass(rng):
     """b_i = 0, c = 0: the wrench matrix's force rows are S, its moment rows 0, and the
     platform accelerates as the point mass does under the same torques."""
     point_mass = load_robot(PAPER_ROBOT)
-    platform = replace(point_mass, platform=Platform(np.zeros((4, 3)), np.zeros(3), 1e-3 * np.eye(3),
+    platform = replace(point_mass, body=Platform(np.zeros((4, 3)), np.zeros(3), 1e-3 * np.eye(3),
                                                      IDENTITY.copy()))
     assert np.array_equal(platform.cable_length_offset_m, point_mass.cable_length_offset_m)
     position = np.array([0.55, 0.8, 0.9])
@@ -415,7 +417,7 @@ def energy(robot, state, torque):
     body = pose_dynamics.rigid_body(robot, orientation, omega)
     twist = np.concatenate([velocity, omega])
     joint_velocity = pose_kinematics.joint_velocity(robot, position, orientation, velocity, omega)
-    centre = position + rotation_matrix(orientation) @ robot.platform.centre_of_mass_m
+    centre = position + rotation_matrix(orientation) @ robot.body.centre_of_mass_m
     return (0.5 * twist @ body.mass_matrix @ twist
             + 0.5 * robot.motor.inertia_kg_m2 * joint_velocity @ joint_velocity
             - robot.mass_kg * robot.gravity_m_s2 @ centre
@@ -427,7 +429,7 @@ def test_without_friction_the_cables_and_motors_conserve_energy(robot, distribut
     platform sinks and swings, its cables taut, and the energy of platform, motors, weight
     and torques stays constant."""
     frictionless = replace(robot, motor=replace(robot.motor, viscous_friction_nm_s_rad=0.0),
-                           platform=replace(robot.platform, centre_of_mass_m=np.array([0.01, -0.02, -0.03])))
+                           body=replace(robot.body, centre_of_mass_m=np.array([0.01, -0.02, -0.03])))
     position, orientation = robot.home_position_m, from_axis_angle([1, 1, 0], 0.1)
     holding = pose_dynamics.inverse_dynamics(frictionless, distribution, position, orientation,
                                              *[np.zeros(3)] * 4).torque_nm
@@ -447,9 +449,9 @@ def independent_free_flight(robot, state, duration_s, steps):
     I ω̇_b + ω_b × I ω_b = 0, q̇ = ½ q ⊗ (0, ω_b); classic RK4."""
     position, orientation, velocity, omega = state
     rotation = rotation_matrix(orientation)
-    centre = position + rotation @ robot.platform.centre_of_mass_m
-    centre_velocity = velocity + np.cross(omega, rotation @ robot.platform.centre_of_mass_m)
-    inertia = robot.platform.inertia_kg_m2
+    centre = position + rotation @ robot.body.centre_of_mass_m
+    centre_velocity = velocity + np.cross(omega, rotation @ robot.body.centre_of_mass_m)
+    inertia = robot.body.inertia_kg_m2
 
     def rate(q, w_body):
         spin = np.linalg.solve(inertia, -np.cross(w_body, inertia @ w_body))
@@ -465,14 +467,14 @@ def independent_free_flight(robot, state, duration_s, steps):
         q = normalised(q + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4))
         w_body = w_body + h / 6 * (b1 + 2 * b2 + 2 * b3 + b4)
     centre = centre + centre_velocity * duration_s + 0.5 * robot.gravity_m_s2 * duration_s ** 2
-    return centre - rotation_matrix(q) @ robot.platform.centre_of_mass_m, q
+    return centre - rotation_matrix(q) @ robot.body.centre_of_mass_m, q
 
 
 def test_a_free_platform_tumbles_as_an_independent_rigid_body_integrator_says(robot):
     """Every cable detached, the centre of mass off the frame's origin: the model's
     Newton–Euler about the origin, integrated, against the free fall of the centre of
     mass and Euler's equations written here."""
-    body = replace(robot, platform=replace(robot.platform, centre_of_mass_m=np.array([0.02, -0.01, 0.03])))
+    body = replace(robot, body=replace(robot.body, centre_of_mass_m=np.array([0.02, -0.01, 0.03])))
     state = (robot.home_position_m, from_axis_angle([0, 1, 1], 0.3), np.array([0.1, -0.2, 0.3]),
              np.array([1.5, -0.7, 2.0]))
     detached = np.zeros(8, dtype=bool)

@@ -16,8 +16,8 @@ import pytest
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions
 
-from cdpr_control.pose_trajectories import PoseSample
-from cdpr_control.rotation import difference
+from cdpr_control.geometry.pose_trajectories import PoseSample
+from cdpr_control.geometry.rotation import difference
 from cdpr_control.tension_distribution import InfeasibleTensionError
 from cdpr_fdi.planning import PlanAtOnce, PlanInBackground
 from cdpr_fdi import pose_recovery

@@ -15,7 +15,7 @@ from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.metrics import fdi_summary_from_diagnostics, statuses_beside, take_statuses
 from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
-from cdpr_control.rotation import difference
+from cdpr_control.geometry.rotation import difference
 
 from conftest import CONFIG_DIR, LOOP_ROWS, GraphLog, assert_close_figures, timing_check
 

@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from cdpr_control.config import load_config
-from cdpr_control.controller import JointController, JointReference, PdGains
-from cdpr_control.motions import motion_names, pose_motion_from_settled, settled_motion
-from cdpr_control.pose_reference import tabulate_pose_reference
-from cdpr_control.robot import load_robot
-from cdpr_control.rotation import difference, rotation_matrix, tilt_rad
+from cdpr_control.control.controller import JointController, JointReference, PdGains
+from cdpr_control.geometry.motions import motion_names, settled_motion
+from cdpr_control.platform.motion import pose_motion_from_settled
+from cdpr_control.platform.reference import tabulate_pose_reference
+from cdpr_control.setup.robot_file import load_robot
+from cdpr_control.geometry.rotation import difference, rotation_matrix, tilt_rad
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_twin.plant import PlantConfig, PlantSimulator
 from cdpr_twin.rigid_platform import RigidPlatform
@@ -32,7 +33,7 @@ def setup(motion_name: str, reverse: bool = False):
     settings = load_config(ROBOT)
     control = settings.section('control')
     motion = pose_motion_from_settled(settled_motion(MOTIONS, motion_name, reverse),
-                                      robot.platform.home_orientation)
+                                      robot.body.home_orientation)
     reference = tabulate_pose_reference(robot, configured_tension_distribution(control, robot),
                                         motion.trajectory, control.number('period_s', positive=True))
     return robot, settings, motion, reference
@@ -160,7 +161,7 @@ def test_the_in_process_engine_runs_a_platform_on_the_elastic_plant_without_a_fa
 
 
 def test_a_goal_position_is_refused_for_a_platform_saying_why():
-    from cdpr_control.reference_schedule import GoalRejected, ReferenceSchedule
+    from cdpr_control.control.reference_schedule import GoalRejected, ReferenceSchedule
     robot, settings, _, reference = setup('along')
     schedule = ReferenceSchedule(robot, configured_tension_distribution(settings.section('control'), robot),
                                  reference.period_s, 0.3, reference)
@@ -180,7 +181,7 @@ def test_the_markers_draw_a_platforms_cables_to_its_attachment_points():
         frame.on_view(name, 0, value)
     shapes = {(shape.namespace, shape.id): shape for shape in frame.take()[1]}
     attachment = (reference.position_m[row]
-                  + robot.platform.attachment_points_m @ rotation_matrix(reference.orientation[row]).T)
+                  + robot.body.attachment_points_m @ rotation_matrix(reference.orientation[row]).T)
     for cable in range(8):
         np.testing.assert_allclose(shapes[('cables', cable + 1)].points_m[1], attachment[cable], atol=1e-9)
     assert len(shapes[('platform', 0)].points_m) == 16

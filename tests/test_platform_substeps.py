@@ -1,5 +1,5 @@
 """The platform's equations compiled by numba give CPython's numbers to the last bit (one
-source, cdpr_control.platform_substeps), on every path of both models: a break, slack
+source, cdpr_control.platform.substeps), on every path of both models: a break, slack
 cables, a push, locked drums; and the direct dynamics' slack cables against the reduced
 system solved here with numpy."""
 from __future__ import annotations
@@ -7,11 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdpr_control import platform_substeps, pose_dynamics, pose_kinematics
+from cdpr_control.platform import substeps as platform_substeps
+from cdpr_control.platform import dynamics as pose_dynamics
+from cdpr_control.platform import kinematics as pose_kinematics
 from cdpr_control.kernels import KERNELS
 from cdpr_control.config import load_config
-from cdpr_control.robot import load_robot
-from cdpr_control.rotation import from_axis_angle
+from cdpr_control.setup.robot_file import load_robot
+from cdpr_control.geometry.rotation import from_axis_angle
 from cdpr_twin.elastic_platform import ElasticPlatform
 from cdpr_twin.plant import PlantConfig
 from cdpr_twin.rigid_platform import RigidPlatform
@@ -109,7 +111,7 @@ def test_forward_kinematics_is_the_same_with_both_kernels(robot):
     used[4] = 0.0
     poses = []
     for name in KERNELS:
-        pose = np.concatenate([robot.home_position_m, robot.platform.home_orientation])
+        pose = np.concatenate([robot.home_position_m, robot.body.home_orientation])
         taken = platform_substeps.kernel(name).forward_kinematics(exits, attachments, lengths, used, pose, 30,
                                                                   1e-12, 1e-11)
         assert 2 < taken < 30

@@ -1,5 +1,5 @@
 """The point mass's rigid sub-steps compiled by numba give the pure-Python ones' numbers,
-to the last bit: one source (cdpr_control.point_mass_substeps), the same operations in
+to the last bit: one source (cdpr_control.point_mass.substeps), the same operations in
 the same order, on every path (taut cables, a cable going slack and taut again, a broken
 cable's free motor, a push, several sub-steps, locked drums)."""
 from __future__ import annotations
@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdpr_control.dynamics import direct_dynamics
+from cdpr_control.point_mass.dynamics import direct_dynamics
 from cdpr_control.kernels import KERNELS
-from cdpr_control.robot import load_robot
+from cdpr_control.setup.robot_file import load_robot
 from cdpr_twin.rigid_model import RigidCableRobot
 
 from conftest import PAPER_ROBOT

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from cdpr_control.config import load_section
-from cdpr_control.dynamics import inverse_dynamics
-from cdpr_control.kinematics import inverse_kinematics
-from cdpr_control.motions import load_motion
-from cdpr_control.reference import tabulate_reference
-from cdpr_control.reference_schedule import GoalRejected, PlannedMove, ReferenceSchedule
+from cdpr_control.point_mass.dynamics import inverse_dynamics
+from cdpr_control.point_mass.kinematics import inverse_kinematics
+from cdpr_control.geometry.motions import load_motion
+from cdpr_control.point_mass.reference import tabulate_reference
+from cdpr_control.control.reference_schedule import GoalRejected, PlannedMove, ReferenceSchedule
 from cdpr_control.tension_distribution import configured_tension_distribution
-from cdpr_control.trajectories import QUINTIC_PEAK_SPEED_RATIO, Hold, quintic_profile
+from cdpr_control.geometry.trajectories import QUINTIC_PEAK_SPEED_RATIO, Hold, quintic_profile
 from conftest import MOTIONS, PAPER_ROBOT
 
 PERIOD_S = 0.002

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
-from cdpr_control.rotation import difference
+from cdpr_control.geometry.rotation import difference
 
 from cdpr_bringup.reports import plots
 from cdpr_bringup.scenario import command as scenario_cli

@@ -10,7 +10,7 @@ import yaml
 
 from cdpr_bringup.paths import shipped_calibration
 from cdpr_control.config import ConfigError, load_config, load_section
-from cdpr_control.robot import load_robot
+from cdpr_control.setup.robot_file import load_robot
 from cdpr_fdi.config import load_fdi_config
 from cdpr_msgs_py import contract
 

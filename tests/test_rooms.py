@@ -1,6 +1,6 @@
-"""cdpr_bringup's rooms import each other one way only: each room's docstring names the
-rooms it may import, those names form no circle, and no import (function-level ones too)
-goes anywhere else."""
+"""A package in rooms: its top holds only its base modules and its rooms; each room is small
+and its docstring names the rooms it may import; those names form no circle, and no import
+(function-level ones too) goes anywhere else; the base imports no room."""
 from __future__ import annotations
 
 import ast
@@ -12,15 +12,26 @@ import pytest
 from conftest import REPO
 from test_imports import circles, imports, module_files
 
-PACKAGE = 'cdpr_bringup'
-ROOT = REPO / 'src' / PACKAGE / PACKAGE
-BASE = {'cli', 'paths'}
+# Each package in rooms, and the modules its top holds besides them (its base).
+PACKAGES = {
+    'cdpr_bringup': {'cli', 'paths'},
+    'cdpr_control': {'config', 'kernels'},
+}
+# Rooms a package must have, as a check that the rooms are read at all.
+EXPECTED = {
+    'cdpr_bringup': {'runs', 'bags', 'reports', 'graph', 'scenario', 'campaigns', 'bench'},
+    'cdpr_control': {'model', 'point_mass', 'platform', 'geometry', 'control', 'setup'},
+}
 MOST_MODULES = 11
 ALLOWED = re.compile(r'^Rooms it may import: (.+?)[.(]', re.M)
 
 
-def rooms() -> dict[str, Path]:
-    return {path.parent.name: path for path in sorted(ROOT.glob('*/__init__.py'))}
+def root(package: str) -> Path:
+    return REPO / 'src' / package / package
+
+
+def rooms(package: str) -> dict[str, Path]:
+    return {path.parent.name: path for path in sorted(root(package).glob('*/__init__.py'))}
 
 
 def allowed(init: Path) -> set[str]:
@@ -31,69 +42,73 @@ def allowed(init: Path) -> set[str]:
     return set() if names == {'none'} else names
 
 
-def room_of(module: str) -> str | None:
-    """The room of a dotted cdpr_bringup module, '' for the base, None outside the package."""
+def room_of(package: str, module: str) -> str | None:
+    """The room of a dotted module of `package`, '' for the base, None outside the package."""
     parts = module.split('.')
-    if parts[0] != PACKAGE:
+    if parts[0] != package:
         return None
-    return parts[1] if len(parts) > 2 or (len(parts) == 2 and parts[1] not in BASE) else ''
+    return parts[1] if len(parts) > 2 or (len(parts) == 2 and parts[1] not in PACKAGES[package]) else ''
 
 
-def house() -> dict[str, set[str]]:
-    return {room: allowed(init) for room, init in rooms().items()}
+def house(package: str) -> dict[str, set[str]]:
+    return {room: allowed(init) for room, init in rooms(package).items()}
 
 
-def crossings(files: dict[str, Path]) -> list[tuple[str, str, str, str]]:
+def crossings(package: str, files: dict[str, Path]) -> list[tuple[str, str, str, str]]:
     """(module, room, imported module, its room) for every import that leaves a room."""
     found = []
     for name, path in files.items():
-        room = room_of(name)
+        room = room_of(package, name)
         if room is None:
             continue
         for target in imports(name, path, set(files)):
-            to = room_of(target)
-            if to not in (None, room, '') and to != PACKAGE:
+            to = room_of(package, target)
+            if to not in (None, room, '') and to != package:
                 found.append((name, room, target, to))
     return found
 
 
-def test_the_top_holds_only_the_base_and_the_rooms():
-    top = {path.stem for path in ROOT.glob('*.py')} - {'__init__'}
-    assert top == BASE
-    assert set(rooms()) >= {'runs', 'bags', 'reports', 'graph', 'scenario', 'campaigns', 'bench'}
-    # a folder of modules without __init__.py would not be installed (find_packages)
-    assert {path.parent.name for path in ROOT.glob('*/*.py')} == set(rooms())
-
-
-@pytest.mark.parametrize('room', sorted(rooms()))
-def test_a_room_is_small_and_names_only_rooms_that_exist(room):
-    modules = [path for path in (ROOT / room).glob('*.py') if path.name != '__init__.py']
-    assert 0 < len(modules) <= MOST_MODULES
-    assert allowed(rooms()[room]) <= set(rooms()) - {room}
-
-
-def test_the_rooms_form_no_circle():
-    assert circles(house()) == []
-
-
-def test_the_base_imports_no_room():
-    files = module_files()
-    for base in BASE:
-        name = f'{PACKAGE}.{base}'
-        assert {room_of(target) for target in imports(name, files[name], set(files))} <= {None, ''}
-
-
-def against_the_rooms(files: dict[str, Path]) -> list[str]:
-    plan = house()
-    return [f'{module} ({room}) imports {target} ({to})' for module, room, target, to in crossings(files)
+def against_the_rooms(package: str, files: dict[str, Path]) -> list[str]:
+    plan = house(package)
+    return [f'{module} ({room}) imports {target} ({to})' for module, room, target, to in crossings(package, files)
             if to not in plan[room]]
 
 
-def test_every_import_between_rooms_goes_the_way_the_rooms_allow():
+@pytest.mark.parametrize('package', sorted(PACKAGES))
+def test_the_top_holds_only_the_base_and_the_rooms(package):
+    top = {path.stem for path in root(package).glob('*.py')} - {'__init__'}
+    assert top == PACKAGES[package]
+    assert set(rooms(package)) >= EXPECTED[package]
+    # a folder of modules without __init__.py would not be installed (find_packages)
+    assert {path.parent.name for path in root(package).glob('*/*.py')} == set(rooms(package))
+
+
+@pytest.mark.parametrize('package,room', [(package, room) for package in sorted(PACKAGES)
+                                          for room in sorted(rooms(package))])
+def test_a_room_is_small_and_names_only_rooms_that_exist(package, room):
+    modules = [path for path in (root(package) / room).glob('*.py') if path.name != '__init__.py']
+    assert 0 < len(modules) <= MOST_MODULES
+    assert allowed(rooms(package)[room]) <= set(rooms(package)) - {room}
+
+
+@pytest.mark.parametrize('package', sorted(PACKAGES))
+def test_the_rooms_form_no_circle(package):
+    assert circles(house(package)) == []
+
+
+@pytest.mark.parametrize('package', sorted(PACKAGES))
+def test_the_base_imports_no_room(package):
     files = module_files()
-    assert ('cdpr_bringup.scenario.command', 'scenario', 'cdpr_bringup.runs.engine', 'runs') \
-        in crossings(files), 'the imports are read'
-    assert against_the_rooms(files) == []
+    for base in PACKAGES[package]:
+        name = f'{package}.{base}'
+        assert {room_of(package, target) for target in imports(name, files[name], set(files))} <= {None, ''}
+
+
+@pytest.mark.parametrize('package', sorted(PACKAGES))
+def test_every_import_between_rooms_goes_the_way_the_rooms_allow(package):
+    files = module_files()
+    assert crossings(package, files), 'the imports are read'
+    assert against_the_rooms(package, files) == []
 
 
 def test_an_import_against_the_rooms_is_found(tmp_path):
@@ -101,5 +116,5 @@ def test_an_import_against_the_rooms_is_found(tmp_path):
     stray = tmp_path / 'stray.py'
     stray.write_text('def start():\n    from ..graph.launcher import Graph\n    return Graph\n')
     files = {**module_files(), 'cdpr_bringup.runs.stray': stray}
-    assert against_the_rooms(files) == [
+    assert against_the_rooms('cdpr_bringup', files) == [
         'cdpr_bringup.runs.stray (runs) imports cdpr_bringup.graph.launcher (graph)']

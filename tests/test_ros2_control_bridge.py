@@ -9,11 +9,11 @@ import time
 import numpy as np
 import pytest
 
-from cdpr_control.kinematics import forward_kinematics
-from cdpr_control.pose_kinematics import inverse_kinematics
-from cdpr_control.robot import load_robot
-from cdpr_control.rotation import difference, from_axis_angle
-from cdpr_control.statics import holding_torque_nm
+from cdpr_control.point_mass.kinematics import forward_kinematics
+from cdpr_control.platform.kinematics import inverse_kinematics
+from cdpr_control.setup.robot_file import load_robot
+from cdpr_control.geometry.rotation import difference, from_axis_angle
+from cdpr_control.point_mass.statics import holding_torque_nm
 from cdpr_msgs_py.contract import joint_names
 from cdpr_twin.joint_mapping import EffortBridge, JointMapping, JointMismatch, StaleWatch, TickStamps
 from cdpr_twin.rigid_platform import RigidPlatform
@@ -93,7 +93,7 @@ def test_robot_data_silent_for_stale_cycles_periods_is_stale():
 
 @pytest.fixture(scope='module')
 def robot():
-    from cdpr_control.robot import load_robot
+    from cdpr_control.setup.robot_file import load_robot
     return load_robot(PAPER_ROBOT)
 
 

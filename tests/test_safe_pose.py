@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from cdpr_control import pose_dynamics, pose_kinematics
-from cdpr_control import safe_pose as safe_pose_module
-from cdpr_control.robot import load_robot
-from cdpr_control.rotation import difference
-from cdpr_control.safe_pose import candidate_orientations, safe_pose, tension_margin_n
+from cdpr_control.platform import dynamics as pose_dynamics
+from cdpr_control.platform import kinematics as pose_kinematics
+from cdpr_control.platform import safe_pose as safe_pose_module
+from cdpr_control.setup.robot_file import load_robot
+from cdpr_control.geometry.rotation import difference
+from cdpr_control.platform.safe_pose import candidate_orientations, safe_pose, tension_margin_n
 from cdpr_control.tension_distribution import PseudoInverse
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.recovery import safe_pose_for
@@ -63,7 +64,7 @@ def test_the_safe_pose_is_the_barycentre_of_the_sampled_residual_workspace(robot
     # the grid's barycentre is the sample's, to the sampling's error
     assert np.linalg.norm(points[inside].mean(axis=0) - pose.position_m[:2]) < BARYCENTRE_TOLERANCE_M
     # and no orientation tried holds its own barycentre with more margin
-    for orientation in candidate_orientations(robot.platform.home_orientation, TURNS_DEG):
+    for orientation in candidate_orientations(robot.body.home_orientation, TURNS_DEG):
         if np.linalg.norm(difference(orientation, pose.orientation)) < 1e-12:
             continue
         some = points[:100]

@@ -10,7 +10,7 @@ import yaml
 from rclpy.parameter import Parameter
 
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
-from cdpr_control.settings import flatten, unflatten
+from cdpr_control.setup.settings import flatten, unflatten
 from cdpr_fdi.supervisor_node import SupervisorNode
 from cdpr_twin.plant_simulator_node import PlantSimulatorNode
 

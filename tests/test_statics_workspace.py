@@ -6,9 +6,9 @@ import pytest
 from scipy.optimize import linprog
 from scipy.spatial import ConvexHull
 
-from cdpr_control.kinematics import structure_matrix
-from cdpr_control.statics import in_static_equilibrium, static_tensions
-from cdpr_control.workspace import (contains, convex_hull, polygon_centroid, safe_point,
+from cdpr_control.point_mass.kinematics import structure_matrix
+from cdpr_control.point_mass.statics import in_static_equilibrium, static_tensions
+from cdpr_control.point_mass.workspace import (contains, convex_hull, polygon_centroid, safe_point,
                                     sew_cross_section)
 from conftest import cable_masks, random_positions
 

@@ -1,4 +1,4 @@
-"""The steered approach (cdpr_control.steered_approach) against the platform's physics: the
+"""The steered approach (cdpr_control.platform.steered_approach) against the platform's physics: the
 motion it plans is one the remaining cables can pull within their bounds, row by row, and
 it ends at the target at rest."""
 from __future__ import annotations
@@ -7,12 +7,12 @@ import numpy as np
 from scipy.optimize import linprog
 
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
-from cdpr_control.pose_dynamics import rigid_body
-from cdpr_control.pose_kinematics import wrench_matrix
-from cdpr_control.pose_trajectories import PoseSample
-from cdpr_control.rotation import difference
-from cdpr_control.safe_pose import tension_margin_n
-from cdpr_control.steered_approach import SteeredApproach
+from cdpr_control.platform.dynamics import rigid_body
+from cdpr_control.platform.kinematics import wrench_matrix
+from cdpr_control.geometry.pose_trajectories import PoseSample
+from cdpr_control.geometry.rotation import difference
+from cdpr_control.platform.safe_pose import tension_margin_n
+from cdpr_control.platform.steered_approach import SteeredApproach
 from cdpr_fdi.recovery import safe_pose_for
 
 from conftest import CONFIG_DIR

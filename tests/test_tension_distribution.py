@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog, lsq_linear, minimize
 
-from cdpr_control.dynamics import inverse_dynamics
-from cdpr_control.kinematics import structure_matrix
+from cdpr_control.point_mass.dynamics import inverse_dynamics
+from cdpr_control.point_mass.kinematics import structure_matrix
 from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError,
                                                make_tension_distribution, minimum_norm)
 from conftest import random_positions, random_unit_vectors
@@ -296,7 +296,7 @@ def test_an_infeasible_row_is_named_and_its_error_crosses_processes_whole(paper_
 
 def test_cdpr_robots_coverage_of_the_pseudo_inverse_is_counted_right(paper_robot):
     """closed_form_coverage against numpy's pseudo-inverse and an LP, point by point."""
-    from cdpr_control.statics import closed_form_coverage
+    from cdpr_control.point_mass.statics import closed_form_coverage
     low, high = paper_robot.tension_min_n, paper_robot.tension_max_n
     axes = [np.linspace(a, b, 5) for a, b in zip(paper_robot.workspace_min_m, paper_robot.workspace_max_m)]
     closed_form = held = 0
@@ -367,7 +367,7 @@ def test_the_nearest_wrench_within_the_bounds_is_scipys_bounded_least_squares(rn
     approach weighs them): within the bounds, the weighted misfit of the wrench is
     scipy's optimum to 1e-7 of the problem's scale; where the wrench can be pulled
     exactly, it is. Both kernels of the one source (platform_substeps.nearest_wrench)."""
-    from cdpr_control.platform_substeps import kernel as platform_kernel
+    from cdpr_control.platform.substeps import kernel as platform_kernel
     nearest_wrench = platform_kernel(kernel).nearest_wrench
     exact = 0
     for _ in range(300 if kernel == 'compiled' else 30):

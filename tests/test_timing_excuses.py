@@ -113,7 +113,7 @@ def test_a_node_logs_where_an_error_episode_begins_and_where_it_ends():
     """What the excuse reads: one ERROR line as the node enters ERROR, one 'no longer in
     error' line as it leaves, nothing in between however long it lasts."""
     import rclpy
-    from cdpr_control.controller_node import ControllerNode
+    from cdpr_control.control.controller_node import ControllerNode
     rclpy.init(args=['--ros-args', '-p', f'config_file:={PAPER_ROBOT}', '-p', f'motions_file:={MOTIONS}',
                      '-p', 'clock_mode:=realtime'])
     try:

@@ -12,8 +12,8 @@ import rclpy
 
 from cdpr_bringup.bags.recorder_node import BagRecorderNode
 from cdpr_bringup.graph.launcher import graph_nodes
-from cdpr_control.controller_node import ControllerNode
-from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
+from cdpr_control.control.controller_node import ControllerNode
+from cdpr_control.control.trajectory_generator_node import TrajectoryGeneratorNode
 from cdpr_fdi.markers_node import MarkersNode
 from cdpr_fdi.supervisor_node import SupervisorNode
 from cdpr_msgs_py import contract, qos

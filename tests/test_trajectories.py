@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from cdpr_control.config import load_section
-from cdpr_control.kinematics import structure_matrix
-from cdpr_control.motions import load_motion, motion_names
+from cdpr_control.point_mass.kinematics import structure_matrix
+from cdpr_control.geometry.motions import load_motion, motion_names
 from cdpr_control.tension_distribution import minimum_norm
-from cdpr_control.trajectories import Circle, HermiteQuintic, Hold, Sequence, StraightLine
+from cdpr_control.geometry.trajectories import Circle, HermiteQuintic, Hold, Sequence, StraightLine
 from conftest import MOTIONS, PAPER_ROBOT
 
 LINE = StraightLine([0.4, 0.5, 1.0], [1.3, 1.5, 1.8], 2.5)

@@ -8,7 +8,7 @@ import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
-from cdpr_control.controller import JointReference
+from cdpr_control.control.controller import JointReference
 from cdpr_fdi.supervisor import Supervisor
 from cdpr_twin.plant import FIDELITIES, PlantSimulator
 from cdpr_twin.watchdog import BRAKING, HOLDING, OK, CommandWatchdog
@@ -122,7 +122,7 @@ def diagnostics_status(node):
 
 @pytest.fixture
 def controller_node(realtime_ros):
-    from cdpr_control.controller_node import ControllerNode
+    from cdpr_control.control.controller_node import ControllerNode
     node = ControllerNode()
     yield node
     node.destroy_node()
@@ -210,7 +210,7 @@ def test_a_publish_that_fails_is_counted_and_reported_not_raised(controller_node
 def realtime_generator(realtime_ros):
     """A realtime trajectory generator that has had the state of tick 0, and the
     references it published."""
-    from cdpr_control.trajectory_generator_node import TrajectoryGeneratorNode
+    from cdpr_control.control.trajectory_generator_node import TrajectoryGeneratorNode
     node = TrajectoryGeneratorNode()
     sent = []
     node.reference.publish = kept(sent, node.reference)
@@ -264,11 +264,11 @@ def test_realtime_generator_keeps_publishing_while_it_plans_a_goal(realtime_gene
 def test_twin_bridges_a_gap_in_the_references_as_the_controller_does(realtime_ros, paper_robot):
     """Ticks that got no reference were answered by the controller with the last one it
     had; the twin steps them with that one too, and stays on the robot's clock."""
-    from cdpr_control.controller import JointReference, PdGains
+    from cdpr_control.control.controller import JointReference, PdGains
     from cdpr_control.config import load_section
-    from cdpr_control.kinematics import forward_kinematics
-    from cdpr_control.motions import load_motion
-    from cdpr_control.reference import tabulate_reference
+    from cdpr_control.point_mass.kinematics import forward_kinematics
+    from cdpr_control.geometry.motions import load_motion
+    from cdpr_control.point_mass.reference import tabulate_reference
     from cdpr_control.tension_distribution import configured_tension_distribution
     from cdpr_msgs_py.contract import joint_names
     from cdpr_msgs_py.conversions import joint_state

@@ -22,8 +22,8 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'trajectory_generator = cdpr_control.trajectory_generator_node:main',
-            'controller = cdpr_control.controller_node:main',
+            'trajectory_generator = cdpr_control.control.trajectory_generator_node:main',
+            'controller = cdpr_control.control.controller_node:main',
         ],
     },
 )

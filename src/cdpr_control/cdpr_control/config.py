@@ -154,7 +154,7 @@ class Section:
         value = self.raw(name, default)
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(name, f'must be an integer, got {value!r}')
-        # every setting is also a ROS parameter (cdpr_control.settings)
+        # every setting is also a ROS parameter (cdpr_control.setup.settings)
         if not INT64_MIN <= value <= INT64_MAX:
             raise self.error(name, f'must fit in 64 bits, as a ROS parameter, got {value!r}')
         if minimum is not None and value < minimum:

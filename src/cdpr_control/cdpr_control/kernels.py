@@ -117,7 +117,8 @@ def _ahead_of_time_path(module) -> tuple[str, Path]:
     """(the extension's module name, its file) for the source of `module` as it is now."""
     source = Path(module.__file__)
     digest = hashlib.sha256(source.read_bytes()).hexdigest()[:16]
-    name = f'{source.stem}_ahead_of_time'
+    # named by the whole module path: two rooms hold a `substeps` module each
+    name = f"{module.__name__.replace('.', '_')}_ahead_of_time"
     return name, source.parent / '__pycache__' / f'{name}.{digest}{importlib.machinery.EXTENSION_SUFFIXES[0]}'
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cdpr_control.friction import FrictionModel
+from cdpr_control.model.friction import FrictionModel
 
 EULER_GAMMA = 0.5772156649015329
 

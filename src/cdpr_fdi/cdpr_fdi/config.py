@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from cdpr_control.config import Section, load_config, load_section, load_yaml, with_defaults
-from cdpr_control.friction import FrictionModel
-from cdpr_control.robot import Robot
-from cdpr_control.steered_approach import ApproachGains
-from cdpr_control.trajectories import QUINTIC_PEAK_SPEED_RATIO
+from cdpr_control.model.friction import FrictionModel
+from cdpr_control.model.robot import Robot
+from cdpr_control.platform.steered_approach import ApproachGains
+from cdpr_control.geometry.trajectories import QUINTIC_PEAK_SPEED_RATIO
 
 from .detectors import DETECTORS
 

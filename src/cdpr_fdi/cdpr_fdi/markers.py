@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from cdpr_control.config import Section
-from cdpr_control.robot import Robot
-from cdpr_control.workspace import sew_cross_section
+from cdpr_control.model.robot import Robot
+from cdpr_control.point_mass.workspace import sew_cross_section
 
 from .config import RecoveryConfig
 from .recovery import RecoveryInfeasible, safe_point_for, safe_pose_for
@@ -174,7 +174,7 @@ class Frame:
         if cable <= 0 or cable in self.broken_cables:
             return
         self.broken_cables.append(cable)
-        if self.robot.platform is not None:
+        if self.robot.body.has_orientation:
             self.on_platform_broken_cable()
             return
         try:
@@ -227,9 +227,9 @@ class Frame:
         if self.ground_truth:
             shapes.append(_single('end_effector', SPHERE_LIST, position, END_EFFECTOR_COLOUR,
                                   style.end_effector_diameter_m))
-            if self.robot.platform is not None:
-                shapes.append(_single('platform', LINE_LIST, platform_body(self.robot, position, orientation),
-                                      END_EFFECTOR_COLOUR, style.cable_width_m))
+            outline = self.robot.body.outline_m(self.robot, position, orientation)
+            if len(outline):
+                shapes.append(_single('platform', LINE_LIST, outline, END_EFFECTOR_COLOUR, style.cable_width_m))
         shapes.append(_single('twin', SPHERE_LIST, twin_position, TWIN_COLOUR, style.end_effector_diameter_m))
         shapes.append(_single('reference', SPHERE_LIST, seen['reference'][0], REFERENCE_COLOUR,
                               style.reference_diameter_m))

@@ -14,7 +14,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA, Header, Int32
 from visualization_msgs.msg import Marker, MarkerArray
 
-from cdpr_control.settings import node_settings
+from cdpr_control.setup.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import InvalidMessage, ns_to_stamp, pose_from_message
 from cdpr_msgs_py.runtime.node import CdprNode

@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cdpr_control.controller import JointReference, PdGains
-from cdpr_control.kinematics import forward_kinematics
-from cdpr_control.robot import Robot
+from cdpr_control.control.controller import JointReference, PdGains
+from cdpr_control.point_mass.kinematics import forward_kinematics
+from cdpr_control.model.robot import Robot
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_twin.twin import DigitalTwin
 

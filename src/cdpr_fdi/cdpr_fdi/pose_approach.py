@@ -3,7 +3,7 @@ break by default (recovery.platform_recovery `steered`), and with `braked` where
 tensions of the remaining cables within [τ_min, τ_max] hold the platform at its pose at
 the naming, so that it cannot be braked to rest there.
 
-The platform is steered by cdpr_control.steered_approach, under tensions kept
+The platform is steered by cdpr_control.platform.steered_approach, under tensions kept
 `approach_tension_margin_n` above τ_min, its orientation pulled hard, its position let
 move as those tensions allow. The steered motion is tabulated per tick for the drives
 (its wrench shared again by the recovery's distribution), stepped as the ticks ask for
@@ -23,13 +23,13 @@ import math
 
 import numpy as np
 
-from cdpr_control import pose_dynamics
-from cdpr_control.controller import JointReference
-from cdpr_control.pose_reference import PoseReferenceTable, table_of
-from cdpr_control.pose_trajectories import PoseSample
-from cdpr_control.robot import Robot
-from cdpr_control.rotation import normalised
-from cdpr_control.steered_approach import SteeredApproach
+from cdpr_control.platform import dynamics as pose_dynamics
+from cdpr_control.control.controller import JointReference
+from cdpr_control.platform.reference import PoseReferenceTable, table_of
+from cdpr_control.geometry.pose_trajectories import PoseSample
+from cdpr_control.model.robot import Robot
+from cdpr_control.geometry.rotation import normalised
+from cdpr_control.platform.steered_approach import SteeredApproach
 from cdpr_control.tension_distribution import FlooredLeastSquares, TensionDistribution
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 

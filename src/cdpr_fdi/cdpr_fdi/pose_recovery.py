@@ -46,18 +46,19 @@ from concurrent.futures import Future
 
 import numpy as np
 
-from cdpr_control import platform_substeps, pose_dynamics
-from cdpr_control.controller import JointReference
-from cdpr_control.pose_kinematics import joint_velocity
-from cdpr_control.pose_reference import PoseReferenceTable, tabulate_pose_reference, tabulate_pose_references
-from cdpr_control.pose_trajectories import BrakedTurn, PoseSample, PoseTrajectory, Turn
-from cdpr_control.robot import Robot
-from cdpr_control.rotation import difference, from_rotation_vector, normalised, product
-from cdpr_control.safe_pose import tension_margin_n
+from cdpr_control.platform import substeps as platform_substeps
+from cdpr_control.platform import dynamics as pose_dynamics
+from cdpr_control.control.controller import JointReference
+from cdpr_control.platform.kinematics import joint_velocity
+from cdpr_control.platform.reference import PoseReferenceTable, tabulate_pose_reference, tabulate_pose_references
+from cdpr_control.geometry.pose_trajectories import BrakedTurn, PoseSample, PoseTrajectory, Turn
+from cdpr_control.model.robot import Robot
+from cdpr_control.geometry.rotation import difference, from_rotation_vector, normalised, product
+from cdpr_control.platform.safe_pose import tension_margin_n
 from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError, LoweredFloor,
                                                TensionDistribution, make_tension_distribution)
 from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N
-from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence
+from cdpr_control.geometry.trajectories import HermiteQuintic, Hold, Sequence
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 
 from .config import RecoveryConfig

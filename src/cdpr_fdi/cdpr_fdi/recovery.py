@@ -29,16 +29,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.controller import JointReference
-from cdpr_control.kinematics import cable_vectors, forward_kinematics
-from cdpr_control.reference import tabulate_reference
-from cdpr_control.robot import Robot
-from cdpr_control.safe_pose import SafePose, safe_pose
-from cdpr_control.statics import static_tensions
+from cdpr_control.control.controller import JointReference
+from cdpr_control.point_mass.kinematics import cable_vectors, forward_kinematics
+from cdpr_control.point_mass.reference import tabulate_reference
+from cdpr_control.model.robot import Robot
+from cdpr_control.platform.safe_pose import SafePose, safe_pose
+from cdpr_control.point_mass.statics import static_tensions
 from cdpr_control.tension_distribution import (InfeasibleTensionError, TensionDistribution,
                                                floored_fit, make_tension_distribution)
-from cdpr_control.trajectories import HermiteQuintic, Hold, Sequence, quintic_profile
-from cdpr_control.workspace import safe_point
+from cdpr_control.geometry.trajectories import HermiteQuintic, Hold, Sequence, quintic_profile
+from cdpr_control.point_mass.workspace import safe_point
 from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, VERDICT_DELAY_TICKS
 
 from .config import RecoveryConfig
@@ -59,7 +59,7 @@ def safe_point_for(robot: Robot, config: RecoveryConfig, attached: np.ndarray) -
     broken = np.flatnonzero(~attached) + 1
     if broken.size == 1 and int(broken[0]) in config.safe_points_m:
         return config.safe_points_m[int(broken[0])].copy()
-    if robot.platform is not None:
+    if robot.body.has_orientation:
         return safe_pose_for(robot, config, attached).position_m
     try:
         return safe_point(robot, attached, config.safe_height_m)
@@ -68,7 +68,7 @@ def safe_point_for(robot: Robot, config: RecoveryConfig, attached: np.ndarray) -
 
 
 def safe_pose_for(robot: Robot, config: RecoveryConfig, attached: np.ndarray) -> SafePose:
-    """A platform's safe pose after its `attached` cables are left (cdpr_control.safe_pose)
+    """A platform's safe pose after its `attached` cables are left (cdpr_control.platform.safe_pose)
     at recovery.safe_height_m; RecoveryInfeasible where there is none."""
     try:
         return safe_pose(robot, attached, config.safe_height_m, config.safe_pose_turns_deg, config.safe_pose_grid_m)
@@ -77,11 +77,11 @@ def safe_pose_for(robot: Robot, config: RecoveryConfig, attached: np.ndarray) ->
 
 
 def find_safe_poses(robot: Robot, config: RecoveryConfig) -> None:
-    """A platform's safe pose after each single break, found now (cdpr_control.safe_pose
+    """A platform's safe pose after each single break, found now (cdpr_control.platform.safe_pose
     keeps them, or why there is none), so that naming a cable does not search: ~0.2 s a
     cable on the shipped platform, which a realtime supervisor cannot spend between two
     ticks. Nothing for a point mass, whose safe points take no search worth keeping."""
-    if robot.platform is None:
+    if not robot.body.has_orientation:
         return
     for cable in range(robot.cable_count):
         try:

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.friction import FrictionModel
-from cdpr_control.robot import Motor
+from cdpr_control.model.friction import FrictionModel
+from cdpr_control.model.robot import Motor
 
 from . import tick_arithmetic
 

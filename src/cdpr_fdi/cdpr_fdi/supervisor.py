@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cdpr_control import platform_substeps
-from cdpr_control.controller import JointReference
-from cdpr_control.kinematics import KinematicsError, forward_kinematics
-from cdpr_control.robot import Robot
-from cdpr_control.safe_pose import tension_margin_n
+from cdpr_control.platform import substeps as platform_substeps
+from cdpr_control.control.controller import JointReference
+from cdpr_control.point_mass.kinematics import KinematicsError, forward_kinematics
+from cdpr_control.model.robot import Robot
+from cdpr_control.platform.safe_pose import tension_margin_n
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_msgs_py.contract import FAULT, NOMINAL, VERDICT_DELAY_TICKS
 
@@ -119,7 +119,7 @@ class Supervisor:
         self.tension_bounds_n = (np.zeros(robot.cable_count), np.zeros(robot.cable_count))
         # the per-tick arithmetic (tick_arithmetic), and what it takes of the robot
         self.arithmetic = tick_arithmetic.kernel().load_all()
-        if robot.platform is not None:
+        if robot.body.has_orientation:
             # a platform's recovery steps its steered approach with them from the naming
             # on, when there is no time to load (or compile) them
             platform_substeps.kernel().load_all()
@@ -366,7 +366,7 @@ class Supervisor:
                   f'{self.alarm_tick}, identified at tick {tick}']
         try:
             check_recoverable(self.robot, attached)
-            if self.robot.platform is not None:
+            if self.robot.body.has_orientation:
                 self.recovery = self.pose_recovery(tick, attached, angle_rad, angular_velocity_rad_s, command_nm)
                 return events
             position = forward_kinematics(self.robot, np.asarray(angle_rad, float), attached)

@@ -20,8 +20,8 @@ from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 
-from cdpr_control.controller import JointReference
-from cdpr_control.settings import node_settings
+from cdpr_control.control.controller import JointReference
+from cdpr_control.setup.settings import node_settings
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.contract import NOMINAL

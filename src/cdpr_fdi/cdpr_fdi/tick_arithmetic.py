@@ -16,9 +16,9 @@ from math import tanh
 
 import numpy as np
 
-from cdpr_control.friction import FrictionModel
+from cdpr_control.model.friction import FrictionModel
 from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
-from cdpr_control.robot import Motor
+from cdpr_control.model.robot import Motor
 
 # the slots of `motor`
 INERTIA, VISCOUS, RADIUS, COULOMB, SMOOTHING = range(5)

@@ -10,7 +10,7 @@ tensions τ̂_j along their directions u_j, all read off the motors, leave
 
 the force nothing on the robot explains: about zero when the free cables are broken, the
 push itself when something outside pulls. A platform's is the force part of the wrench
-M (a, α) − (w_g − h) − Σ_j τ̂_j w_j (cdpr_control.pose_dynamics), its pose and twist
+M (a, α) − (w_g − h) − Σ_j τ̂_j w_j (cdpr_control.platform.dynamics), its pose and twist
 read off the taut cables' motors the same way. p comes from the motor angles of the taut
 cables (forward kinematics), ṗ from their resolver speeds (ρ θ̇_j = −u_jᵀ ṗ, as sharp as
 the speeds, where differentiating positions would amplify their quantisation), p̈ from two
@@ -30,9 +30,7 @@ from collections import deque
 
 import numpy as np
 
-from cdpr_control import pose_dynamics, pose_kinematics
-from cdpr_control.kinematics import structure_matrix
-from cdpr_control.robot import Robot
+from cdpr_control.model.robot import Robot
 
 
 class WrenchBalance:
@@ -81,19 +79,8 @@ class WrenchBalance:
         ticks = np.array([tick for tick, *_ in window])
         for cable, since in free_since.items():
             tensions[ticks >= since, cable] = 0.0
-        pulled = structure @ tensions.mean(axis=0)
-        if robot.platform is None:
-            return robot.mass_kg * (acceleration - robot.gravity_m_s2) - pulled
-        body = pose_dynamics.rigid_body(robot, orientation, twist_now[3:])
-        return (body.mass_matrix @ acceleration - body.free_wrench - pulled)[:3]
-
-
-def wrench_matrix_at(robot: Robot, position_m, orientation) -> np.ndarray:
-    """The wrench matrix (dof × m) of any robot at its end-effector's pose: the point
-    mass's S = [u_1 … u_m] (its `orientation` None), a platform's W."""
-    if robot.platform is None:
-        return structure_matrix(robot, position_m)[0]
-    return pose_kinematics.wrench_matrix(robot, position_m, orientation)[0]
+        return robot.body.unbalanced_force_n(robot, orientation, twist_now, acceleration,
+                                             structure @ tensions.mean(axis=0))
 
 
 def placement(robot: Robot, angle_rad, angular_velocity_rad_s, taut: np.ndarray):
@@ -102,8 +89,8 @@ def placement(robot: Robot, angle_rad, angular_velocity_rad_s, taut: np.ndarray)
     matrix at the pose). The pose by forward kinematics of their angles, the twist from
     their speeds, ρ θ̇_j = −w_jᵀ twist, in the least-squares sense (as sharp as the speeds,
     where differentiating poses would amplify their quantisation)."""
-    position, orientation = pose_kinematics.pose_of_angles(robot, np.asarray(angle_rad, float), taut)
-    structure = wrench_matrix_at(robot, position, orientation)
+    position, orientation = robot.body.pose_of_angles(robot, np.asarray(angle_rad, float), taut)
+    structure = robot.body.structure_matrix(robot, position, orientation)
     twist, *_ = np.linalg.lstsq(structure[:, taut].T,
                                 -robot.motor.drum_radius_m * np.asarray(angular_velocity_rad_s, float)[taut],
                                 rcond=None)
@@ -117,5 +104,5 @@ def overstretch_m(robot: Robot, angle_rad: np.ndarray, taut: np.ndarray) -> np.n
     slack one."""
     angle = np.asarray(angle_rad, float)
     distance = np.linalg.norm(robot.exit_points_m - robot.cable_ends_m(
-        *pose_kinematics.pose_of_angles(robot, angle, taut)), axis=1)
+        *robot.body.pose_of_angles(robot, angle, taut)), axis=1)
     return distance - (robot.cable_length_offset_m + robot.motor.drum_radius_m * angle)

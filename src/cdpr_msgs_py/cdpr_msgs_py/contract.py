@@ -52,7 +52,7 @@ MARKERS_NODE = 'markers'
 # A hardware bridge in the plant simulator's place, for a ros2_control robot.
 ROS2_CONTROL_BRIDGE = 'ros2_control_bridge'
 
-# The sections of a settled run (cdpr_control.settings) each node reads as its ROS
+# The sections of a settled run (cdpr_control.setup.settings) each node reads as its ROS
 # parameters, besides those every node reads.
 SETTINGS_OF = {
     TRAJECTORY_GENERATOR: ('control', 'motion'),

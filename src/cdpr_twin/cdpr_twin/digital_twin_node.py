@@ -6,9 +6,8 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 
-from cdpr_control.controller import JointReference, PdGains
-from cdpr_control.pose_kinematics import pose_of_angles
-from cdpr_control.settings import node_settings
+from cdpr_control.control.controller import JointReference, PdGains
+from cdpr_control.setup.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state_bytes, pose_stamped
 from cdpr_msgs_py.runtime.node import CdprNode
@@ -59,7 +58,7 @@ class DigitalTwinNode(CdprNode):
         if self.twin is None:
             # The twin starts where the reference starts, at rest.
             try:
-                start, orientation = pose_of_angles(self.robot, joints.position)
+                start, orientation = self.robot.body.pose_of_angles(self.robot, joints.position)
                 self.twin = DigitalTwin(self.robot, self.gains, start, self.substeps, orientation)
             except (ValueError, np.linalg.LinAlgError) as err:
                 self.diagnostics.reject(contract.REFERENCE, f'no pose to start the twin from: {err}')

@@ -21,11 +21,11 @@ from math import exp
 
 import numpy as np
 
-from cdpr_control.kinematics import cable_vectors
-from cdpr_control.robot import Robot
-from cdpr_control.rotation import IDENTITY
-from cdpr_control.dynamics import NO_FORCE
-from cdpr_control.statics import static_tensions
+from cdpr_control.point_mass.kinematics import cable_vectors
+from cdpr_control.model.robot import Robot
+from cdpr_control.geometry.rotation import IDENTITY
+from cdpr_control.point_mass.dynamics import NO_FORCE
+from cdpr_control.point_mass.statics import static_tensions
 
 from .elastic_substeps import kernel as substep_kernel
 

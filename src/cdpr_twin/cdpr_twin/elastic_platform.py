@@ -4,9 +4,9 @@ it (docs/platform.md).
 Each cable is a unilateral spring–damper of stiffness EA / l from its exit point to its
 attachment point on the platform (it can go slack, never push), l = l_0 + ρ θ its
 unstretched length; motors carry viscous and Coulomb friction (smoothed by tanh). The
-platform obeys Newton–Euler at its frame's origin (cdpr_control.pose_dynamics):
+platform obeys Newton–Euler at its frame's origin (cdpr_control.platform.dynamics):
 M (a, α) + h = W τ + w_g + w_ext. Integrated by semi-implicit Euler in sub-steps
-(cdpr_control.platform_substeps.elastic_substeps, run by its `kernel`): the velocities
+(cdpr_control.platform.substeps.elastic_substeps, run by its `kernel`): the velocities
 with the tensions of the sub-step's start, then the pose and the angles with the new
 velocities, then the tensions of the end.
 """
@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control import platform_substeps, pose_kinematics
-from cdpr_control.dynamics import NO_FORCE
-from cdpr_control.pose_dynamics import wrench_at_origin
-from cdpr_control.pose_statics import static_tensions
-from cdpr_control.robot import Robot
-from cdpr_control.rotation import normalised
+from cdpr_control.platform import substeps as platform_substeps
+from cdpr_control.platform import kinematics as pose_kinematics
+from cdpr_control.point_mass.dynamics import NO_FORCE
+from cdpr_control.platform.dynamics import wrench_at_origin
+from cdpr_control.platform.statics import static_tensions
+from cdpr_control.model.robot import Robot
+from cdpr_control.geometry.rotation import normalised
 
 
 class ElasticPlatform:
@@ -42,7 +43,7 @@ class ElasticPlatform:
             robot, robot.motor.static_friction_nm, config.coulomb_velocity_rad_s, config.axial_stiffness_n,
             config.damping_n_s_m)
         self.position_m = np.array(position_m, dtype=float)
-        self.orientation = normalised(robot.platform.home_orientation if orientation is None else orientation)
+        self.orientation = normalised(robot.body.home_orientation if orientation is None else orientation)
         self.velocity_m_s = np.zeros(3)
         self.platform_angular_velocity_rad_s = np.zeros(3)
         self.drums_locked = False

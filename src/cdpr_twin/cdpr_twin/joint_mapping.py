@@ -9,7 +9,7 @@ the graph speaks of motor_1 … motor_m in the order of robot.exit_points_m
 command it got until the next one, for ever. So when the commands stop, the bridge
 lets it hold the last command `plant.command_timeout_cycles` periods, as a drive would,
 and then sends the static holding torque of the end-effector's pose, measured anew
-each period (pose_statics.holding_torques_nm; a platform's pose, position and
+each period (Body.holding_torques_nm; a platform's pose, position and
 orientation, by its forward kinematics) — never zero torque on a suspended load.
 """
 from __future__ import annotations
@@ -18,10 +18,8 @@ from math import isfinite
 
 import numpy as np
 
-from cdpr_control.kinematics import KinematicsError
-from cdpr_control.pose_kinematics import pose_of_angles
-from cdpr_control.pose_statics import holding_torques_nm
-from cdpr_control.robot import Robot
+from cdpr_control.model.body import KinematicsError
+from cdpr_control.model.robot import Robot
 
 from .watchdog import BRAKING, CommandWatchdog
 
@@ -174,10 +172,10 @@ class EffortBridge:
             return None
         attached = self.robot.cable_mask(self.broken)
         try:
-            position, orientation = pose_of_angles(self.robot, angle_rad, attached)
+            position, orientation = self.robot.body.pose_of_angles(self.robot, angle_rad, attached)
         except KinematicsError:
             # too few cables for a pose (3 for a point mass, 6 for a platform): none to
             # hold, the last torques sent stay
             self.holding = self.last_sent_nm is not None
             return self.last_sent_nm
-        return self._sent(holding_torques_nm(self.robot, position, orientation, attached))
+        return self._sent(self.robot.body.holding_torques_nm(self.robot, position, orientation, attached))

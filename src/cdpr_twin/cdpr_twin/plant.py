@@ -18,9 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from cdpr_control.config import Section
-from cdpr_control.dynamics import NO_FORCE
-from cdpr_control.robot import Robot
-from cdpr_control.pose_statics import holding_torques_nm
+from cdpr_control.point_mass.dynamics import NO_FORCE
+from cdpr_control.model.robot import Robot
 
 from .elastic_model import DriveTrain, ElasticCableRobot
 from .elastic_platform import ElasticPlatform
@@ -168,6 +167,17 @@ def drive_train(robot: Robot, config: PlantConfig) -> DriveTrain:
     return dataclasses.replace(config.drive, hanging_mass_kg=tuple(hanging))
 
 
+def point_mass_model(robot: Robot, config: PlantConfig, position_m, orientation):
+    """A point-mass robot's model for the plant's fidelity."""
+    if config.fidelity == 'rigid':
+        return RigidCableRobot(robot, position_m, config.substeps)
+    true_robot = mismatched_robot(robot, config)
+    return ElasticCableRobot(
+        true_robot, position_m, config.substeps, config.axial_stiffness_n,
+        config.damping_n_s_m, true_robot.motor.static_friction_nm,
+        config.coulomb_velocity_rad_s, drive_train(robot, config), config.kernel)
+
+
 def platform_model(robot: Robot, config: PlantConfig, position_m, orientation):
     """A platform robot's model for the plant's fidelity (docs/platform.md)."""
     if config.fidelity == 'rigid':
@@ -178,6 +188,10 @@ def platform_model(robot: Robot, config: PlantConfig, position_m, orientation):
                      'mass; a platform runs on the rigid or the elastic plant')
 
 
+# The plant's model of each body (Body.kind).
+PLANT_MODELS = {'point_mass': point_mass_model, 'platform': platform_model}
+
+
 class PlantSimulator:
     """Steps the plant under commanded torques, breaks cables on schedule, measures θ, θ̇.
     A platform robot starts at `start_orientation` (its home orientation when None)."""
@@ -186,16 +200,7 @@ class PlantSimulator:
                  start_orientation=None):
         self.robot = robot
         self.config = config
-        if robot.platform is not None:
-            self.model = platform_model(robot, config, start_position_m, start_orientation)
-        elif config.fidelity == 'rigid':
-            self.model = RigidCableRobot(robot, start_position_m, config.substeps)
-        else:
-            true_robot = mismatched_robot(robot, config)
-            self.model = ElasticCableRobot(
-                true_robot, start_position_m, config.substeps, config.axial_stiffness_n,
-                config.damping_n_s_m, true_robot.motor.static_friction_nm,
-                config.coulomb_velocity_rad_s, drive_train(robot, config), config.kernel)
+        self.model = PLANT_MODELS[robot.body.kind](robot, config, start_position_m, start_orientation)
         self.failures = sorted((float(t), int(c)) for t, c in failures)
         self.pushes = list(pushes)
         self.broken: list[int] = []
@@ -264,8 +269,8 @@ class PlantSimulator:
     def holding_torque_nm(self) -> np.ndarray:
         """c = −ρ t (N·m), t the static tensions of the cables still attached where the
         end-effector is: what the drive holds the load with before its first command."""
-        return holding_torques_nm(self.robot, self.position_m, self.model.orientation,
-                                  self.robot.cable_mask(self.broken))
+        return self.robot.body.holding_torques_nm(self.robot, self.position_m, self.model.orientation,
+                                                  self.robot.cable_mask(self.broken))
 
     def applied_torque_nm(self, command_nm) -> np.ndarray:
         """The torque (N·m) the motors apply, and the drive reports as applied, for

@@ -6,7 +6,7 @@ clock, a period at a time from its first tick (CdprNode.due_s: no drift), with z
 hold of the last command, as hardware does. Exits with
 code 0 after the settled run's `run.last_tick` (the run is complete; sooner, as
 cdpr_twin.run_length says, once a recovery is over). The run's start, failures and
-length are values the launcher settled (cdpr_control.settings): the plant knows no motion.
+length are values the launcher settled (cdpr_control.setup.settings): the plant knows no motion.
 Obeys the commands of the graph's controller only (parameter `command_writer`), as a
 hardware bridge must. A cable breaks on `inject_failure` only where the plant was
 started with `failure_injection` on, and only from the node `injection_writer` names:
@@ -27,8 +27,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header, Int32, String
 
-from cdpr_control.motions import reference_poses
-from cdpr_control.settings import node_settings
+from cdpr_control.setup.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state_bytes, ns_to_stamp, pose_stamped
 from cdpr_msgs_py.health import loop_problem
@@ -62,12 +61,11 @@ class PlantSimulatorNode(CdprNode):
         self.plant = PlantSimulator(self.robot, PlantConfig.from_section(plant_section),
                                     run.vector('start_position_m', 3, self.robot.home_position_m.tolist()),
                                     failures, settled_pushes(run),
-                                    None if self.robot.platform is None else run.vector(
-                                        'start_orientation', 4, self.robot.platform.home_orientation.tolist()))
+                                    self.robot.body.orientation_from(run, 'start_orientation'))
         # The figures of the end-effector from every tick (run_figures), against the settled
         # motion's reference poses (none when started alone without one).
-        self.figures = RunFigures(self.robot.cable_count, self.period_s, self.robot.platform is not None)
-        self.reference_poses = (reference_poses(self.robot, settings.section('motion'), self.period_s)
+        self.figures = RunFigures(self.robot.cable_count, self.period_s, self.robot.body.has_orientation)
+        self.reference_poses = (self.robot.body.reference_poses(self.robot, settings.section('motion'), self.period_s)
                                 if settings.has('motion') else None)
         self.run_length = RunLength(
             run.integer('last_tick', minimum=0) if run.has('last_tick') else math.inf,

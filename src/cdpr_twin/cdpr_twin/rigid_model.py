@@ -3,12 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control import point_mass_substeps
-from cdpr_control.dynamics import NO_FORCE
-from cdpr_control.kinematics import inverse_kinematics
-from cdpr_control.robot import Robot
-from cdpr_control.rotation import IDENTITY
-from cdpr_control.statics import static_tensions
+from cdpr_control.point_mass import substeps as point_mass_substeps
+from cdpr_control.point_mass.dynamics import NO_FORCE
+from cdpr_control.point_mass.kinematics import inverse_kinematics
+from cdpr_control.model.robot import Robot
+from cdpr_control.geometry.rotation import IDENTITY
+from cdpr_control.point_mass.statics import static_tensions
 
 # A slack cable whose motor has wound in to within this much of the straight-line
 # length is taut again (m).
@@ -22,7 +22,7 @@ class RigidCableRobot:
     """State p, ṗ (m, m/s) and θ, θ̇ (rad, rad/s); taut cables tie θ to p.
 
     Each step integrates the direct dynamics by semi-implicit Euler in `substeps`
-    (cdpr_control.point_mass_substeps.rigid_substeps, run by its `kernel`). A cable is
+    (cdpr_control.point_mass.substeps.rigid_substeps, run by its `kernel`). A cable is
     taut while attached, not paid out beyond the straight-line length, and pulling
     (non-negative tension); otherwise its motor spins freely. After each sub-step the
     taut motors are put back on the kinematic constraint, so the model does not drift. A

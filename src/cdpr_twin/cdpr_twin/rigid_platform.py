@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control import platform_substeps, pose_kinematics
-from cdpr_control.dynamics import NO_FORCE
-from cdpr_control.pose_dynamics import wrench_at_origin
-from cdpr_control.robot import Robot
-from cdpr_control.rotation import normalised
+from cdpr_control.platform import substeps as platform_substeps
+from cdpr_control.platform import kinematics as pose_kinematics
+from cdpr_control.point_mass.dynamics import NO_FORCE
+from cdpr_control.platform.dynamics import wrench_at_origin
+from cdpr_control.model.robot import Robot
+from cdpr_control.geometry.rotation import normalised
 
 from .rigid_model import RETAUT_TOLERANCE_M
 
@@ -16,8 +17,8 @@ class RigidPlatform:
     """State: pose (p, q), twist (v, ω), motors θ, θ̇ (rad, rad/s); taut cables tie θ to
     the pose.
 
-    Each step integrates the Newton–Euler direct dynamics (cdpr_control.pose_dynamics) by
-    semi-implicit Euler in `substeps` (cdpr_control.platform_substeps.rigid_substeps, run
+    Each step integrates the Newton–Euler direct dynamics (cdpr_control.platform.dynamics) by
+    semi-implicit Euler in `substeps` (cdpr_control.platform.substeps.rigid_substeps, run
     by its `kernel`): twist first, then the pose with it (the orientation turned by the
     rotation vector h ω). A cable is taut while attached, not paid out beyond the
     straight-line length and pulling; otherwise its motor spins freely. After each
@@ -33,7 +34,7 @@ class RigidPlatform:
         self.exits, self.attachments, self.offsets = platform_substeps.geometry_of(robot)
         self.constants = platform_substeps.constants_of(robot, retaut_tolerance_m=RETAUT_TOLERANCE_M)
         self.position_m = np.array(position_m, dtype=float)
-        self.orientation = normalised(robot.platform.home_orientation if orientation is None else orientation)
+        self.orientation = normalised(robot.body.home_orientation if orientation is None else orientation)
         self.velocity_m_s = np.zeros(3)
         self.platform_angular_velocity_rad_s = np.zeros(3)
         self.angle_rad = pose_kinematics.inverse_kinematics(robot, self.position_m, self.orientation)

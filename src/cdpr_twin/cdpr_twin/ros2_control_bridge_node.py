@@ -19,7 +19,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, Int32
 
-from cdpr_control.settings import node_settings
+from cdpr_control.setup.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state_bytes
 from cdpr_msgs_py.runtime.node import CdprNode

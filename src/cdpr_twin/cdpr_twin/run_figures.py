@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from cdpr_control.rotation import difference
+from cdpr_control.geometry.rotation import difference
 
 # How long (s) a tick's row waits before it is counted: longer than a verdict takes to
 # reach the plant (VERDICT_DELAY_TICKS in lockstep; a realtime supervisor trails by a
@@ -69,12 +69,12 @@ class _Window:
         other.low_n, other.high_n = self.low_n.copy(), self.high_n.copy()
         return other
 
-    def figures(self, remaining: np.ndarray, platform: bool) -> dict:
+    def figures(self, remaining: np.ndarray, has_orientation: bool) -> dict:
         held = self.after and remaining.any()
         return {
             'tracking_error_m': None if self.tracking_m == -math.inf else self.tracking_m,
             **({'orientation_tracking_error_rad': None if self.turn_rad == -math.inf else self.turn_rad}
-               if platform else {}),
+               if has_orientation else {}),
             'min_tension_n': float(np.min(self.low_n[remaining])) if held else None,
             'max_tension_n': float(np.max(self.high_n[remaining])) if held else None,
         }
@@ -83,10 +83,10 @@ class _Window:
 class RunFigures:
     """The figures of a run, fed a row per tick (`add`), or a stack of rows (`add_rows`)."""
 
-    def __init__(self, cable_count: int, period_s: float, platform: bool, hold_s: float = HOLD_S):
+    def __init__(self, cable_count: int, period_s: float, has_orientation: bool, hold_s: float = HOLD_S):
         self.cable_count = cable_count
         self.period_s = period_s
-        self.platform = platform
+        self.has_orientation = has_orientation
         self.hold_ticks = max(1, int(math.ceil(hold_s / period_s)))
         self.rows: list[tuple] = []
         self.windows = {event: _Window(cable_count) for event in EVENTS}
@@ -154,7 +154,7 @@ class RunFigures:
             return
         reference = (np.full((count, 3), np.nan) if reference_position_m is None
                      else np.asarray(reference_position_m, dtype=float))
-        wanted = (None if not self.platform else np.full((count, 4), np.nan) if reference_orientation is None
+        wanted = (None if not self.has_orientation else np.full((count, 4), np.nan) if reference_orientation is None
                   else np.asarray(reference_orientation, dtype=float))
         self._fold_arrays(np.asarray(ticks), np.asarray(position_m, dtype=float),
                           None if orientation is None else np.asarray(orientation, dtype=float),
@@ -165,11 +165,11 @@ class RunFigures:
     def _fold(self, rows: list[tuple], into: 'RunFigures') -> None:
         nan_position, nan_orientation = [np.nan] * 3, [np.nan] * 4
         self._fold_arrays(np.array([row[0] for row in rows]), np.array([row[1] for row in rows], dtype=float),
-                          np.array([row[2] for row in rows], dtype=float) if self.platform else None,
+                          np.array([row[2] for row in rows], dtype=float) if self.has_orientation else None,
                           np.array([row[3] for row in rows], dtype=float),
                           np.array([nan_position if row[4] is None else row[4] for row in rows], dtype=float),
                           np.array([nan_orientation if row[5] is None else row[5] for row in rows], dtype=float)
-                          if self.platform else None, into)
+                          if self.has_orientation else None, into)
 
     def _fold_arrays(self, ticks, position, orientation, tension, reference, wanted, into: 'RunFigures') -> None:
         """Rows as arrays (the references NaN where not known) into `into`'s figures."""
@@ -177,7 +177,7 @@ class RunFigures:
         into.lowest_m = min(into.lowest_m, float(np.min(position[:, 2])))
         error = np.linalg.norm(position - reference, axis=1)
         turn = None
-        if self.platform:
+        if self.has_orientation:
             turn = np.full(len(ticks), np.nan)
             known = np.isfinite(wanted).all(axis=1)
             if known.any():
@@ -190,7 +190,7 @@ class RunFigures:
     def summary(self) -> dict:
         """The figures so far, in plain types (cables 1-based); the rows still held are
         counted without being let go."""
-        whole = RunFigures(self.cable_count, self.period_s, self.platform)
+        whole = RunFigures(self.cable_count, self.period_s, self.has_orientation)
         whole.windows = {event: window.copy() for event, window in self.windows.items()}
         whole.lowest_m, whole.ticks = self.lowest_m, self.ticks
         if self.rows:
@@ -204,11 +204,11 @@ class RunFigures:
             'final_tick': tick,
             'final_position_m': None if position is None else [float(v) for v in position],
             **({'final_orientation': None if orientation is None else [float(v) for v in orientation]}
-               if self.platform else {}),
+               if self.has_orientation else {}),
             'broken_cables': sorted(cable + 1 for cable in self.broken),
             'failure_tick': self.events['failure'],
             'detection_tick': self.events['detection'],
             'tracked_until_tick': self.tracked_until,
-            'failure': whole.windows['failure'].figures(remaining, self.platform),
-            'detection': whole.windows['detection'].figures(remaining, self.platform),
+            'failure': whole.windows['failure'].figures(remaining, self.has_orientation),
+            'detection': whole.windows['detection'].figures(remaining, self.has_orientation),
         }

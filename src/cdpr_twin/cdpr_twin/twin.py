@@ -5,12 +5,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cdpr_control import platform_substeps, point_mass_substeps, tracking
-from cdpr_control.controller import JointController, JointReference, PdGains
-from cdpr_control.robot import Robot
+from cdpr_control.control import tracking
+from cdpr_control.control.controller import JointController, JointReference, PdGains
+from cdpr_control.model.robot import Robot
 
 from .rigid_model import RigidCableRobot
 from .rigid_platform import RigidPlatform
+
+
+# The rigid model of each body (Body.kind): the twin's, and the plant's `rigid` fidelity.
+RIGID_MODELS = {
+    'point_mass': lambda robot, position_m, orientation, substeps: RigidCableRobot(robot, position_m, substeps),
+    'platform': RigidPlatform,
+}
 
 
 @dataclass
@@ -31,8 +38,7 @@ class DigitalTwin:
     (its home orientation when None)."""
 
     def __init__(self, robot: Robot, gains: PdGains, start_position_m, substeps: int, start_orientation=None):
-        self.model = (RigidCableRobot(robot, start_position_m, substeps) if robot.platform is None
-                      else RigidPlatform(robot, start_position_m, start_orientation, substeps))
+        self.model = RIGID_MODELS[robot.body.kind](robot, start_position_m, start_orientation, substeps)
         self.controller = JointController(robot, gains)
 
     @staticmethod
@@ -40,7 +46,7 @@ class DigitalTwin:
         """The compiled functions a twin of `robot` steps with, loaded now (~1 ms built
         ahead of time, ~0.5 s with numba's import where they were not): a node builds its
         twin at the first reference, which must not wait for them."""
-        (point_mass_substeps if robot.platform is None else platform_substeps).kernel().load_all()
+        robot.body.load_kernels()
         tracking.kernel().load_all()
 
     def step(self, reference: JointReference, period_s: float) -> TwinOutput:

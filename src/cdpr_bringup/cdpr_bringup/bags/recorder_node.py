@@ -31,7 +31,7 @@ from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, Q
                                 QosTime)
 from std_msgs.msg import Header
 
-from cdpr_control.settings import node_settings
+from cdpr_control.setup.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.cdr import cdr_stamp_ns
 from cdpr_msgs_py.conversions import ns_to_stamp

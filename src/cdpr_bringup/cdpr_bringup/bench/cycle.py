@@ -14,7 +14,7 @@ import os
 import time
 from contextlib import ExitStack, contextmanager
 
-from cdpr_control.setpoints import Setpoints
+from cdpr_control.control.setpoints import Setpoints
 from cdpr_fdi.supervisor import Supervisor
 from cdpr_twin.elastic_model import ElasticCableRobot
 from cdpr_control.kernels import KERNELS
@@ -79,7 +79,7 @@ def bench_cycle(config: str, repeats: int = REPEATS) -> dict:
             cycles = run_inprocess(scenario).time_s.size
             best[name] = min(best[name], time.perf_counter() - start)
     figures: dict = {'kernels': {name: kernel(name).name for name in KERNELS}, 'cycles': cycles,
-                     'goal_realtime_factor': GOAL_REALTIME_FACTOR, 'platform': base.robot.platform is not None}
+                     'goal_realtime_factor': GOAL_REALTIME_FACTOR, 'body': base.robot.body.kind}
     for name in KERNELS:
         figures[f'{name}_realtime_factor'] = cycles * base.period_s / best[name]
         figures[f'{name}_cycle_us'] = best[name] / cycles * 1e6
@@ -103,7 +103,7 @@ def table(figures: dict) -> list[str]:
                  f'{figures["cycles"]} cycles of {MOTION}, best of {REPEATS}')
     if figures['platform']:
         lines.append('  a platform: the kernels above are the point mass\'s; its own models run compiled in '
-                     'both (cdpr_control.platform_substeps)')
+                     'both (cdpr_control.platform.substeps)')
     lines.append(f'  {"µs per cycle by stage (one timed run each)":<44}'
                  + ' '.join(f'{name:>9}' for name in KERNELS))
     for stage in [*STAGES, 'cycle']:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from cdpr_control.motions import motion_names
+from cdpr_control.geometry.motions import motion_names
 
 from ..campaigns.campaign import build_matrix, run_campaign, summarize, summary_markdown, write_summary_csv
 from ..paths import DEFAULT_MOTIONS, config_file

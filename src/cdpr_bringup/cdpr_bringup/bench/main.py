@@ -24,15 +24,16 @@ import time
 import numpy as np
 
 from cdpr_control.config import load_config
-from cdpr_control.dynamics import direct_dynamics, inverse_dynamics
-from cdpr_control import pose_dynamics, pose_kinematics
-from cdpr_control.kinematics import forward_kinematics, inverse_kinematics, structure_matrix
-from cdpr_control.pose_trajectories import PoseSample
-from cdpr_control.robot import load_robot
-from cdpr_control.rotation import from_axis_angle, product
-from cdpr_control.steered_approach import SteeredApproach
+from cdpr_control.point_mass.dynamics import direct_dynamics, inverse_dynamics
+from cdpr_control.platform import dynamics as pose_dynamics
+from cdpr_control.platform import kinematics as pose_kinematics
+from cdpr_control.point_mass.kinematics import forward_kinematics, inverse_kinematics, structure_matrix
+from cdpr_control.geometry.pose_trajectories import PoseSample
+from cdpr_control.setup.robot_file import load_robot
+from cdpr_control.geometry.rotation import from_axis_angle, product
+from cdpr_control.platform.steered_approach import SteeredApproach
 from cdpr_control.tension_distribution import METHODS, make_tension_distribution
-from cdpr_fdi.config import RecoveryConfig, load_recovery_config
+from cdpr_fdi.config import load_recovery_config
 
 from cdpr_twin.plant import FIDELITIES
 
@@ -58,9 +59,12 @@ def bench_model(config: str) -> dict:
     """µs per call of the model functions at a pose in the middle of a motion."""
     path = config_file(config)
     robot = load_robot(path)
-    if robot.platform is not None:
-        return bench_platform_model(robot, load_recovery_config(path, robot),
-                                    load_config(path).section('control').number('period_s', positive=True))
+    return MODEL_BENCHES[robot.body.kind](robot, path)
+
+
+def bench_point_mass_model(robot, path) -> dict:
+    """µs per call of a point mass's model functions at a pose off home, moving; forward
+    kinematics with every cable and with the last one broken."""
     position = robot.home_position_m + np.array([0.11, -0.07, 0.05])
     velocity = np.array([0.2, -0.3, 0.1])
     acceleration = np.array([0.5, 0.4, -0.3])
@@ -88,12 +92,14 @@ def bench_model(config: str) -> dict:
     return figures
 
 
-def bench_platform_model(robot, recovery: RecoveryConfig, period_s: float) -> dict:
+def bench_platform_model(robot, path) -> dict:
     """µs per call of a platform's model functions at a pose off home, turned 8.6° and
     moving; forward kinematics as a node calls it, from the pose of the tick before
     (0.6 mm and 0.06° away: 0.3 m/s and 0.5 rad/s for 2 ms), and cold, from home. And a
     row of the steered approach (a recovery's, the last cable gone: the nearest wrench,
     the rigid body, one period on), its first 6200 rows from there towards home."""
+    recovery = load_recovery_config(path, robot)
+    period_s = load_config(path).section('control').number('period_s', positive=True)
     position = robot.home_position_m + np.array([0.11, -0.07, 0.05])
     orientation = from_axis_angle([1.0, 2.0, 0.5], 0.15)
     velocity, angular_velocity = np.array([0.2, -0.3, 0.1]), np.array([0.1, 0.2, -0.1])
@@ -122,11 +128,15 @@ def bench_platform_model(robot, recovery: RecoveryConfig, period_s: float) -> di
                                               torque.torque_nm, torque.joint_velocity_rad_s)
     attached = robot.cable_mask([robot.cable_count - 1])
     approach = SteeredApproach(robot, attached, PoseSample(*motion, acceleration, angular_acceleration),
-                               robot.home_position_m, robot.platform.home_orientation, recovery.approach_gains,
+                               robot.home_position_m, robot.body.home_orientation, recovery.approach_gains,
                                robot.tension_min_n + recovery.approach_tension_margin_n, robot.tension_max_n,
                                period_s)
     figures['steered_approach_row_us'] = median_us(lambda: approach.extend(approach.count + 1))
     return figures
+
+
+# The model functions benched of each body (Body.kind).
+MODEL_BENCHES = {'point_mass': bench_point_mass_model, 'platform': bench_platform_model}
 
 
 def machine() -> str:

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cdpr_control.motions import motion_names
+from cdpr_control.geometry.motions import motion_names
 from cdpr_fdi.config import FdiConfig
 from cdpr_fdi.detectors import DETECTORS
 from cdpr_fdi.supervisor import Supervisor

@@ -21,7 +21,7 @@ import numpy as np
 import yaml
 
 from cdpr_control.config import load_config, load_yaml, with_defaults
-from cdpr_control.settings import unflatten
+from cdpr_control.setup.settings import unflatten
 from cdpr_fdi.detectors import DETECTORS
 
 from .fdi import fmt

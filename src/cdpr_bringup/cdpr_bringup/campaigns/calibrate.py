@@ -17,8 +17,8 @@ from pathlib import Path
 import yaml
 
 from cdpr_control.config import load_section
-from cdpr_control.motions import motion_names
-from cdpr_control.robot import load_robot
+from cdpr_control.geometry.motions import motion_names
+from cdpr_control.setup.robot_file import load_robot
 from cdpr_fdi.calibration import FailureFreeRun, calibrate
 from cdpr_twin.plant import FIDELITIES
 

@@ -37,8 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from cdpr_control.config import load_section
-from cdpr_control.motions import motion_names
-from cdpr_control.robot import load_robot
+from cdpr_control.geometry.motions import motion_names
+from cdpr_control.setup.robot_file import load_robot
 from cdpr_msgs_py.contract import FAULT
 from cdpr_twin.plant import FIDELITIES
 

@@ -22,8 +22,8 @@ from ..cli import USAGE_EXIT_CODE
 
 # node name: (module, class) of the nodes that may be composed
 COMPOSABLE = {
-    contract.TRAJECTORY_GENERATOR: ('cdpr_control.trajectory_generator_node', 'TrajectoryGeneratorNode'),
-    contract.CONTROLLER: ('cdpr_control.controller_node', 'ControllerNode'),
+    contract.TRAJECTORY_GENERATOR: ('cdpr_control.control.trajectory_generator_node', 'TrajectoryGeneratorNode'),
+    contract.CONTROLLER: ('cdpr_control.control.controller_node', 'ControllerNode'),
     contract.DIGITAL_TWIN: ('cdpr_twin.digital_twin_node', 'DigitalTwinNode'),
     contract.SUPERVISOR: ('cdpr_fdi.supervisor_node', 'SupervisorNode'),
     contract.PLANT_SIMULATOR: ('cdpr_twin.plant_simulator_node', 'PlantSimulatorNode'),

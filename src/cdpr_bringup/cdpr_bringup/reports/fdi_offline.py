@@ -14,8 +14,8 @@ import sys
 from pathlib import Path
 
 from cdpr_control.config import load_section
-from cdpr_control.controller import JointReference, PdGains
-from cdpr_control.robot import load_robot
+from cdpr_control.control.controller import JointReference, PdGains
+from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.offline import RecordedTick, replay

@@ -14,8 +14,8 @@ matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 import numpy as np  # noqa: E402
 
-from cdpr_control.rotation import to_rotation_vector  # noqa: E402
-from cdpr_control.workspace import sew_cross_section  # noqa: E402
+from cdpr_control.geometry.rotation import to_rotation_vector  # noqa: E402
+from cdpr_control.point_mass.workspace import sew_cross_section  # noqa: E402
 from cdpr_msgs_py.contract import (FAULT, NOMINAL, RECOVERY_MOVE,  # noqa: E402
                                    RECOVERY_TENSION, SAFE_HOLD)
 

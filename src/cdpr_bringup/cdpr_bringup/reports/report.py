@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from cdpr_control.config import Section, load_yaml
-from cdpr_control.friction import FrictionModel
-from cdpr_control.pose_kinematics import end_effector_poses
-from cdpr_control.robot import Robot, load_robot, robot_from_section
+from cdpr_control.model.friction import FrictionModel
+from cdpr_control.model.robot import Robot
+from cdpr_control.setup.robot_file import load_robot, robot_from_section
 from cdpr_fdi.config import load_fdi_config, load_recovery_config, settled_fdi
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_fdi.residual import sensorless_tensions
@@ -150,10 +150,10 @@ class Run:
         after = (self.time_s >= self.detection_time_s if self.detection_time_s is not None
                  else np.zeros(self.time_s.size, dtype=bool))
         position = np.empty((angles.shape[0], 3))
-        orientation = None if self.robot.platform is None else np.empty((angles.shape[0], 4))
+        orientation = np.empty((angles.shape[0], 4)) if self.robot.body.has_orientation else None
         for ticks, cables in ((~after, None), (after, self.attached)):
             if ticks.any():
-                position[ticks], turned = end_effector_poses(self.robot, angles[ticks], cables)
+                position[ticks], turned = self.robot.body.poses_of_angles(self.robot, angles[ticks], cables)
                 if orientation is not None:
                     orientation[ticks] = turned
         return position, orientation
@@ -212,7 +212,7 @@ def load_run(bag: str | Path, settings: RunSettings,
     bag = Path(bag)
     robot, fdi = settings.robot, settings.fdi
     if recording is None:
-        recording = recording_from_bag(bag, namespace, robot.platform is not None)
+        recording = recording_from_bag(bag, namespace, robot.body.has_orientation)
     if recording.angle_rad.shape[1] != robot.cable_count:
         raise ValueError(f'{bag} has {recording.angle_rad.shape[1]} motors, robot {robot.name} '
                          f'{robot.cable_count} ({settings.source}): pass the robot the bag was '

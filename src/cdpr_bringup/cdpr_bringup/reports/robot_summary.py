@@ -3,21 +3,23 @@ geometry, safe points, named motions."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 
 from cdpr_control.config import ConfigError, load_config
-from cdpr_control.controller import PdGains
-from cdpr_control.dynamics import inverse_dynamics
-from cdpr_control.motions import load_motion, motion_names, pose_motion_from_settled, settled_motion
-from cdpr_control.pose_reference import tabulate_pose_reference
-from cdpr_control.robot import load_robot
-from cdpr_control.statics import closed_form_coverage
+from cdpr_control.control.controller import PdGains
+from cdpr_control.point_mass.dynamics import inverse_dynamics
+from cdpr_control.geometry.motions import load_motion, motion_names, settled_motion
+from cdpr_control.platform.motion import pose_motion_from_settled
+from cdpr_control.platform.reference import tabulate_pose_reference
+from cdpr_control.setup.robot_file import load_robot
+from cdpr_control.point_mass.statics import closed_form_coverage
 from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
-from cdpr_control.pose_statics import workspace_grid, wrench_feasible_share
-from cdpr_control.rotation import conjugate, from_axis_angle, product, to_rotation_vector
-from cdpr_control.workspace import safe_point
+from cdpr_control.platform.statics import workspace_grid, wrench_feasible_share
+from cdpr_control.geometry.rotation import conjugate, from_axis_angle, product, to_rotation_vector
+from cdpr_control.point_mass.workspace import safe_point
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_pose_for
 
@@ -101,11 +103,13 @@ PLATFORM_GRID_SPACING_M = 0.15
 PLATFORM_TURN_RAD = np.radians(15.0)
 
 
-def print_platform(robot, config, distribution, motions, period_s: float) -> None:
+def print_platform(robot, config, distribution, motions, period_s: float, safe_height: float | None) -> None:
     """A platform robot: its geometry, and where tensions within the bounds hold it at rest
     (the wrench-feasible workspace) at its nominal orientation, turned 15° about each axis,
-    and with each cable broken; the least and greatest tension along each of `motions`."""
-    platform = robot.platform
+    and with each cable broken; the least and greatest tension along each of `motions`;
+    its safe pose after each single break (at `safe_height`, default
+    recovery.safe_height_m)."""
+    platform = robot.body
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, a platform of '
           f'{robot.mass_kg} kg, 6 DOF (position and orientation)')
     principal = np.linalg.eigvalsh(platform.inertia_kg_m2)
@@ -136,12 +140,14 @@ def print_platform(robot, config, distribution, motions, period_s: float) -> Non
         try:
             reference = tabulate_pose_reference(robot, distribution, motion.trajectory, period_s)
         except InfeasibleTensionError as err:
-            print(f'  {name:<14} {motion.motion.move.duration_s:7.3f} no tensions within the bounds: {err}')
+            print(f'  {name:<14} {motion.path.move.duration_s:7.3f} no tensions within the bounds: {err}')
             continue
         turn = np.degrees(abs(motion.trajectory.turn.angle_rad))
-        print(f'  {name:<14} {motion.motion.move.duration_s:7.3f} {turn:7.1f} {reference.tension_n.min():7.2f} '
+        print(f'  {name:<14} {motion.path.move.duration_s:7.3f} {turn:7.1f} {reference.tension_n.min():7.2f} '
               f'{reference.tension_n.max():7.2f} {np.abs(reference.feedforward_nm).max():12.3f}')
     recovery = load_recovery_config(config, robot)
+    if safe_height is not None:
+        recovery = dataclasses.replace(recovery, safe_height_m=safe_height)
     print(f'safe poses at z = {recovery.safe_height_m} m (the residual workspace\'s barycentre at the orientation '
           f'that holds it with the largest tension margin, docs/design.md §5):')
     for i in range(robot.cable_count):
@@ -173,20 +179,24 @@ def main(argv=None):
     period = control.number('period_s', positive=True)
     distribution = configured_tension_distribution(control, robot)
 
-    if robot.platform is not None:
-        print_platform(robot, config, distribution, config_file(args.motions), period)
-        return 0
+    SUMMARIES[robot.body.kind](robot, config, distribution, config_file(args.motions), period, args.safe_height)
+    return 0
+
+
+def print_point_mass(robot, config, distribution, motions, period: float, safe_height: float | None) -> None:
+    """A point-mass robot: its settings and exit points, its safe point after each single
+    break (at `safe_height`, default recovery.safe_height_m), and the least and greatest
+    tension along each of `motions`."""
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, '
           f'end-effector {robot.mass_kg} kg')
     recovery, delta_n = print_settings(config, robot)
-    safe_height = recovery.safe_height_m if args.safe_height is None else args.safe_height
+    safe_height = recovery.safe_height_m if safe_height is None else safe_height
     for i, point in enumerate(robot.exit_points_m):
         print(f'  A{i + 1} = ({point[0]:.3f}, {point[1]:.3f}, {point[2]:.3f}) m')
     print(f'safe points at z = {safe_height} m (barycentre of the residual SEW):')
     for i in range(robot.cable_count):
         point = safe_point(robot, robot.cable_mask([i]), safe_height)
         print(f'  cable {i + 1} broken: SP = ({point[0]:.4f}, {point[1]:.4f}, {point[2]:.4f}) m')
-    motions = config_file(args.motions)
     print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}):')
     print(f'  {"motion":<14} {"move s":>7} {"min N":>7} {"max N":>7} {"max |c| N·m":>12}')
     for name in motion_names(motions):
@@ -201,6 +211,10 @@ def main(argv=None):
                    if low < delta_n else '')
         print(f'  {name:<14} {motion.move.duration_s:7.3f} {low:7.2f} {high:7.2f} {torque:12.3f}{warning}')
 
+
+
+# What cdpr-robot prints of each body (Body.kind).
+SUMMARIES = {'point_mass': print_point_mass, 'platform': print_platform}
 
 if __name__ == '__main__':
     main()

@@ -2,7 +2,7 @@
 
 Per cycle k, as the node graph does it: the plant reports θ, θ̇ (and the torque it
 applied); the controller answers with c from the setpoint of tick k (the reference, or
-the recovery's: cdpr_control.setpoints, as the controller node); the twin computes c_DT
+the recovery's: cdpr_control.control.setpoints, as the controller node); the twin computes c_DT
 from the same reference and the supervisor judges tick k (cdpr_fdi.monitor); its verdict
 steers the controller from tick k + contract.VERDICT_DELAY_TICKS; the plant steps under
 c. The view topics' rows are kept on the view ticks only, as the graph publishes them;
@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.controller import JointController, JointReference, command_lead_periods
-from cdpr_control.setpoints import Setpoints
+from cdpr_control.control.controller import JointController, JointReference, command_lead_periods
+from cdpr_control.control.setpoints import Setpoints
 from cdpr_fdi.monitor import Monitor
 from cdpr_fdi.supervisor import Supervisor, Verdict
 from cdpr_msgs_py.contract import VERDICT_DELAY_TICKS
@@ -61,12 +61,12 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     monitor = Monitor(twin, supervisor, scenario.period_s)
     period_ns = seconds_to_ns(scenario.period_s)
     cycles, m = scenario.cycles, robot.cable_count
-    platform = robot.platform is not None
+    has_orientation = robot.body.has_orientation
     rows = {name: np.empty((cycles, m)) for name in (
         'angle', 'speed', 'command', 'twin_angle', 'twin_speed', 'twin_torque', 'residual',
         'recovery_reference_angle', 'true_tension')}
     rows.update({name: np.empty((cycles, 3)) for name in ('true_position', 'twin_position')})
-    if platform:
+    if has_orientation:
         rows.update({name: np.empty((cycles, 4)) for name in ('true_orientation', 'twin_orientation')})
     rows['recovery_reference_angle'][:] = np.nan
     named = None    # the tick whose verdict first named a cable
@@ -83,7 +83,7 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             setpoints.put_reference(stamp, reference)
             angle, speed = plant.measure()
             rows['true_position'][k], rows['true_tension'][k] = plant.position_m, plant.tension_n
-            if platform:
+            if has_orientation:
                 rows['true_orientation'][k] = plant.orientation
             command = setpoints.command(stamp, angle, speed)
             if command is None:
@@ -106,7 +106,7 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
             rows['twin_speed'][k] = twin_output.angular_velocity_rad_s
             rows['twin_torque'][k] = twin_output.torque_nm
             rows['twin_position'][k] = twin_output.position_m
-            if platform:
+            if has_orientation:
                 rows['twin_orientation'][k] = twin_output.orientation
             ran = k + 1
     except KeyboardInterrupt:
@@ -115,17 +115,17 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     # the view topics' rows: those of the view ticks, as the graph publishes them (design.md §3)
     viewed = np.arange(0, ran, scenario.view_ticks.every)
     views = {name: rows[name][viewed] for name in ('twin_position', 'true_position', 'true_tension')
-             + (('true_orientation', 'twin_orientation') if platform else ())}
+             + (('true_orientation', 'twin_orientation') if has_orientation else ())}
     # the reference of each tick that ran (reference_at's rows), taken at once
     held = np.minimum(np.arange(ran), len(table) - 1)
     view_held = held[viewed]
     # the figures of every tick, as the plant simulator computes them tick by tick
-    figures = RunFigures(m, scenario.period_s, platform)
+    figures = RunFigures(m, scenario.period_s, has_orientation)
     figures.take_breaks(plant.broken_at_s)
     if named is not None:
         figures.detection_at(named)
     figures.add_rows(np.arange(ran), rows['true_position'], rows.get('true_orientation'), rows['true_tension'],
-                     table.position_m[held], table.orientation[held] if platform else None)
+                     table.position_m[held], table.orientation[held] if has_orientation else None)
     return Recording(
         time_s=np.arange(ran) * scenario.period_s,
         angle_rad=rows['angle'], angular_velocity_rad_s=rows['speed'], command_nm=rows['command'],
@@ -141,4 +141,4 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
         broken_at_s=dict(plant.broken_at_s),
         figures=figures.summary(),
         **({'true_orientation': views['true_orientation'], 'twin_orientation': views['twin_orientation'],
-            'reference_orientation': table.orientation[view_held]} if platform else {}))
+            'reference_orientation': table.orientation[view_held]} if has_orientation else {}))

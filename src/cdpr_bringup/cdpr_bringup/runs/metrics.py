@@ -8,9 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cdpr_control.pose_kinematics import end_effector_positions
-from cdpr_control.rotation import difference
-from cdpr_control.robot import Robot
+from cdpr_control.geometry.rotation import difference
+from cdpr_control.model.robot import Robot
 from cdpr_fdi.config import FdiConfig, RecoveryConfig
 from cdpr_msgs_py.contract import BROKEN_AT_KEY, JOINT_STATES, PLANT_SIMULATOR, RUN_FIGURES_KEY, SAFE_HOLD, SUPERVISOR
 from cdpr_twin.run_figures import RunFigures
@@ -33,8 +32,8 @@ def twin_kpis(robot: Robot, recording, ticks: slice = slice(None)) -> dict:
     ticks before it.
     """
     angles = recording.angle_rad[ticks]
-    measured = end_effector_positions(robot, angles)
-    twin = end_effector_positions(robot, recording.twin_angle_rad[ticks])
+    measured = robot.body.poses_of_angles(robot, angles)[0]
+    twin = robot.body.poses_of_angles(robot, recording.twin_angle_rad[ticks])[0]
     return {
         'K_c_m': float(np.max(np.linalg.norm(measured - twin, axis=1))),
         'K_j_rad': float(np.max(np.abs(angles - recording.twin_angle_rad[ticks]))),
@@ -68,7 +67,7 @@ def figures_from_rows(robot: Robot, period_s: float, time_s, position_m, orienta
     whose plant did not say them: its view ticks' truth, or a real robot's pose and
     tensions as measured and estimated at every tick (`reference_position_m` None: no
     tracking error). Cables 1-based."""
-    figures = RunFigures(robot.cable_count, period_s, robot.platform is not None)
+    figures = RunFigures(robot.cable_count, period_s, robot.body.has_orientation)
     for cable in broken_cables:
         if failure_time_s is not None:
             figures.failure_at(failure_time_s, cable - 1)
@@ -163,7 +162,6 @@ def metrics_json(run: KnownRun) -> dict:
                    else float(np.linalg.norm(np.asarray(final) - np.asarray(run.safe_point_m))))
     hold = run.phase_times_s.get(SAFE_HOLD)
     failure_known = failure is not None or run.true_broken_cables is not None
-    platform = run.robot.platform is not None
     return {
         'epsilon_nm': run.epsilon_nm,
         'failure_time_s': failure,
@@ -191,7 +189,7 @@ def metrics_json(run: KnownRun) -> dict:
             'phase_times_s': dict(run.phase_times_s),
             'settle_timed_out': run.supervisor.get('settle_timed_out'),
             # a platform's: the angle (deg) from its last true orientation to the safe one
-            **({'final_orientation_error_deg': final_orientation_error_deg(run)} if platform else {}),
+            **({'final_orientation_error_deg': final_orientation_error_deg(run)} if run.robot.body.has_orientation else {}),
         },
         'kpi': twin_kpis(run.robot, run.recording, nominal),
         'tracking_error_m': window['tracking_error_m'] if run.recording.has_ground_truth else None,
@@ -199,7 +197,7 @@ def metrics_json(run: KnownRun) -> dict:
         'wall_time_s': run.wall_time_s,
         # a platform's: the largest angle between its true and its reference orientation
         **({'orientation_tracking_error_rad': window['orientation_tracking_error_rad']
-            if run.recording.has_ground_truth else None} if platform else {}),
+            if run.recording.has_ground_truth else None} if run.robot.body.has_orientation else {}),
     }
 
 

@@ -11,12 +11,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from cdpr_control.config import Section, load_config, load_yaml
-from cdpr_control.controller import PdGains
-from cdpr_control.motions import Motion, PoseMotion, motion_from_settled, settled_motion, with_turn
-from cdpr_control.pose_reference import tabulate_pose_reference
-from cdpr_control.reference import ReferenceTable, tabulate_reference
-from cdpr_control.robot import Robot, robot_from_section
-from cdpr_control.settings import ROBOT_DESCRIPTION, flatten, robot_description
+from cdpr_control.control.controller import PdGains
+from cdpr_control.geometry.motions import Motion, settled_motion
+from cdpr_control.model.reference_table import ReferenceTable
+from cdpr_control.model.robot import Robot
+from cdpr_control.setup.robot_file import robot_from_section
+from cdpr_control.setup.settings import ROBOT_DESCRIPTION, flatten, robot_description
 from cdpr_control.tension_distribution import (InfeasibleTensionError, PseudoInverse,
                                                TensionDistribution, configured_tension_distribution)
 from cdpr_fdi.config import FdiConfig, RecoveryConfig, calibrated_fdi, settled_fdi
@@ -83,12 +83,12 @@ class Scenario:
     recovery: RecoveryConfig
     markers: MarkerStyle
     view_ticks: ViewTicks                    # which ticks the view topics are written on
-    pose_motion: PoseMotion | None = None    # a platform's motion, with its turn
 
     @property
     def start_orientation(self):
-        """A platform's orientation at the start (unit quaternion); None for a point mass."""
-        return None if self.pose_motion is None else self.reference.orientation[0]
+        """The end-effector's orientation at the start (unit quaternion; the identity for
+        a point mass, which has none)."""
+        return self.reference.orientation_at(0)
 
     def marker_frame(self) -> Frame:
         """The markers node's core for this run, as the node settles it (a simulated run:
@@ -125,7 +125,7 @@ class Scenario:
         except RecoveryInfeasible:
             safe_point = position
         return self.recovery.budget_s(position, self.reference.velocity_m_s[row], safe_point,
-                                      steered=self.robot.platform is not None)
+                                      steered=self.robot.body.has_orientation)
 
     @property
     def duration_s(self) -> float:
@@ -139,7 +139,7 @@ class Scenario:
 
     def node_parameters(self, clock_mode: str, scheduling: bool = True) -> dict[str, dict]:
         """Per node of the graph, the ROS parameters it is started with: the settled
-        sections it reads (cdpr_control.settings) and, in realtime, the OS scheduling the
+        sections it reads (cdpr_control.setup.settings) and, in realtime, the OS scheduling the
         `scheduling` section asks for (unless not `scheduling`: the OS's normal one)."""
         document = self.settings.data
         scheduling = (realtime_scheduling(self.settings.section('scheduling'))
@@ -162,7 +162,7 @@ class SettledRun:
     robot: Robot
     motion: Motion
     plant: PlantConfig
-    pose_motion: PoseMotion | None     # a platform's: the motion with its turn
+    reference_motion: object    # the body's motion (Body.motion): `motion`, and a platform's turn
 
 
 def settle(options: ScenarioOptions) -> SettledRun:
@@ -179,9 +179,8 @@ def settle(options: ScenarioOptions) -> SettledRun:
     settings = Section(document, config_path, defaulted=loaded.defaulted, sources=loaded.sources)
     robot = robot_from_section(settings.section('robot'))
     motion_section = settled_motion(config_file(options.motions), options.motion, options.reverse)
-    motion = motion_from_settled(motion_section)
-    pose_motion = (None if robot.platform is None
-                   else with_turn(motion, motion_section, robot.platform.home_orientation))
+    reference_motion = robot.body.motion(motion_section)
+    motion = reference_motion.path
     check_options(options, robot, motion)
     if options.fidelity is not None:
         document['plant']['fidelity'] = options.fidelity
@@ -205,8 +204,8 @@ def settle(options: ScenarioOptions) -> SettledRun:
     document['motion'] = dict(motion_section.data)
     document['run'] = {
         'start_position_m': motion.trajectory.start.tolist(),
-        **({} if pose_motion is None
-           else {'start_orientation': pose_motion.trajectory.sample(0.0).orientation.tolist()}),
+        **({} if reference_motion.start_orientation is None
+           else {'start_orientation': reference_motion.start_orientation.tolist()}),
         'failure_times_s': [motion.failure_time(options.fail_at_s, options.fail_at_fraction)
                             for _ in options.fail_cables],
         'failure_cable_indices': [cable - 1 for cable in options.fail_cables],
@@ -215,7 +214,7 @@ def settle(options: ScenarioOptions) -> SettledRun:
         'push_force_n': [float(f) for push in options.pushes for f in push[2:]],
     }
     return SettledRun(settings, config_path, None if calibration is None else Path(calibration.path),
-                      robot, motion, plant, pose_motion)
+                      robot, motion, plant, reference_motion)
 
 
 def build_scenario(options: ScenarioOptions) -> Scenario:
@@ -243,7 +242,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         gains=gains,
         twin_substeps=settings.section('twin').integer('substeps', minimum=1),
         motion=settled.motion,
-        reference=motion_reference(robot, distribution, settled.pose_motion or settled.motion, period),
+        reference=motion_reference(robot, distribution, settled.reference_motion, period),
         plant=settled.plant,
         failures=failures,
         pushes=settled_pushes(run),
@@ -253,7 +252,6 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         recovery=recovery,
         markers=MarkerStyle.from_section(settings.section('markers')),
         view_ticks=ViewTicks.of_streams(settings.section('streams'), period),
-        pose_motion=settled.pose_motion,
     )
     settings.data['run']['last_tick'] = scenario.cycles - 1
     if options.duration_s is None:
@@ -261,15 +259,12 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
     return scenario
 
 
-def motion_reference(robot: Robot, distribution: TensionDistribution, motion: Motion | PoseMotion,
-                     period_s: float) -> ReferenceTable:
-    """The motion's reference (a PoseReferenceTable for a platform's PoseMotion); UsageError,
-    naming the motion, the pose and what to change,
-    where no tensions within the bounds hold the end-effector on it."""
+def motion_reference(robot: Robot, distribution: TensionDistribution, motion, period_s: float) -> ReferenceTable:
+    """The reference table of the body's `motion` (Body.motion); UsageError, naming the
+    motion, the pose and what to change, where no tensions within the bounds hold the
+    end-effector on it."""
     try:
-        if isinstance(motion, PoseMotion):
-            return tabulate_pose_reference(robot, distribution, motion.trajectory, period_s)
-        return tabulate_reference(robot, distribution, motion.trajectory, period_s)
+        return robot.body.tabulate(robot, distribution, motion, period_s)
     except InfeasibleTensionError as err:
         remedy = ('set control.tension_distribution: bounded_minimum_norm (the nearest tensions '
                   'within the bounds), or move the motion' if isinstance(distribution, PseudoInverse)

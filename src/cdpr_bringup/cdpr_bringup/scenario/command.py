@@ -99,7 +99,7 @@ def run_graph(args, scenario, out: Path):
     if interrupted and not bag.exists():
         return None, True
     try:
-        recording = recording_from_bag(bag, args.namespace, scenario.robot.platform is not None)
+        recording = recording_from_bag(bag, args.namespace, scenario.robot.body.has_orientation)
     except ValueError:
         if interrupted:
             return None, True

@@ -1,9 +1,12 @@
-"""Tension distribution methods behind one interface (one module per method)."""
-from .base import InfeasibleTensionError, TensionDistribution, floored_fit, minimum_norm
-from .bounded_minimum_norm import BoundedMinimumNorm
-from .floored_least_squares import FlooredLeastSquares
-from .lowered_floor import LoweredFloor, largest_floors
-from .pseudo_inverse import PseudoInverse
+"""Tension distribution methods behind one interface (one module per method).
+
+Rooms it may import: geometry.
+"""
+from cdpr_control.tension_distribution.base import InfeasibleTensionError, TensionDistribution, floored_fit, minimum_norm
+from cdpr_control.tension_distribution.bounded_minimum_norm import BoundedMinimumNorm
+from cdpr_control.tension_distribution.floored_least_squares import FlooredLeastSquares
+from cdpr_control.tension_distribution.lowered_floor import LoweredFloor, largest_floors
+from cdpr_control.tension_distribution.pseudo_inverse import PseudoInverse
 
 METHODS = {method.name: method for method in (PseudoInverse, BoundedMinimumNorm)}
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..linalg3 import solve3
+from cdpr_control.geometry.linalg3 import solve3
 
 
 # A platform's S Sᵀ whose smallest Cholesky pivot is this small against its largest

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BOUND_TOLERANCE_N, FreeDirection, InfeasibleTensionError, TensionDistribution, minimum_norm
+from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N, FreeDirection, InfeasibleTensionError, TensionDistribution, minimum_norm
 
 DIRECTION_TOLERANCE = 1e-12
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import InfeasibleTensionError, TensionDistribution, floored_fit
+from cdpr_control.tension_distribution.base import InfeasibleTensionError, TensionDistribution, floored_fit
 
 
 class FlooredLeastSquares(TensionDistribution):

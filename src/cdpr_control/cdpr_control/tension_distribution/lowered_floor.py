@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BOUND_TOLERANCE_N, FreeDirection, InfeasibleTensionError, TensionDistribution, minimum_norm
+from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N, FreeDirection, InfeasibleTensionError, TensionDistribution, minimum_norm
 
 # Bisection steps of the largest floor where the cables leave a null space of two or more
 # dimensions: the floor to within (τ_floor − τ_lowest) / 2¹² of the best.

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import InfeasibleTensionError, TensionDistribution, minimum_norm
+from cdpr_control.tension_distribution.base import InfeasibleTensionError, TensionDistribution, minimum_norm
 
 
 class PseudoInverse(TensionDistribution):

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.friction import FrictionModel
+from cdpr_control.model.friction import FrictionModel
 
 from .base import Detector
 

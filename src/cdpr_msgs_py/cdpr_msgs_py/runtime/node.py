@@ -29,7 +29,7 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
 
     Each parameter is declared with a description (`parameter`); one it is given but does
     not declare is reported as ignored (the settled sections of a run are dotted names:
-    cdpr_control.settings declares them).
+    cdpr_control.setup.settings declares them).
     """
 
     # The settings a node takes while it runs: the /diagnostics limits. Every other one is

@@ -1,0 +1,33 @@
+"""The motors' Coulomb friction as the control stack models it (the twin has none)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cdpr_control.config import Section
+from cdpr_control.model.robot import Robot
+
+
+@dataclass(frozen=True)
+class FrictionModel:
+    """Coulomb friction torque (N·m), reached smoothly over `smoothing_rad_s`."""
+
+    coulomb_nm: float
+    smoothing_rad_s: float
+
+    @classmethod
+    def of_robot(cls, robot: Robot, control: Section, coulomb_nm: float | None = None) -> 'FrictionModel':
+        """The motors' static friction (robot.motor), unless `coulomb_nm` or the control
+        section's `coulomb_friction_nm` (a settled run's: 0 on the rigid plant, which is the
+        twin's friction-free model, or as calibrated) says otherwise."""
+        if coulomb_nm is None:
+            coulomb_nm = control.number('coulomb_friction_nm', robot.motor.static_friction_nm,
+                                        non_negative=True)
+        return cls(float(coulomb_nm), control.number('coulomb_smoothing_rad_s', positive=True))
+
+    def torque_nm(self, angular_velocity_rad_s: np.ndarray) -> np.ndarray:
+        """The torque friction takes from a motor turning at `angular_velocity_rad_s`."""
+        if self.coulomb_nm == 0.0:
+            return np.zeros_like(angular_velocity_rad_s)
+        return self.coulomb_nm * np.tanh(angular_velocity_rad_s / self.smoothing_rad_s)

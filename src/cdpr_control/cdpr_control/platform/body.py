@@ -1,0 +1,121 @@
+"""The rigid platform: an end-effector of 3 rotations + 3 translations, its pose the
+position p (m) of its frame's origin and the unit quaternion q (w, x, y, z) of its
+orientation (docs/platform.md).
+
+Its equations are this room's modules (kinematics, statics, dynamics, reference,
+substeps, safe_pose, steered_approach); this class is what the rest of the stack calls
+them by.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cdpr_control.config import Section
+from cdpr_control.geometry.motions import motion_from_settled
+from cdpr_control.geometry.rotation import normalised, rotation_matrix
+from cdpr_control.model.body import Body
+from cdpr_control.platform import substeps
+from cdpr_control.platform.dynamics import rigid_body
+from cdpr_control.platform.kinematics import forward_kinematics, forward_kinematics_rows, wrench_matrix
+from cdpr_control.platform.motion import pose_motion_from_settled, with_turn
+from cdpr_control.platform.reference import sampled, tabulate_pose_reference
+from cdpr_control.platform.statics import static_tensions
+
+# An inertia tensor this far from symmetric (relative) is a typing mistake.
+SYMMETRY_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class Platform(Body):
+    """A rigid platform: cable i is attached at b_i; the centre of mass c and the inertia
+    tensor about it, all in the platform frame, whose origin is the platform's position p.
+    `home_orientation` is the unit quaternion (w, x, y, z) of the home pose."""
+
+    attachment_points_m: np.ndarray
+    centre_of_mass_m: np.ndarray
+    inertia_kg_m2: np.ndarray
+    home_orientation: np.ndarray
+
+    kind = 'platform'
+    degrees_of_freedom = 6
+    # six taut cables with gravity, and one more to lose one
+    minimum_cables = 7
+    has_orientation = True
+
+    def __post_init__(self):
+        for array in (self.attachment_points_m, self.centre_of_mass_m, self.inertia_kg_m2,
+                      self.home_orientation):
+            array.setflags(write=False)
+
+    def numbers(self) -> np.ndarray:
+        return np.concatenate([self.attachment_points_m.ravel(), self.centre_of_mass_m,
+                               self.inertia_kg_m2.ravel(), self.home_orientation])
+
+    def cable_ends_m(self, position_m, orientation, cable_count: int) -> np.ndarray:
+        return position_m + self.attachment_points_m @ rotation_matrix(orientation).T
+
+    def orientation_from(self, section: Section, key: str):
+        return section.vector(key, 4, self.home_orientation.tolist())
+
+    def structure_matrix(self, robot, position_m, orientation) -> np.ndarray:
+        return wrench_matrix(robot, position_m, orientation)[0]
+
+    def pose_of_angles(self, robot, angles_rad, cables=None):
+        return forward_kinematics(robot, angles_rad, cables)
+
+    def poses_of_angles(self, robot, angles_rad, cables=None):
+        return forward_kinematics_rows(robot, np.asarray(angles_rad, dtype=float), cables)
+
+    def holding_torques_nm(self, robot, position_m, orientation, attached=None) -> np.ndarray:
+        return -robot.motor.drum_radius_m * static_tensions(robot, position_m, orientation, attached)
+
+    def unbalanced_force_n(self, robot, orientation, twist, acceleration, pulled) -> np.ndarray:
+        body = rigid_body(robot, orientation, twist[3:])
+        return (body.mass_matrix @ acceleration - body.free_wrench - pulled)[:3]
+
+    def motion(self, motion):
+        return with_turn(motion_from_settled(motion), motion, self.home_orientation)
+
+    def tabulate(self, robot, distribution, motion, period_s: float):
+        return tabulate_pose_reference(robot, distribution, motion.trajectory, period_s)
+
+    def reference_poses(self, robot, motion, period_s: float):
+        sample = sampled(pose_motion_from_settled(motion, self.home_orientation).trajectory, period_s)
+        return sample.position_m, sample.orientation
+
+    def check_goal(self, goal_m) -> None:
+        raise ValueError('a platform takes no goal positions yet: a move needs its orientation too')
+
+    def outline_m(self, robot, position_m, orientation) -> np.ndarray:
+        """Its origin joined to each attachment point at the pose (2m × 3)."""
+        ends = self.cable_ends_m(position_m, orientation, robot.cable_count)
+        return np.array([point for end in ends for point in (position_m, end)])
+
+    def load_kernels(self) -> None:
+        substeps.kernel().load_all()
+
+
+def platform_from_section(platform: Section, cable_count: int) -> Platform:
+    """A Platform from a robot's `platform` section; ConfigError, naming the key, for
+    attachment points that do not match the cables, or an inertia tensor no rigid body has."""
+    attachment = platform.matrix('attachment_points_m', 3)
+    if attachment.shape[0] != cable_count:
+        raise platform.error('attachment_points_m', f'must list one point per cable ({cable_count}), '
+                             f'got {attachment.shape[0]}')
+    inertia = platform.matrix('inertia_kg_m2', 3)
+    if inertia.shape != (3, 3) or not np.allclose(inertia, inertia.T, rtol=0.0,
+                                                  atol=SYMMETRY_TOLERANCE * np.abs(inertia).max()):
+        raise platform.error('inertia_kg_m2', f'must be a symmetric 3 × 3 tensor, got {inertia.tolist()}')
+    principal = np.linalg.eigvalsh(inertia)
+    if principal[0] <= 0.0 or principal[2] > principal[0] + principal[1] + SYMMETRY_TOLERANCE * principal[2]:
+        raise platform.error('inertia_kg_m2', f'has principal moments {principal.round(6).tolist()}: '
+                             'a rigid body\'s are positive and each at most the sum of the other two')
+    try:
+        home = normalised(platform.vector('home_orientation', 4, [1.0, 0.0, 0.0, 0.0]))
+    except ValueError:
+        raise platform.error('home_orientation', 'must be a quaternion (w, x, y, z) of non-zero norm') from None
+    return Platform(attachment_points_m=attachment,
+                    centre_of_mass_m=platform.vector('centre_of_mass_m', 3, [0.0, 0.0, 0.0]),
+                    inertia_kg_m2=inertia, home_orientation=home)

@@ -1,0 +1,161 @@
+"""Rigid-body dynamics of a platform on m cables with their motors (docs/platform.md).
+
+Newton–Euler of the platform at its frame's origin p, with the centre of mass c
+(world offset c_w = R c), inertia I_w = R I_c Rᵀ about it, twist (v, ω) and its rate
+(a, α), all in the world frame:
+
+    M(x) (a, α) + h(x, ẋ) = W τ + w_g + w_ext
+    M = [[m I, −m [c_w]×], [m [c_w]×, I_w − m [c_w]×²]]
+    h = [m ω × (ω × c_w) ; ω × (I_w ω) + m c_w × (ω × (ω × c_w))]
+    w_g = [m g ; c_w × m g]
+
+Motor i, as for the point mass: J θ̈_i = −b θ̇_i + c_i + ρ τ_i, with (pose_kinematics)
+θ̈ = (−Wᵀ (a, α) + κ) / ρ. Rigid taut cables then give
+
+    (M + (J/ρ²) W Wᵀ) (a, α) = w_g + w_ext − h + W ((J/ρ²) κ + (b/ρ) θ̇ − c/ρ),
+
+and a cable whose tension comes out negative is slack and leaves W. A point mass is the
+case c = 0, I_c = 0, b_i = 0, where these reduce to docs/design.md §4.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cdpr_control.platform import substeps as platform_substeps
+from cdpr_control.model.robot import Robot
+from cdpr_control.geometry.rotation import rotation_matrix
+from cdpr_control.tension_distribution import InfeasibleTensionError, TensionDistribution
+
+
+@dataclass
+class PlatformInverseDynamics:
+    """Torques c (N·m), the tensions (N) they produce, and the joint motion: θ (rad, the
+    pose's inverse kinematics, every cable's), θ̇ (rad/s) and θ̈ (rad/s²)."""
+
+    torque_nm: np.ndarray
+    tension_n: np.ndarray
+    joint_angle_rad: np.ndarray
+    joint_velocity_rad_s: np.ndarray
+    joint_acceleration_rad_s2: np.ndarray
+
+
+@dataclass
+class PlatformDirectDynamics:
+    """(a, α) (m/s², rad/s²), θ̈ (rad/s²), tensions (N) and which cables are taut."""
+
+    acceleration_m_s2: np.ndarray
+    angular_acceleration_rad_s2: np.ndarray
+    joint_acceleration_rad_s2: np.ndarray
+    tension_n: np.ndarray
+    taut: np.ndarray
+
+
+@dataclass
+class RigidBody:
+    """The platform's mass matrix M (6 × 6) and the wrench w_g − h (6) its weight and its
+    velocity terms apply, at a pose and twist, about the platform frame's origin."""
+
+    mass_matrix: np.ndarray
+    free_wrench: np.ndarray
+
+
+def rigid_body(robot: Robot, orientation, angular_velocity_rad_s, kernel: str = 'compiled') -> RigidBody:
+    """M and w_g − h (module docstring) at the orientation and angular velocity (rad/s),
+    by platform_substeps' `kernel`."""
+    mass_matrix, free = np.empty((6, 6)), np.empty(6)
+    platform_substeps.kernel(kernel).rigid_body(
+        platform_substeps.constants_of(robot), rotation_matrix(orientation),
+        np.concatenate([np.zeros(3), angular_velocity_rad_s]), mass_matrix, free)
+    return RigidBody(mass_matrix, free)
+
+
+@dataclass
+class MotionTerms:
+    """Per row of a motion (n poses with their twists and twist rates): W (n × 6 × m), the
+    cable lengths d (m), the wrench the cables must apply, M (a, α) − (w_g − h) (N, N·m),
+    and the joint motion θ̇ (rad/s) and θ̈ (rad/s²) of taut cables."""
+
+    structure: np.ndarray
+    length_m: np.ndarray
+    wrench_n: np.ndarray
+    joint_velocity_rad_s: np.ndarray
+    joint_acceleration_rad_s2: np.ndarray
+
+
+def motion_terms(robot: Robot, poses, twists, accelerations) -> MotionTerms:
+    """MotionTerms of each row of the poses (n × 7: p, q), twists (n × 6: v, ω) and their
+    rates (n × 6: a, α), by platform_substeps.motion_rows."""
+    rows, m = len(poses), robot.cable_count
+    columns, lengths, wrench = np.empty((rows, m, 6)), np.empty((rows, m)), np.empty((rows, 6))
+    joint_velocity, joint_acceleration = np.empty((rows, m)), np.empty((rows, m))
+    exits, attachments, _ = platform_substeps.geometry_of(robot)
+    platform_substeps.kernel().motion_rows(
+        platform_substeps.constants_of(robot), exits, attachments, *(np.ascontiguousarray(figure, dtype=float)
+                                                                     for figure in (poses, twists, accelerations)),
+        columns, lengths, wrench, joint_velocity, joint_acceleration)
+    return MotionTerms(np.swapaxes(columns, 1, 2), lengths, wrench, joint_velocity, joint_acceleration)
+
+
+def inverse_dynamics(robot: Robot, tension_distribution: TensionDistribution, position_m, orientation,
+                     velocity_m_s, angular_velocity_rad_s, acceleration_m_s2, angular_acceleration_rad_s2,
+                     attached=None, external_wrench=None, nan_where_infeasible: bool = False) -> PlatformInverseDynamics:
+    """Torques that make the platform follow the pose x, twist and its rate with the
+    `attached` cables: the cables' wrench w = M (a, α) + h − w_g − w_ext is shared by
+    `tension_distribution`, and c = J θ̈ + b θ̇ − ρ τ. A detached cable carries no tension
+    and its motor is not tied to the platform: its figures are 0. Of one pose, or of each
+    row of stacks (n × 3, n × 4 for the orientations), a tabulated motion at once;
+    InfeasibleTensionError names the first pose whose wrench no tensions pull (with
+    `nan_where_infeasible`, such rows' tensions and torques are NaN instead)."""
+    motor = robot.motor
+    single = np.ndim(position_m) == 1
+    poses = np.concatenate([np.atleast_2d(position_m), np.atleast_2d(orientation)], axis=1)
+    terms = motion_terms(
+        robot, poses, np.concatenate([np.atleast_2d(velocity_m_s), np.atleast_2d(angular_velocity_rad_s)], axis=1),
+        np.concatenate([np.atleast_2d(acceleration_m_s2), np.atleast_2d(angular_acceleration_rad_s2)], axis=1))
+    wrench = terms.wrench_n if external_wrench is None else terms.wrench_n - external_wrench
+    theta_dot, theta_ddot = terms.joint_velocity_rad_s, terms.joint_acceleration_rad_s2
+    distribute = tension_distribution.distribute_each if nan_where_infeasible else tension_distribution.distribute_rows
+    try:
+        if attached is None:
+            tension = distribute(terms.structure, wrench)
+        else:
+            tension = np.zeros(theta_dot.shape)
+            tension[:, attached] = distribute(terms.structure[:, :, attached], wrench)
+    except InfeasibleTensionError as err:
+        raise err.at(poses[err.row, :3], poses[err.row, 3:]) from None
+    if attached is not None:
+        theta_dot[:, ~attached] = 0.0
+        theta_ddot[:, ~attached] = 0.0
+    torque = (motor.inertia_kg_m2 * theta_ddot + motor.viscous_friction_nm_s_rad * theta_dot
+              - motor.drum_radius_m * tension)
+    angle = (terms.length_m - robot.cable_length_offset_m) / motor.drum_radius_m
+    figures = (torque, tension, angle, theta_dot, theta_ddot)
+    return PlatformInverseDynamics(*(figure[0] for figure in figures) if single else figures)
+
+
+def direct_dynamics(robot: Robot, position_m, orientation, velocity_m_s, angular_velocity_rad_s,
+                    torque_nm, joint_velocity_rad_s, attached=None, external_wrench=None,
+                    kernel: str = 'compiled') -> PlatformDirectDynamics:
+    """(a, α) under motor torques c with rigid cables: the attached cables that stay taut
+    pull (module docstring); one whose tension comes out negative goes slack and the
+    rest are solved again, the most negative first. The motor of a slack or detached
+    cable spins freely: J θ̈ = −b θ̇ + c. Solved by platform_substeps' `kernel`."""
+    m = robot.cable_count
+    acceleration, joint_acceleration, tension, taut = np.empty(6), np.empty(m), np.empty(m), np.empty(m)
+    exits, attachments, _ = platform_substeps.geometry_of(robot)
+    platform_substeps.kernel(kernel).direct_dynamics(
+        platform_substeps.constants_of(robot), exits, attachments,
+        np.concatenate([position_m, orientation]), np.concatenate([velocity_m_s, angular_velocity_rad_s]),
+        np.array(torque_nm, dtype=float), np.array(joint_velocity_rad_s, dtype=float),
+        np.ones(m) if attached is None else np.array(attached, dtype=float),
+        np.zeros(6) if external_wrench is None else np.array(external_wrench, dtype=float),
+        acceleration, joint_acceleration, tension, taut)
+    return PlatformDirectDynamics(acceleration[:3], acceleration[3:], joint_acceleration, tension, taut != 0.0)
+
+
+def wrench_at_origin(force_n) -> np.ndarray:
+    """A force (N, world frame) applied at the platform frame's origin as a wrench
+    (force, moment about the origin)."""
+    return np.concatenate([np.asarray(force_n, dtype=float), np.zeros(3)])

@@ -1,0 +1,108 @@
+"""A platform steered to a pose by tensions kept within their bounds (docs/platform.md).
+
+Where the cables left after a break cannot hold the platform at rest where it is, no
+static tensions exist there, but some motion does: the platform is let move as tensions
+within [τ_min + margin, τ_max] let it, towards the target pose. Each control period the
+platform's rigid-body model is stepped under the tensions that come nearest (in a norm
+that weighs moments `moment_weight` times a force's N, platform_substeps.nearest_wrench) the wrench of a
+critically damped pull towards the target,
+
+    a_d = ω_p² (p* − p) − 2 ω_p v,   α_d = ω_q² φ(q*, q) − 2 ω_q ω,
+    w_d = M s(t) (a_d, α_d) − (w_g − h),
+
+the pull eased in by s(t), a smoothstep from 0 at the first row to 1 at `ease_in_s` (the
+first tensions, nearest those that would hold the platform as it moves, step least from
+what the drives pulled before: a step rings elastic cables below τ_min). The motion those
+tensions give, M (a, α) = W τ + w_g − h, is the plan: a motion the
+cables can pull without a slack or an overloaded cable, by construction (the drives then
+track it, its wrench shared again by the recovery's distribution). The orientation is
+pulled much harder than the position: a platform whose small rotational inertia is left
+to the moments that the forces' best fit leaves turns over (docs/platform.md).
+
+Rows are stepped as they are asked for (`extend`), so a realtime supervisor steps a tick's
+worth at a time; they are the same however they are asked for. A row is stepped by the
+compiled kernel platform_substeps.steered_rows (~10 µs where numpy took ~0.3 ms: a
+realtime supervisor stepping it kept up with the loop only most of the time, docs/platform.md).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cdpr_control.platform import substeps as platform_substeps
+from cdpr_control.platform.substeps import ROW_POSE, ROW_RATE, ROW_TWIST, ROW_WIDTH
+from cdpr_control.geometry.pose_trajectories import PoseSample
+from cdpr_control.model.robot import Robot
+from cdpr_control.geometry.rotation import difference, normalised
+
+# Rows are kept in an array grown this many rows at a time (10 s of a 2 ms period).
+ROWS_PER_GROWTH = 5000
+
+
+@dataclass(frozen=True)
+class ApproachGains:
+    """The pull towards the target: natural frequencies (rad/s) of the position's and the
+    orientation's critically damped pulls, how many N a moment's N·m counts as, and over
+    how long (s) the pull is eased in from none."""
+
+    position_frequency_rad_s: float
+    orientation_frequency_rad_s: float
+    moment_weight: float
+    ease_in_s: float
+
+
+class SteeredApproach:
+    """The motion of a platform from `start` (a PoseSample; its accelerations unused) to the
+    target pose under tensions of the `attached` cables within [tension_min_n,
+    tension_max_n], stepped at `period_s` (module docstring). Row k is the state at
+    k periods, with the acceleration the tensions give it there."""
+
+    def __init__(self, robot: Robot, attached: np.ndarray, start: PoseSample, target_m, target_orientation,
+                 gains: ApproachGains, tension_min_n: float, tension_max_n: float, period_s: float):
+        self.kernel = platform_substeps.kernel()
+        self.constants = platform_substeps.constants_of(robot)
+        self.exits, self.attachments, _ = platform_substeps.geometry_of(robot)
+        self.attached = np.asarray(attached, dtype=float)
+        self.target_m = np.asarray(target_m, dtype=float)
+        self.target_orientation = normalised(target_orientation)
+        self.target = np.concatenate([self.target_m, self.target_orientation])
+        self.gains = np.array([gains.position_frequency_rad_s, gains.orientation_frequency_rad_s,
+                               gains.moment_weight, gains.ease_in_s])
+        self.bounds_n = np.array([tension_min_n, tension_max_n], dtype=float)
+        self.period_s = period_s
+        self.pose = np.concatenate([np.asarray(start.position_m, dtype=float), normalised(start.orientation)])
+        self.twist = np.concatenate([np.asarray(start.velocity_m_s, dtype=float),
+                                     np.asarray(start.angular_velocity_rad_s, dtype=float)])
+        self.table = np.empty((0, ROW_WIDTH))
+        self.count = 0
+
+    def extend(self, rows: int) -> None:
+        """Step the platform until at least `rows` rows are planned."""
+        if rows <= self.count:
+            return
+        if rows > len(self.table):
+            grown = np.empty((max(rows, len(self.table) + ROWS_PER_GROWTH), ROW_WIDTH))
+            grown[:self.count] = self.table[:self.count]
+            self.table = grown
+        status = self.kernel.steered_rows(self.constants, self.exits, self.attachments, self.attached, self.target,
+                                          self.gains, self.bounds_n, self.period_s, self.count, self.pose,
+                                          self.twist, self.table[self.count:rows])
+        if status < 0:
+            raise RuntimeError(f'steered approach: the nearest wrench failed ({status}) at row {self.count}')
+        self.count = rows
+
+    def samples(self, start: int, stop: int) -> PoseSample:
+        """Rows [start, stop) as a PoseSample of stacks (stepped first where needed)."""
+        self.extend(stop)
+        rows = self.table[start:stop]
+        return PoseSample(rows[:, ROW_POSE:ROW_POSE + 3].copy(), rows[:, ROW_POSE + 3:ROW_TWIST].copy(),
+                          rows[:, ROW_TWIST:ROW_TWIST + 3].copy(), rows[:, ROW_TWIST + 3:ROW_RATE].copy(),
+                          rows[:, ROW_RATE:ROW_RATE + 3].copy(), rows[:, ROW_RATE + 3:].copy())
+
+    def errors(self, sample: PoseSample) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """At each row of `sample` (samples'): the distances (m) and the angles (rad) to the
+        target, the speeds (m/s) and the angular speeds (rad/s)."""
+        return (np.linalg.norm(self.target_m - sample.position_m, axis=1),
+                np.linalg.norm(difference(self.target_orientation, sample.orientation), axis=1),
+                np.linalg.norm(sample.velocity_m_s, axis=1), np.linalg.norm(sample.angular_velocity_rad_s, axis=1))

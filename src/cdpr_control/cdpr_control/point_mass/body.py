@@ -1,0 +1,74 @@
+"""The point mass: an end-effector of 3 translations, its pose the position p (m).
+
+Its equations are this room's modules (kinematics, statics, dynamics, reference,
+substeps: docs/design.md §4); this class is what the rest of the stack calls them by.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from cdpr_control.geometry.motions import motion_from_settled
+from cdpr_control.model.body import Body
+from cdpr_control.model.reference_table import tick_times
+from cdpr_control.point_mass import substeps
+from cdpr_control.point_mass.kinematics import forward_kinematics, structure_matrix
+from cdpr_control.point_mass.reference import tabulate_reference
+from cdpr_control.point_mass.statics import holding_torque_nm
+
+NO_POINTS = np.empty((0, 3))
+NO_POINTS.setflags(write=False)
+
+
+class PointMass(Body):
+    """A point mass: every cable ends at its position; it has no orientation."""
+
+    kind = 'point_mass'
+    degrees_of_freedom = 3
+    # four cables: three hold its 3 DOF after one breaks
+    minimum_cables = 4
+    has_orientation = False
+    home_orientation = None
+
+    def numbers(self) -> np.ndarray:
+        return np.empty(0)
+
+    def cable_ends_m(self, position_m, orientation, cable_count: int) -> np.ndarray:
+        return np.broadcast_to(np.asarray(position_m, dtype=float), (cable_count, 3))
+
+    def orientation_from(self, section, key: str):
+        return None
+
+    def structure_matrix(self, robot, position_m, orientation) -> np.ndarray:
+        return structure_matrix(robot, position_m)[0]
+
+    def pose_of_angles(self, robot, angles_rad, cables=None):
+        return forward_kinematics(robot, np.asarray(angles_rad, dtype=float), cables), None
+
+    def poses_of_angles(self, robot, angles_rad, cables=None):
+        return forward_kinematics(robot, np.asarray(angles_rad, dtype=float), cables), None
+
+    def holding_torques_nm(self, robot, position_m, orientation, attached=None) -> np.ndarray:
+        return holding_torque_nm(robot, position_m,
+                                 np.ones(robot.cable_count, dtype=bool) if attached is None else attached)
+
+    def unbalanced_force_n(self, robot, orientation, twist, acceleration, pulled) -> np.ndarray:
+        return robot.mass_kg * (acceleration - robot.gravity_m_s2) - pulled
+
+    def motion(self, motion):
+        return motion_from_settled(motion)
+
+    def tabulate(self, robot, distribution, motion, period_s: float):
+        return tabulate_reference(robot, distribution, motion.trajectory, period_s)
+
+    def reference_poses(self, robot, motion, period_s: float):
+        path = motion_from_settled(motion).trajectory
+        return path.sample(tick_times(period_s, path.duration_s))[0], None
+
+    def check_goal(self, goal_m) -> None:
+        """Any position is a goal; the schedule checks it against the workspace."""
+
+    def outline_m(self, robot, position_m, orientation) -> np.ndarray:
+        return NO_POINTS
+
+    def load_kernels(self) -> None:
+        substeps.kernel().load_all()
