@@ -173,8 +173,6 @@ def test_realtime_smoke_run_answers_every_state(tmp_path, form):
     with timing_check(log, window, 'realtime smoke run: every state answered'):
         # every state but possibly the very last one got its command
         assert len(set(states) - set(commands)) <= 1, f'{len(set(states) - set(commands))} states unanswered'
-    with timing_check(log, window, 'realtime smoke run: the verdict recorded'):
-        assert topics[f'{namespace}/fdi/broken_cable'], 'no failure verdict in the bag'
 
 
 def user_environment() -> dict:
