@@ -10,6 +10,7 @@ the extra node also asks for a cable to break, which the plant refuses.
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 import time
@@ -26,6 +27,7 @@ from sensor_msgs.msg import JointState
 from cdpr_bringup.bags.bag_io import read_messages
 from cdpr_bringup.bags.recorder_node import OTHER_WRITERS
 from cdpr_bringup.graph.launcher import Graph, graph_nodes, node_environment
+from cdpr_bringup.runs.metrics import written_statuses
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime.node import CdprNode
@@ -34,8 +36,8 @@ from cdpr_msgs_py.runtime.subscriptions import message_info_callback
 from cdpr_msgs_py.sole_writer import Endpoint, SoleWriter
 from cdpr_msgs_py.stamps import stamp_to_ns
 
-from conftest import (MOTIONS, PAPER_ROBOT, GraphLog, assert_stopped_cleanly, keep_running,
-                      start_until_the_plant_runs, timing_check)
+from conftest import (LOOP_REPORT_PERIOD_S, MOTIONS, PAPER_ROBOT, GraphLog, assert_stopped_cleanly,
+                      keep_running, start_until_the_plant_runs, timing_check)
 from test_faults import START_TIMEOUT_S
 from test_graph import offline_verdict
 
@@ -213,6 +215,14 @@ OUTSIDE_WRITERS = ('outside_writer', 'controller')
 RECORDED_SHARE = 0.5
 
 
+def lost_ticks(recorded_ns: set[int], ticks: int, period_ns: int, window_ns: tuple[float, float]) -> int:
+    """Of the plant's `ticks` states, how many stamped within `window_ns` (ns from its
+    first tick) the bag lacks (`recorded_ns`, the stamps it has)."""
+    first = max(0, math.ceil(window_ns[0] / period_ns))
+    last = min(ticks - 1, math.floor(window_ns[1] / period_ns))
+    return sum(1 for tick in range(first, last + 1) if tick * period_ns not in recorded_ns)
+
+
 def write(namespace: str) -> dict:
     """Run the outside writers (plain rclpy, nothing of ours) and return what they sent."""
     script = Path(__file__).parent / 'tools' / 'outside_writer.py'
@@ -239,13 +249,15 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
     so there the FDI's inputs are checked instead: the commands it judged are the
     controller's (its pin never moved)."""
     namespace = f'/cdpr_second_writer_{clock_mode}'
-    bag = tmp_path / 'bag'
+    bag, said = tmp_path / 'bag', tmp_path / 'said'
+    said.mkdir()
     log = GraphLog()
     scenario = build_scenario(ScenarioOptions(config=str(PAPER_ROBOT), motions=str(MOTIONS),
                                               motion='circle', duration_s=RUN_LIMIT_S))
     parameters = scenario.node_parameters(clock_mode)
-    graph = Graph(graph_nodes(parameters, str(bag)), namespace, completion='plant_simulator',
-                  log=log)
+    # each node's last status, written as it stops: what no recorder can lose
+    graph = Graph(graph_nodes(parameters, str(bag), last_diagnostics=str(said)), namespace,
+                  completion='plant_simulator', log=log)
     try:
         start_until_the_plant_runs(graph, log, START_TIMEOUT_S)
         writing_s = time.monotonic()
@@ -258,7 +270,12 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
     assert_stopped_cleanly(exit_codes, log)
     assert not log.repeated_lines(), log.repeated_lines()
     # A lockstep run has no period to slip: nothing of it is ever excused.
-    run_s, writes_s = (log.plant_started_s(), time.monotonic()), (writing_s, written_s)
+    started_s = log.plant_started_s()
+    run_s, writes_s = (started_s, time.monotonic()), (writing_s, written_s)
+    # what the plant and the supervisor said as they stopped, and what the tool sent
+    last = written_statuses(said)
+    assert {'plant_simulator', 'supervisor'} <= last.keys(), sorted(last)
+    assert sorted(sent) == sorted(OUTSIDE_WRITERS), sent
     # commands from each, half of them stamped as a state. The writers answer best-effort
     # states, so a loaded machine drops most of them (124 of each in one fresh-clone CI
     # run, 7 in another): what matters is that each kind was sent, and all were refused.
@@ -268,19 +285,25 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
     topics = [f'{namespace}/fdi/broken_cable', f'{namespace}/joint_states', '/diagnostics']
     found = read_messages(bag, topics)
     applied = [message.effort for _, message in found[topics[1]]]
+    assert applied, 'no joint state in the bag'
     assert not any(np.allclose(effort, 0.0) for effort in applied), \
         "the motors applied an outside writer's zero torques"
-    # the states the plant published, as its last status in the bag counts them
-    ticks = max((int(value.value) for _, message in found['/diagnostics'] for status in message.status
-                 if status.name == f'{namespace}/plant_simulator' for value in status.values
-                 if value.key == 'states total'), default=0)
-    assert ticks > 0, 'no status of the plant in the bag counts the states it published'
+    # the states the plant published, as it counted them stopping
+    ticks = int(last['plant_simulator']['states total'])
+    assert ticks > 0, last['plant_simulator']
     with timing_check(log, run_s, f'{clock_mode}: the applied torques recorded'):
         assert len(applied) >= RECORDED_SHARE * ticks, f'{len(applied)} joint states in the bag of {ticks}'
-    # what the niced recorder lost of a realtime run: the bag's later statuses with it
-    lost = ticks - len({stamp_to_ns(message.header.stamp) for _, message in found[topics[1]]})
-    recorder_lost = (f'the recorder lost {lost} of the {ticks} ticks of the run'
-                     if lost > 0 and clock_mode == 'realtime' else '')
+    # what the niced recorder lost of a realtime run over a window (monotonic s): the
+    # bag's statuses of that time with it; a loss elsewhere excuses nothing there
+    recorded_ns = {stamp_to_ns(message.header.stamp) for _, message in found[topics[1]]}
+    period_ns = round(scenario.period_s * 1e9)
+
+    def recorder_lost(window_s: tuple[float, float]) -> str:
+        lost = lost_ticks(recorded_ns, ticks, period_ns,
+                          tuple((at - started_s) * 1e9 for at in window_s))
+        return (f'the recorder lost {lost} of the run\'s ticks from {window_s[0] - started_s:.1f} s to '
+                f'{window_s[1] - started_s:.1f} s' if lost > 0 and clock_mode == 'realtime' else '')
+
     if clock_mode == 'lockstep':
         verdicts = found[topics[0]]
         assert verdicts and all(message.data == 0 for _, message in verdicts), 'a false failure alarm'
@@ -299,43 +322,48 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
     pins = set()
     for node in ('plant_simulator', 'supervisor'):
         # a node's second-writer warning on its console, whatever the recorder kept
-        warnings = [line for line in log if line.startswith(f'[{node}] [WARN]')
-                    and f'a second writer on {namespace}/{contract.EFFORT_COMMAND}' in line]
-        assert any(f'{namespace}/outside_writer' in line for line in warnings), warnings
+        warned = [(at, line) for at, line in log.entries if line.startswith(f'[{node}] [WARN]')
+                  and f'a second writer on {namespace}/{contract.EFFORT_COMMAND}' in line]
+        assert any(f'{namespace}/outside_writer' in line for _, line in warned), warned
+        # the rejections counted and their writers named, in the node's last status
+        stopped = last[node]
+        assert int(stopped.get(f'rejected {contract.EFFORT_COMMAND}', 0)) > 0, stopped
+        writers = stopped.get(f'rejected {contract.EFFORT_COMMAND} from', '')
+        assert f'node {namespace}/outside_writer (GID ' in writers, writers
+        assert f'another node named {namespace}/controller (GID ' in writers, writers
         statuses = [status for _, message in found['/diagnostics'] for status in message.status
                     if status.name == f'{namespace}/{node}']
-        facts = [{value.key: value.value for value in status.values} for status in statuses]
+        assert statuses, f'no status of {node} in the bag'
+        facts = [{value.key: value.value for value in status.values} for status in statuses] + [stopped]
         # before the run the writer may not be known yet ('not seen yet')
         pins |= {fact[f'{contract.EFFORT_COMMAND} writer'] for fact in facts
                  if '(GID ' in fact[f'{contract.EFFORT_COMMAND} writer']}
         # WARN from the first status that counts a rejection (held warning_hold_s of wall
         # time after the last one, which a slow lockstep run may outlast); the bag reader
-        # gives the level as a number, the message class as a byte
+        # gives the level as a number, the message class as a byte. That status goes out
+        # within a report period of the first rejection, which the warning logs: only what
+        # the recorder lost of that time excuses its absence.
         first = next((status for status, fact in zip(statuses, facts)
                       if int(fact.get(f'rejected {contract.EFFORT_COMMAND}', 0)) > 0), None)
-        with timing_check(log, run_s, f'{clock_mode}: the status of {node} counting a rejection recorded',
-                          recorder_lost):
-            assert first is not None, f'{node}: no status counts a rejection ({len(facts)} statuses of it)'
-        if first is None:
-            continue
-        last = facts[-1]
-        assert first.level >= ord(DiagnosticStatus.WARN)
-        assert int(last[f'rejected {contract.EFFORT_COMMAND}']) > 0
-        writers = last[f'rejected {contract.EFFORT_COMMAND} from']
-        assert f'node {namespace}/outside_writer (GID ' in writers
-        assert f'another node named {namespace}/controller (GID ' in writers
+        warned_s = warned[0][0]
+        around = (warned_s - LOOP_REPORT_PERIOD_S, warned_s + LOOP_REPORT_PERIOD_S)
+        with timing_check(log, around, f'{clock_mode}: the status of {node} counting a rejection recorded',
+                          recorder_lost(around)):
+            assert first is not None, f'{node}: no status counts a rejection ({len(statuses)} statuses of it)'
+        if first is not None:   # the one check about that status; the rest are judged above
+            assert first.level >= ord(DiagnosticStatus.WARN), first
     # the outside node's injections: refused by a plant started as a run starts it, no
     # cable broken, each counted
-    plant = [{value.key: value.value for value in status.values} for _, message in found['/diagnostics']
-             for status in message.status if status.name == f'{namespace}/plant_simulator']
-    with timing_check(log, writes_s, f'{clock_mode}: the outside writer asked for a failure'):
-        assert sent[OUTSIDE_WRITERS[0]]['injections'] > 0, sent
-    assert plant and json.loads(plant[-1][contract.BROKEN_AT_KEY]) == {}, 'an outside node broke a cable'
-    with timing_check(log, run_s, f'{clock_mode}: the plant\'s status counting a refused injection recorded',
-                      recorder_lost):
-        assert int(plant[-1].get(f'rejected {contract.INJECT_FAILURE}', 0)) > 0, plant[-1]
+    plant = last['plant_simulator']
+    assert json.loads(plant[contract.BROKEN_AT_KEY]) == {}, 'an outside node broke a cable'
+    refused = int(plant.get(f'rejected {contract.INJECT_FAILURE}', 0))
+    injections = sent[OUTSIDE_WRITERS[0]]['injections']
+    assert refused <= injections, (refused, sent)
+    # the tool injects as it answers states, and exits at once: how many it sent, and
+    # whether the last reached the plant, depends on the machine's speed
+    with timing_check(log, writes_s, f'{clock_mode}: the outside writer asked for a failure, refused'):
+        assert injections > 0, sent
+        assert refused > 0, plant
     # one controller publisher obeyed by both, all run long
-    assert len(pins) <= 1, pins
-    with timing_check(log, run_s, f'{clock_mode}: the pinned writer recorded', recorder_lost):
-        assert pins, 'no status in the bag names the obeyed writer'
+    assert len(pins) == 1, pins
     assert all(f'{namespace}/controller (GID ' in pin for pin in pins), pins

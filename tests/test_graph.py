@@ -165,14 +165,14 @@ def test_realtime_smoke_run_answers_every_state(tmp_path, form):
     assert states and commands, 'the bag holds the run'
     assert all(later > earlier for earlier, later in zip(states, states[1:]))
     assert set(commands) <= set(states)
-    assert all(message.data == 0 for _, message in topics[f'{namespace}/fdi/broken_cable'])
+    verdicts = topics[f'{namespace}/fdi/broken_cable']
+    assert verdicts, 'no failure verdict in the bag'
+    assert all(message.data == 0 for _, message in verdicts)
     with timing_check(log, window, 'realtime smoke run: every tick in the bag'):
         assert len(states) >= 990, f'{len(states)} states of about 1000 (2 s at 500 Hz)'
     with timing_check(log, window, 'realtime smoke run: every state answered'):
         # every state but possibly the very last one got its command
         assert len(set(states) - set(commands)) <= 1, f'{len(set(states) - set(commands))} states unanswered'
-    with timing_check(log, window, 'realtime smoke run: the verdict recorded'):
-        assert topics[f'{namespace}/fdi/broken_cable'], 'no failure verdict in the bag'
 
 
 def user_environment() -> dict:

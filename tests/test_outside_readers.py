@@ -123,9 +123,8 @@ def check_graph_unharmed_and_reader_reported(namespace: str, bag, log: GraphLog,
     writer the reader read reported it (WARN). The joint states."""
     topics = [f'{namespace}/fdi/broken_cable', f'{namespace}/joint_states', '/diagnostics']
     found = read_messages(bag, topics)
+    assert found[topics[0]], 'no failure verdict in the bag'
     assert all(message.data == 0 for _, message in found[topics[0]]), 'a false failure alarm'
-    with timing_check(log, (log.plant_started_s(), time.monotonic()), 'stopped reader: the verdict recorded'):
-        assert found[topics[0]], 'no failure verdict in the bag'
     states = found[topics[1]]
     stamps = [stamp_to_ns(message.header.stamp) for _, message in states]
     assert stamps, 'no joint state in the bag'

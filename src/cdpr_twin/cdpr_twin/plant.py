@@ -348,6 +348,11 @@ class PlantSimulator:
         return self.model.tension_n
 
     @property
+    def angular_velocity_rad_s(self) -> np.ndarray:
+        """The drums' true angular velocities (rad/s): zero while braked."""
+        return self.model.angular_velocity_rad_s
+
+    @property
     def orientation(self) -> np.ndarray:
         """The platform's orientation (unit quaternion); the identity for a point mass."""
         return self.model.orientation

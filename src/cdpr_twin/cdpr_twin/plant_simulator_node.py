@@ -155,7 +155,8 @@ class PlantSimulatorNode(CdprNode):
             self.truth_pose.publish_if_subscribed(lambda: pose_stamped(stamp, self.plant.position_m,
                                                                        self.plant.orientation))
             self.truth_tensions.publish_if_subscribed(
-                lambda: joint_state_bytes(self.names, stamp, effort=self.plant.tension_n))
+                lambda: joint_state_bytes(self.names, stamp, velocity=self.plant.angular_velocity_rad_s,
+                                          effort=self.plant.tension_n))
         self.add_figures()
         self.published_tick = self.tick
         self.sent_at = time.monotonic()
