@@ -9,7 +9,7 @@ from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.metrics import twin_kpis
 from cdpr_bringup.runs.settle import ScenarioOptions
 from cdpr_control.point_mass.kinematics import structure_matrix
-from cdpr_twin.plant import PlantSimulator
+from cdpr_twin.models.plant import PlantSimulator
 
 from conftest import every_tick_scenario
 

@@ -26,7 +26,7 @@ from cdpr_bringup.graph.launcher import (STOP_GRACE_S, TEMP_PREFIX, graph_nodes,
                                  requested_graph)
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_msgs_py import dds
-from cdpr_twin.plant import FIDELITIES
+from cdpr_twin.models.plant import FIDELITIES
 
 from conftest import CONFIG_DIR, STALE, MOTIONS, PAPER_ROBOT, in_private_shm, needs_private_shm, private_shm_allowed
 

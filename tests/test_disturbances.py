@@ -81,7 +81,7 @@ def test_the_balance_weighs_a_push_from_the_motors_alone(force_n):
 
 def test_pushes_reach_the_plant_node_as_parameters(tmp_path):
     from test_settings import node_given
-    from cdpr_twin.plant_simulator_node import PlantSimulatorNode
+    from cdpr_twin.nodes.plant_simulator_node import PlantSimulatorNode
     pushes = [(1.0, 0.2, 5.0, 0.0, -3.0), (2.5, 0.05, 0.0, 40.0, 0.0)]
     run = scenario('circle', pushes=pushes)
     with node_given(run.node_parameters('lockstep')['plant_simulator'], PlantSimulatorNode,

@@ -1,5 +1,5 @@
 """The elastic plant's sub-steps compiled by numba give the pure-Python ones' numbers, to
-the last bit: one source (cdpr_twin.elastic_substeps), the same operations in the same
+the last bit: one source (cdpr_twin.models.elastic_substeps), the same operations in the same
 order, on every path (drive lags, speed filter, breakaway friction, pulleys, the
 electromagnet's release and hanging mass, a push, slack cables, locked drums)."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.setup.robot_file import load_robot
-from cdpr_twin.elastic_model import ElasticCableRobot
+from cdpr_twin.models.elastic_model import ElasticCableRobot
 from cdpr_control.kernels import KERNELS
 
 from conftest import MOTIONS, PAPER_ROBOT

@@ -11,7 +11,7 @@ from std_msgs.msg import Int32
 
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime.spin import make_executor
-from cdpr_twin.plant_simulator_node import PlantSimulatorNode
+from cdpr_twin.nodes.plant_simulator_node import PlantSimulatorNode
 
 from conftest import PAPER_ROBOT
 

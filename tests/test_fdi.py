@@ -23,7 +23,7 @@ from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
 from cdpr_fdi.supervisor import Supervisor
 from cdpr_fdi.tension_collapse import TensionCollapse
 from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, VERDICT_DELAY_TICKS
-from cdpr_twin.rigid_model import RigidCableRobot
+from cdpr_twin.models.rigid_model import RigidCableRobot
 
 from conftest import PAPER_ROBOT
 

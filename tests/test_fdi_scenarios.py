@@ -22,7 +22,7 @@ from cdpr_control.point_mass.kinematics import forward_kinematics
 from cdpr_control.geometry.motions import motion_names
 from cdpr_control.point_mass.workspace import contains, sew_cross_section
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
-from cdpr_twin.run_length import RunLength
+from cdpr_twin.nodes.run_length import RunLength
 
 from conftest import CONFIG_DIR, MOTIONS, PAPER_ROBOT, every_tick_scenario
 

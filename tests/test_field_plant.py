@@ -27,9 +27,9 @@ from cdpr_bringup.paths import DEFAULT_ROBOT, config_file
 from cdpr_bringup.runs.metrics import PAPER_KPI
 from cdpr_bringup.scenario.command import metrics_of
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
-from cdpr_twin.elastic_model import swivel_pulley_length_m
+from cdpr_twin.models.elastic_model import swivel_pulley_length_m
 from cdpr_control.config import ConfigError, Section, load_config
-from cdpr_twin.plant import PlantConfig, PlantSimulator
+from cdpr_twin.models.plant import PlantConfig, PlantSimulator
 
 # Paper §5.2: Tables 5 (along cable 4) and 7 (orthogonal), forward and backward (ms);
 # §5.3: the circle, failure after 135° of arc.

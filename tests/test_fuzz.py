@@ -53,9 +53,9 @@ from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped, stamp_to_ns
 from cdpr_msgs_py.stamps import NANOSECONDS
 from cdpr_msgs_py.health import HealthLimits
-from cdpr_twin.digital_twin_node import DigitalTwinNode
-from cdpr_twin.plant import PlantConfig
-from cdpr_twin.plant_simulator_node import PlantSimulatorNode
+from cdpr_twin.nodes.digital_twin_node import DigitalTwinNode
+from cdpr_twin.models.plant import PlantConfig
+from cdpr_twin.nodes.plant_simulator_node import PlantSimulatorNode
 from conftest import MOTIONS, PAPER_ROBOT, kept
 
 ROBOT = load_robot(PAPER_ROBOT)

@@ -20,8 +20,8 @@ from cdpr_control.control.controller_node import ControllerNode
 from cdpr_control.control.trajectory_generator_node import TrajectoryGeneratorNode
 from cdpr_fdi.supervisor_node import SupervisorNode
 from cdpr_msgs_py import contract
-from cdpr_twin.digital_twin_node import DigitalTwinNode
-from cdpr_twin.plant_simulator_node import PlantSimulatorNode
+from cdpr_twin.nodes.digital_twin_node import DigitalTwinNode
+from cdpr_twin.nodes.plant_simulator_node import PlantSimulatorNode
 
 from conftest import CONFIG_DIR, PAPER_ROBOT, settled_parameters
 

@@ -15,9 +15,9 @@ from cdpr_control.platform.reference import tabulate_pose_reference
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.geometry.rotation import difference, rotation_matrix, tilt_rad
 from cdpr_control.tension_distribution import configured_tension_distribution
-from cdpr_twin.plant import PlantConfig, PlantSimulator
-from cdpr_twin.rigid_platform import RigidPlatform
-from cdpr_twin.twin import DigitalTwin
+from cdpr_twin.models.plant import PlantConfig, PlantSimulator
+from cdpr_twin.models.rigid_platform import RigidPlatform
+from cdpr_twin.models.twin import DigitalTwin
 
 from conftest import CONFIG_DIR, every_tick_scenario
 

@@ -14,9 +14,9 @@ from cdpr_control.kernels import KERNELS
 from cdpr_control.config import load_config
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.geometry.rotation import from_axis_angle
-from cdpr_twin.elastic_platform import ElasticPlatform
-from cdpr_twin.plant import PlantConfig
-from cdpr_twin.rigid_platform import RigidPlatform
+from cdpr_twin.models.elastic_platform import ElasticPlatform
+from cdpr_twin.models.plant import PlantConfig
+from cdpr_twin.models.rigid_platform import RigidPlatform
 
 from conftest import CONFIG_DIR
 

@@ -10,7 +10,7 @@ import pytest
 from cdpr_control.point_mass.dynamics import direct_dynamics
 from cdpr_control.kernels import KERNELS
 from cdpr_control.setup.robot_file import load_robot
-from cdpr_twin.rigid_model import RigidCableRobot
+from cdpr_twin.models.rigid_model import RigidCableRobot
 
 from conftest import PAPER_ROBOT
 

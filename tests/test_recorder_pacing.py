@@ -1,4 +1,4 @@
-"""A plant waits for its graph's recorder (cdpr_twin.recorder_pacing): in lockstep no
+"""A plant waits for its graph's recorder (cdpr_twin.nodes.recorder_pacing): in lockstep no
 further ahead of it than a lead, and at the end of a run in either mode until it has the
 last state."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 from cdpr_bringup.bags.bag_io import LOOP_TOPICS, missing_ticks, read_topics
 from cdpr_bringup.graph.launcher import Graph, graph_nodes
 from cdpr_bringup.runs.metrics import written_statuses
-from cdpr_twin.recorder_pacing import RecorderPacing
+from cdpr_twin.nodes.recorder_pacing import RecorderPacing
 
 from conftest import (GraphLog, assert_stopped_cleanly, keep_running, settled_parameters,
                       start_until_the_plant_runs)

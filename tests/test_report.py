@@ -402,7 +402,7 @@ SHIPPED_ROBOTS = [('paper_robot', 'motions', 4), ('six_cable_robot', 'six_cable_
 
 @pytest.mark.parametrize('robot, motions, cable', SHIPPED_ROBOTS, ids=[robot for robot, _, _ in SHIPPED_ROBOTS])
 def test_the_figures_from_every_tick_are_those_of_a_full_rate_bag(robot, motions, cable):
-    """metrics.json from the plant's figures of every tick (cdpr_twin.run_figures) gives,
+    """metrics.json from the plant's figures of every tick (cdpr_twin.models.run_figures) gives,
     key for key, what the full-rate truth of every tick gives (the view topics on every
     tick, streams.view_rate_hz 0, counted as a bag of it is): on every shipped robot,
     a cable broken on its circle and recovered."""

@@ -1,4 +1,4 @@
-"""The ros2_control bridge (issue 14, item 6): the core (cdpr_twin.joint_mapping)
+"""The ros2_control bridge (issue 14, item 6): the core (cdpr_twin.nodes.joint_mapping)
 directly, then the node in this process on DDS between stand-ins shaped like
 joint_state_broadcaster (joints in another order, an extra joint) and a
 JointGroupEffortController (Float64MultiArray in its own joint order)."""
@@ -15,8 +15,8 @@ from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.geometry.rotation import difference, from_axis_angle
 from cdpr_control.point_mass.statics import holding_torque_nm
 from cdpr_msgs_py.contract import joint_names
-from cdpr_twin.joint_mapping import EffortBridge, JointMapping, JointMismatch, StaleWatch, TickStamps
-from cdpr_twin.rigid_platform import RigidPlatform
+from cdpr_twin.nodes.joint_mapping import EffortBridge, JointMapping, JointMismatch, StaleWatch, TickStamps
+from cdpr_twin.models.rigid_platform import RigidPlatform
 
 from conftest import CONFIG_DIR, PAPER_ROBOT
 
@@ -184,7 +184,7 @@ def graph():
     from std_msgs.msg import Float64MultiArray
 
     from cdpr_msgs_py import qos
-    from cdpr_twin.ros2_control_bridge_node import ROS2_CONTROL_QOS, Ros2ControlBridgeNode
+    from cdpr_twin.nodes.ros2_control_bridge_node import ROS2_CONTROL_QOS, Ros2ControlBridgeNode
 
     def listed(names):
         return '[' + ','.join(names) + ']'

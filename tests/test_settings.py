@@ -12,7 +12,7 @@ from rclpy.parameter import Parameter
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.setup.settings import flatten, unflatten
 from cdpr_fdi.supervisor_node import SupervisorNode
-from cdpr_twin.plant_simulator_node import PlantSimulatorNode
+from cdpr_twin.nodes.plant_simulator_node import PlantSimulatorNode
 
 from conftest import MOTIONS, PAPER_ROBOT
 
@@ -89,7 +89,7 @@ def test_the_plant_gets_the_failures_as_times_and_0_based_cables(scenario, tmp_p
 
 
 def test_the_plant_tracks_its_truth_against_the_generators_reference_poses_to_the_bit(scenario, tmp_path):
-    """The plant computes the tracking error of every tick (cdpr_twin.run_figures) against
+    """The plant computes the tracking error of every tick (cdpr_twin.models.run_figures) against
     the settled motion's poses, which it tabulates as the generator does: the same rows."""
     parameters = scenario.node_parameters('lockstep')['plant_simulator']
     with node_given(parameters, PlantSimulatorNode, tmp_path) as node:

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import pytest
 
-from cdpr_twin import tick_timing
-from cdpr_twin.tick_timing import TickTiming
+from cdpr_twin.nodes import tick_timing
+from cdpr_twin.nodes.tick_timing import TickTiming
 
 PERIOD_S = 0.002
 

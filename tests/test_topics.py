@@ -18,8 +18,8 @@ from cdpr_fdi.markers_node import MarkersNode
 from cdpr_fdi.supervisor_node import SupervisorNode
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state
-from cdpr_twin.digital_twin_node import DigitalTwinNode
-from cdpr_twin.plant_simulator_node import PlantSimulatorNode
+from cdpr_twin.nodes.digital_twin_node import DigitalTwinNode
+from cdpr_twin.nodes.plant_simulator_node import PlantSimulatorNode
 
 from conftest import MOTIONS, PAPER_ROBOT, REPO, settled_parameters
 

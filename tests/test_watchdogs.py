@@ -10,8 +10,8 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.control.controller import JointReference
 from cdpr_fdi.supervisor import Supervisor
-from cdpr_twin.plant import FIDELITIES, PlantSimulator
-from cdpr_twin.watchdog import BRAKING, HOLDING, OK, CommandWatchdog
+from cdpr_twin.models.plant import FIDELITIES, PlantSimulator
+from cdpr_twin.nodes.watchdog import BRAKING, HOLDING, OK, CommandWatchdog
 
 from conftest import MOTIONS, PAPER_ROBOT, kept
 
@@ -272,8 +272,8 @@ def test_twin_bridges_a_gap_in_the_references_as_the_controller_does(realtime_ro
     from cdpr_control.tension_distribution import configured_tension_distribution
     from cdpr_msgs_py.contract import joint_names
     from cdpr_msgs_py.conversions import joint_state
-    from cdpr_twin.digital_twin_node import DigitalTwinNode
-    from cdpr_twin.twin import DigitalTwin
+    from cdpr_twin.nodes.digital_twin_node import DigitalTwinNode
+    from cdpr_twin.models.twin import DigitalTwin
     control = load_section(PAPER_ROBOT, 'control')
     motion = load_motion(MOTIONS, 'along-2', False)
     table = tabulate_reference(paper_robot, configured_tension_distribution(control, paper_robot),

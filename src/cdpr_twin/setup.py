@@ -20,9 +20,9 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'digital_twin = cdpr_twin.digital_twin_node:main',
-            'plant_simulator = cdpr_twin.plant_simulator_node:main',
-            'ros2_control_bridge = cdpr_twin.ros2_control_bridge_node:main',
+            'digital_twin = cdpr_twin.nodes.digital_twin_node:main',
+            'plant_simulator = cdpr_twin.nodes.plant_simulator_node:main',
+            'ros2_control_bridge = cdpr_twin.nodes.ros2_control_bridge_node:main',
         ],
     },
 )

@@ -203,7 +203,7 @@ class RecoveryConfig:
         `replan_attempts` times (each `replan_slowdown` times longer), and the hold that
         shows SP is kept; where the recovery may be `steered` (a platform's,
         pose_approach.py), its approach's limit where that is longer. A run ends sooner
-        when its recovery does (cdpr_twin.run_length)."""
+        when its recovery does (cdpr_twin.nodes.run_length)."""
         brake = self.brake_s(float(np.linalg.norm(velocity_m_s)))
         rest = np.asarray(position_m) + 0.5 * brake * np.asarray(velocity_m_s)
         move = self.move_s(float(np.linalg.norm(np.asarray(safe_point_m) - rest)))

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from cdpr_control.control.controller import JointReference
-from cdpr_twin.twin import DigitalTwin, TwinOutput
+from cdpr_twin.models.twin import DigitalTwin, TwinOutput
 
 from .supervisor import Supervisor, Verdict
 

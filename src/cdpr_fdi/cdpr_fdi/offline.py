@@ -15,7 +15,7 @@ from cdpr_control.control.controller import JointReference, PdGains
 from cdpr_control.point_mass.kinematics import forward_kinematics
 from cdpr_control.model.robot import Robot
 from cdpr_control.tension_distribution import TensionDistribution
-from cdpr_twin.twin import DigitalTwin
+from cdpr_twin.models.twin import DigitalTwin
 
 from .config import FdiConfig, RecoveryConfig
 from .monitor import Monitor

@@ -37,7 +37,7 @@ DIAGNOSTICS = '/diagnostics'
 # as JSON, ground truth for a run's failure_time_s.
 BROKEN_AT_KEY = 'plant broken_at_s'
 # The plant simulator's /diagnostics key: the figures of the end-effector from every tick
-# (cdpr_twin.run_figures), as JSON: where the run ended among them, whatever a recorder kept.
+# (cdpr_twin.models.run_figures), as JSON: where the run ended among them, whatever a recorder kept.
 RUN_FIGURES_KEY = 'plant run figures'
 
 # The nodes of the graph, by executable. A hardware bridge takes the plant simulator's

@@ -10,7 +10,7 @@ receive time. `effort_command` holds the commands of the graph's controller only
 `effort_command/other_writers`, so that offline FDI and reports see what the motors
 obeyed. Per-cycle topics are subscribed reliable + keep-all, so none is lost. The
 newest tick written goes out on `bag_recorder/progress` (at most every
-PROGRESS_PERIOD_S), which a lockstep plant waits for (cdpr_twin.recorder_pacing).
+PROGRESS_PERIOD_S), which a lockstep plant waits for (cdpr_twin.nodes.recorder_pacing).
 On SIGINT/SIGTERM the node drains its queue, also while it is quiet as long as a writer
 of a per-tick topic is still there (at most runtime.spin.DRAIN_LIMIT_S), and closes the
 bag; if it is killed, the bag keeps every chunk flushed so far (at most
@@ -48,7 +48,7 @@ RECORDED = {topic.name: contract.message_class(topic.type)
             for topic in contract.topics_read_by(contract.BAG_RECORDER)}
 FLUSH_PERIOD_S = 0.5
 # How often the recorder says its newest tick written, at most (s): a lockstep plant
-# waiting for it runs no further ahead than its lead (cdpr_twin.recorder_pacing).
+# waiting for it runs no further ahead than its lead (cdpr_twin.nodes.recorder_pacing).
 PROGRESS_PERIOD_S = 0.02
 # The bag topic, beside effort_command, of the commands of writers other than the controller.
 OTHER_WRITERS = 'other_writers'

@@ -2,7 +2,7 @@
 
 On the elastic circle with the supervisor (the figure `cdpr-bench graph` reports against
 its goal of 50x real time), for each kernel of the elastic sub-steps
-(cdpr_twin.elastic_substeps: compiled by numba, pure Python), side by side in one
+(cdpr_twin.models.elastic_substeps: compiled by numba, pure Python), side by side in one
 process: simulated seconds per wall second, the best of its repeats, and the µs of a
 cycle; then, on one more run per kernel, the µs per cycle of each stage, timed around
 the calls the engine makes (the timer's own cost, ~0.2 µs a call, included).
@@ -16,11 +16,11 @@ from contextlib import ExitStack, contextmanager
 
 from cdpr_control.control.setpoints import Setpoints
 from cdpr_fdi.supervisor import Supervisor
-from cdpr_twin.elastic_model import ElasticCableRobot
+from cdpr_twin.models.elastic_model import ElasticCableRobot
 from cdpr_control.kernels import KERNELS
-from cdpr_twin.elastic_substeps import kernel
-from cdpr_twin.plant import PlantSimulator
-from cdpr_twin.twin import DigitalTwin
+from cdpr_twin.models.elastic_substeps import kernel
+from cdpr_twin.models.plant import PlantSimulator
+from cdpr_twin.models.twin import DigitalTwin
 
 from ..runs.engine import run_inprocess
 from ..runs.settle import ScenarioOptions, build_scenario

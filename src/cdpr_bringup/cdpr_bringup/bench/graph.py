@@ -20,7 +20,7 @@
   from /proc/<pid>/stat; and the share of the machine's cores that all its processes
   left idle.
 
-The plant reports its timing on /diagnostics (cdpr_twin.tick_timing); this bench listens
+The plant reports its timing on /diagnostics (cdpr_twin.nodes.tick_timing); this bench listens
 there, so no extra subscriber loads the per-cycle topics.
 """
 from __future__ import annotations

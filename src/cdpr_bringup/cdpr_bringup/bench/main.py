@@ -35,7 +35,7 @@ from cdpr_control.platform.steered_approach import SteeredApproach
 from cdpr_control.tension_distribution import METHODS, make_tension_distribution
 from cdpr_fdi.config import load_recovery_config
 
-from cdpr_twin.plant import FIDELITIES
+from cdpr_twin.models.plant import FIDELITIES
 
 from ..cli import command
 from ..paths import DEFAULT_ROBOT, config_file

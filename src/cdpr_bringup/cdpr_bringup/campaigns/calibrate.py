@@ -20,7 +20,7 @@ from cdpr_control.config import load_section
 from cdpr_control.geometry.motions import motion_names
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_fdi.calibration import FailureFreeRun, calibrate
-from cdpr_twin.plant import FIDELITIES
+from cdpr_twin.models.plant import FIDELITIES
 
 from ..cli import command
 from ..runs.engine import run_inprocess

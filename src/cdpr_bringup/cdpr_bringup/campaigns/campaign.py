@@ -40,7 +40,7 @@ from cdpr_control.config import load_section
 from cdpr_control.geometry.motions import motion_names
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_msgs_py.contract import FAULT
-from cdpr_twin.plant import FIDELITIES
+from cdpr_twin.models.plant import FIDELITIES
 
 from .campaign_run import WORKER_FILE, Run, SchedulerUnreachable, run_scenario
 from ..cli import INTERRUPTED_EXIT_CODE, USAGE_EXIT_CODE, command

@@ -24,9 +24,9 @@ from ..cli import USAGE_EXIT_CODE
 COMPOSABLE = {
     contract.TRAJECTORY_GENERATOR: ('cdpr_control.control.trajectory_generator_node', 'TrajectoryGeneratorNode'),
     contract.CONTROLLER: ('cdpr_control.control.controller_node', 'ControllerNode'),
-    contract.DIGITAL_TWIN: ('cdpr_twin.digital_twin_node', 'DigitalTwinNode'),
+    contract.DIGITAL_TWIN: ('cdpr_twin.nodes.digital_twin_node', 'DigitalTwinNode'),
     contract.SUPERVISOR: ('cdpr_fdi.supervisor_node', 'SupervisorNode'),
-    contract.PLANT_SIMULATOR: ('cdpr_twin.plant_simulator_node', 'PlantSimulatorNode'),
+    contract.PLANT_SIMULATOR: ('cdpr_twin.nodes.plant_simulator_node', 'PlantSimulatorNode'),
 }
 
 

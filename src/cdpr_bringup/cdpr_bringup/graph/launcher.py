@@ -24,7 +24,7 @@ import yaml
 from cdpr_msgs_py import contract
 from cdpr_control.config import Section
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
-from cdpr_twin.plant import FIDELITIES
+from cdpr_twin.models.plant import FIDELITIES
 from cdpr_msgs_py.dds import (INITIALISATION_LIMIT_S, LAUNCHER_PID_VARIABLE, DomainInUse, claim_domain,
                               shipped_environment, use_shipped_setup)
 from cdpr_msgs_py.runtime.spin import READY_MARK, SHUTDOWN_LIMIT_S, STACK_DUMP_SIGNAL

@@ -171,7 +171,7 @@ class Run:
 
     @cached_property
     def figures(self) -> dict:
-        """The figures of the end-effector (cdpr_twin.run_figures): the plant's from every
+        """The figures of the end-effector (cdpr_twin.models.run_figures): the plant's from every
         tick where it said them; else from what the bag holds — the view ticks' truth, or a
         real robot's pose and tensions as measured and estimated at every tick (noted)."""
         if self.recording.figures is not None:

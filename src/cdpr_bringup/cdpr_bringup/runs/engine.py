@@ -6,7 +6,7 @@ the recovery's: cdpr_control.control.setpoints, as the controller node); the twi
 from the same reference and the supervisor judges tick k (cdpr_fdi.monitor); its verdict
 steers the controller from tick k + contract.VERDICT_DELAY_TICKS; the plant steps under
 c. The view topics' rows are kept on the view ticks only, as the graph publishes them;
-the figures of the end-effector come from every tick (cdpr_twin.run_figures), as the
+the figures of the end-effector come from every tick (cdpr_twin.models.run_figures), as the
 plant simulator computes them.
 """
 from __future__ import annotations
@@ -19,10 +19,10 @@ from cdpr_fdi.monitor import Monitor
 from cdpr_fdi.supervisor import Supervisor, Verdict
 from cdpr_msgs_py.contract import VERDICT_DELAY_TICKS
 from cdpr_msgs_py.stamps import seconds_to_ns
-from cdpr_twin.plant import PlantSimulator
-from cdpr_twin.run_figures import RunFigures
-from cdpr_twin.run_length import RunLength
-from cdpr_twin.twin import DigitalTwin
+from cdpr_twin.models.plant import PlantSimulator
+from cdpr_twin.models.run_figures import RunFigures
+from cdpr_twin.nodes.run_length import RunLength
+from cdpr_twin.models.twin import DigitalTwin
 
 from .recording import Recording
 from .settle import Scenario

@@ -12,7 +12,7 @@ from cdpr_control.geometry.rotation import difference
 from cdpr_control.model.robot import Robot
 from cdpr_fdi.config import FdiConfig, RecoveryConfig
 from cdpr_msgs_py.contract import BROKEN_AT_KEY, JOINT_STATES, PLANT_SIMULATOR, RUN_FIGURES_KEY, SAFE_HOLD, SUPERVISOR
-from cdpr_twin.run_figures import RunFigures
+from cdpr_twin.models.run_figures import RunFigures
 
 from ..paths import LAST_DIAGNOSTICS
 from .recording import Recording
@@ -63,7 +63,7 @@ def period_of(recording) -> float:
 def figures_from_rows(robot: Robot, period_s: float, time_s, position_m, orientation, tension_n,
                       reference_position_m, reference_orientation, failure_time_s: float | None,
                       broken_cables: list[int], detection_time_s: float | None) -> dict:
-    """The figures of cdpr_twin.run_figures from the rows a bag holds (times s), for a run
+    """The figures of cdpr_twin.models.run_figures from the rows a bag holds (times s), for a run
     whose plant did not say them: its view ticks' truth, or a real robot's pose and
     tensions as measured and estimated at every tick (`reference_position_m` None: no
     tracking error). Cables 1-based."""
@@ -109,7 +109,7 @@ class KnownRun:
 
     robot: Robot
     recording: Recording
-    figures: dict                     # cdpr_twin.run_figures' summary: from every tick, or what the bag holds
+    figures: dict                     # cdpr_twin.models.run_figures' summary: from every tick, or what the bag holds
     epsilon_nm: float                 # the detection threshold ε
     failure_time_s: float | None      # the first cable's break; None: none, or unknown
     true_broken_cables: list[int] | None  # None: unknown (no ground truth)
@@ -230,7 +230,7 @@ def broken_at_of(plant: dict[str, str] | None) -> dict[int, float] | None:
 
 
 def run_figures_of(plant: dict[str, str] | None) -> dict | None:
-    """The figures of the end-effector from every tick (cdpr_twin.run_figures) the plant
+    """The figures of the end-effector from every tick (cdpr_twin.models.run_figures) the plant
     simulator said in its status key-values (None when it never said)."""
     if plant is None or RUN_FIGURES_KEY not in plant:
         return None

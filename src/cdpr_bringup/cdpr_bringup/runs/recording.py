@@ -46,7 +46,7 @@ class Recording:
     missing_ticks: dict[str, int] | None = None
     # A bag's: per topic read (relative name), how many ticks it holds.
     ticks_held: dict[str, int] | None = None
-    # The figures of the end-effector from every tick (cdpr_twin.run_figures: the summary
+    # The figures of the end-effector from every tick (cdpr_twin.models.run_figures: the summary
     # of RunFigures), as the plant simulator said them in its last status or the in-process
     # engine computed them; None: unknown (a bag without the plant's status).
     figures: dict | None = None

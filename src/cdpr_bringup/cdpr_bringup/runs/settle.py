@@ -24,7 +24,7 @@ from cdpr_fdi.markers import Frame, MarkerStyle
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_msgs_py.contract import SETTINGS_OF, SETTINGS_OF_EVERY_NODE, ViewTicks
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
-from cdpr_twin.plant import FIDELITIES, PlantConfig, Push, settled_pushes
+from cdpr_twin.models.plant import FIDELITIES, PlantConfig, Push, settled_pushes
 
 from ..cli import UsageError
 from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file, shipped_calibration_document

@@ -25,7 +25,7 @@ import yaml
 
 from cdpr_fdi.markers import Frame
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
-from cdpr_twin.plant import FIDELITIES
+from cdpr_twin.models.plant import FIDELITIES
 
 from ..cli import INTERRUPTED_EXIT_CODE, command
 from ..runs.engine import run_inprocess

@@ -22,7 +22,7 @@ class KinematicsError(ValueError):
 class Body(ABC):
     """The interface of an end-effector's body (module docstring)."""
 
-    # Names the body's implementations in other packages (the plants, cdpr_twin.plant).
+    # Names the body's implementations in other packages (the plants, cdpr_twin.models.plant).
     kind: str
     degrees_of_freedom: int
     # cables the robot needs to keep every degree of freedom after one breaks

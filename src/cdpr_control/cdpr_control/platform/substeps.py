@@ -545,7 +545,7 @@ def steered_rows(constants, exits, attachments, attached, target, gains, bounds,
 
 def rigid_substeps(substeps, h, constants, exits, attachments, offsets, attached, torque, external_wrench,
                    pose, twist, angle, speed, tension, taut) -> None:
-    """`substeps` sub-steps of `h` s of the rigid model (cdpr_twin.rigid_platform), the
+    """`substeps` sub-steps of `h` s of the rigid model (cdpr_twin.models.rigid_platform), the
     state updated in place: each solves the direct dynamics with the attached cables not
     paid out beyond their straight-line length, moves, and puts the taut motors back on
     the kinematic constraint l = d, θ̇ = ḋ / ρ."""
@@ -598,7 +598,7 @@ def spring_tensions(constants, exits, attachments, offsets, attached, pose, twis
 
 def elastic_substeps(substeps, h, constants, exits, attachments, offsets, attached, torque, external_wrench,
                      drums_locked, pose, twist, angle, speed, tension) -> None:
-    """`substeps` sub-steps of `h` s of the elastic model (cdpr_twin.elastic_platform), the
+    """`substeps` sub-steps of `h` s of the elastic model (cdpr_twin.models.elastic_platform), the
     state updated in place: the twist with the tensions of the sub-step's start, then the
     pose and the motors with the new speeds, then the tensions of the end. Motors carry
     viscous and Coulomb friction (smoothed by tanh); locked drums neither pay out nor wind."""

@@ -5,7 +5,7 @@ stamped with tick k has arrived; bit-for-bit repeatable. realtime: steps on the 
 clock, a period at a time from its first tick (CdprNode.due_s: no drift), with zero-order
 hold of the last command, as hardware does. Exits with
 code 0 after the settled run's `run.last_tick` (the run is complete; sooner, as
-cdpr_twin.run_length says, once a recovery is over). The run's start, failures and
+cdpr_twin.nodes.run_length says, once a recovery is over). The run's start, failures and
 length are values the launcher settled (cdpr_control.setup.settings): the plant knows no motion.
 Obeys the commands of the graph's controller only (parameter `command_writer`), as a
 hardware bridge must. A cable breaks on `inject_failure` only where the plant was
@@ -35,12 +35,12 @@ from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import stamp_to_ns
 
-from .plant import PlantConfig, PlantSimulator, settled_pushes
-from .recorder_pacing import RecorderPacing
-from .run_figures import RunFigures
-from .run_length import RunLength
-from .watchdog import BRAKING, CommandWatchdog
-from .tick_timing import TickTiming
+from cdpr_twin.models.plant import PlantConfig, PlantSimulator, settled_pushes
+from cdpr_twin.nodes.recorder_pacing import RecorderPacing
+from cdpr_twin.models.run_figures import RunFigures
+from cdpr_twin.nodes.run_length import RunLength
+from cdpr_twin.nodes.watchdog import BRAKING, CommandWatchdog
+from cdpr_twin.nodes.tick_timing import TickTiming
 
 
 # How far ahead of the recorder a lockstep run may be (s of ticks): well within the

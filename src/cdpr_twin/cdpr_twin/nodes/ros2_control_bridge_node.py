@@ -6,7 +6,7 @@ joints matched by name through `robot_joints`) and publishes it as the graph's
 `joint_states` in motor order, stamped on the tick grid; sends the graph's
 `effort_command`, from the graph's controller only (`command_writer`), to a
 JointGroupEffortController (`controller_commands_topic`, Float64MultiArray in the order
-of `controller_joints`). The decisions are cdpr_twin.joint_mapping's: when the commands
+of `controller_joints`). The decisions are cdpr_twin.nodes.joint_mapping's: when the commands
 stop it lets the effort controller hold the last one `plant.command_timeout_cycles`
 periods, then sends the static holding torque of the measured pose; robot data silent
 for `control.stale_cycles` periods is an ERROR in /diagnostics.
@@ -26,7 +26,7 @@ from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import seconds_to_ns, stamp_to_ns
 
-from .joint_mapping import EffortBridge, JointMapping, JointMismatch, StaleWatch, TickStamps
+from cdpr_twin.nodes.joint_mapping import EffortBridge, JointMapping, JointMismatch, StaleWatch, TickStamps
 
 # What ros2_control's joint_state_broadcaster publishes and its forward command
 # controllers subscribe with (rclcpp's SystemDefaultsQoS): reliable, volatile, keep last 10.

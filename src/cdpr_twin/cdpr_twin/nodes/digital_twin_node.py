@@ -13,7 +13,7 @@ from cdpr_msgs_py.conversions import joint_state_bytes, pose_stamped
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 
-from .twin import DigitalTwin
+from cdpr_twin.models.twin import DigitalTwin
 
 
 class DigitalTwinNode(CdprNode):

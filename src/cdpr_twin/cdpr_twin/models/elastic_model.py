@@ -27,7 +27,7 @@ from cdpr_control.geometry.rotation import IDENTITY
 from cdpr_control.point_mass.dynamics import NO_FORCE
 from cdpr_control.point_mass.statics import static_tensions
 
-from .elastic_substeps import kernel as substep_kernel
+from cdpr_twin.models.elastic_substeps import kernel as substep_kernel
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,8 @@ from cdpr_control.control import tracking
 from cdpr_control.control.controller import JointController, JointReference, PdGains
 from cdpr_control.model.robot import Robot
 
-from .rigid_model import RigidCableRobot
-from .rigid_platform import RigidPlatform
+from cdpr_twin.models.rigid_model import RigidCableRobot
+from cdpr_twin.models.rigid_platform import RigidPlatform
 
 
 # The rigid model of each body (Body.kind): the twin's, and the plant's `rigid` fidelity.

@@ -21,11 +21,11 @@ from cdpr_control.config import Section
 from cdpr_control.point_mass.dynamics import NO_FORCE
 from cdpr_control.model.robot import Robot
 
-from .elastic_model import DriveTrain, ElasticCableRobot
-from .elastic_platform import ElasticPlatform
+from cdpr_twin.models.elastic_model import DriveTrain, ElasticCableRobot
+from cdpr_twin.models.elastic_platform import ElasticPlatform
 from cdpr_control.kernels import KERNELS
-from .rigid_model import RigidCableRobot
-from .rigid_platform import RigidPlatform
+from cdpr_twin.models.rigid_model import RigidCableRobot
+from cdpr_twin.models.rigid_platform import RigidPlatform
 
 FIDELITIES = ('rigid', 'elastic', 'field')
 # Instants closer than this (s) are one: summed 2 ms periods drift by ~1e-13 s.

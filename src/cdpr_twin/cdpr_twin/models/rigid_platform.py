@@ -11,7 +11,7 @@ from cdpr_control.platform.dynamics import wrench_at_origin
 from cdpr_control.model.robot import Robot
 from cdpr_control.geometry.rotation import normalised
 
-from .rigid_model import RETAUT_TOLERANCE_M
+from cdpr_twin.models.rigid_model import RETAUT_TOLERANCE_M
 
 class RigidPlatform:
     """State: pose (p, q), twist (v, ω), motors θ, θ̇ (rad, rad/s); taut cables tie θ to

@@ -21,7 +21,7 @@ import numpy as np
 from cdpr_control.model.body import KinematicsError
 from cdpr_control.model.robot import Robot
 
-from .watchdog import BRAKING, CommandWatchdog
+from cdpr_twin.nodes.watchdog import BRAKING, CommandWatchdog
 
 
 class JointMismatch(ValueError):
