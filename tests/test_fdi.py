@@ -17,8 +17,10 @@ from cdpr_control.point_mass.workspace import polygon_centroid, safe_point, sew_
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.detectors import CusumDetector, ThresholdDetector
 from cdpr_fdi.identification import identify_broken_cables
-from cdpr_fdi.recovery import (Recovery, RecoveryInfeasible, TabulatedMove, entry_point, initial_tensions,
-                               least_static_tension_n, safe_point_for, taut_tension_n)
+from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
+from cdpr_fdi.recovery_strategies.base import TabulatedMove
+from cdpr_fdi.recovery_strategies.paper import (Recovery, entry_point, initial_tensions, least_static_tension_n,
+                                                taut_tension_n)
 from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
 from cdpr_fdi.supervisor import Supervisor
 from cdpr_fdi.tension_collapse import TensionCollapse

@@ -3,7 +3,7 @@ item 1), in the in-process engine as cdpr-scenario runs it: every one of the eig
 cables once, at a random instant of the rotating motion, forward or backward, on the
 rigid plant; the hardest cable on the elastic plant (the whole matrix: cdpr-campaign,
 docs/platform.md). Then the recovery in pose space: steered to its safe pose under
-tensions within their bounds, or FAULT, saying why; with recovery.platform_recovery
+tensions within their bounds, or FAULT, saying why; with recovery.strategy
 `braked`, braked and moved there where the remaining cables hold the platform at rest."""
 from __future__ import annotations
 
@@ -20,8 +20,8 @@ from cdpr_control.geometry.pose_trajectories import PoseSample
 from cdpr_control.geometry.rotation import difference
 from cdpr_control.tension_distribution import InfeasibleTensionError
 from cdpr_fdi.planning import PlanAtOnce, PlanInBackground
-from cdpr_fdi import pose_recovery
-from cdpr_fdi.pose_recovery import PoseRecovery
+from cdpr_fdi.recovery_strategies import braked as braked_strategy
+from cdpr_fdi.recovery_strategies.braked import PoseRecovery
 from cdpr_fdi.recovery import safe_pose_for
 from cdpr_msgs_py.contract import VERDICT_DELAY_TICKS
 
@@ -123,8 +123,8 @@ def recovered_within_the_bounds(run, cable: int):
 
 
 def braked(run):
-    """`run` with its platform braked where the cables left hold it (recovery.platform_recovery)."""
-    return dataclasses.replace(run, recovery=dataclasses.replace(run.recovery, platform_recovery='braked'))
+    """`run` with its platform braked where the cables left hold it (recovery.strategy)."""
+    return dataclasses.replace(run, recovery=dataclasses.replace(run.recovery, strategy='braked'))
 
 
 def least_tension_after_naming(run) -> tuple[float, dict]:
@@ -214,11 +214,11 @@ def test_a_recovery_starts_from_where_the_naming_tick_takes_the_platform(monkeyp
     nominal controller commanded, and the steered approach starts where they take it.
     Every cable stays at τ_min or more; planned from the platform as it was named, the
     drives chase the difference and a cable falls below τ_min."""
-    from cdpr_fdi import pose_approach
+    from cdpr_fdi.recovery_strategies import steered
     run = steered_run('climb-tilt', 'rigid', 1, 0.3529594168973901, seed=0)
     least, fdi = least_tension_after_naming(run)
     assert fdi['mode'] == 'SAFE_HOLD' and least >= run.robot.tension_min_n, (least, fdi)
-    monkeypatch.setattr(pose_approach, 'after_the_naming_tick',
+    monkeypatch.setattr(steered, 'after_the_naming_tick',
                         lambda robot, attached, *state_and_command: PoseSample(*state_and_command[:4], *[np.zeros(3)] * 2))
     assert least_tension_after_naming(run)[0] < run.robot.tension_min_n
 
@@ -292,7 +292,7 @@ def test_a_brake_whose_tries_come_too_late_keeps_every_cable_above_the_floor(mon
     run = braked(broken_at_fraction('circle', 'elastic', 7, 0.5075097549640587, seed=0))
     in_time, fdi = least_tension_after_naming(run)
     assert fdi['mode'] == 'SAFE_HOLD' and in_time >= run.robot.tension_min_n, (in_time, fdi['mode'])
-    monkeypatch.setattr(pose_recovery, 'PlanAtOnce', TriesTooLate)
+    monkeypatch.setattr(braked_strategy, 'PlanAtOnce', TriesTooLate)
     monkeypatch.setattr(TriesTooLate, 'withheld', 0)
     late, fdi = least_tension_after_naming(run)
     assert TriesTooLate.withheld == 1

@@ -20,6 +20,7 @@ from cdpr_control.platform.steered_approach import ApproachGains
 from cdpr_control.geometry.trajectories import QUINTIC_PEAK_SPEED_RATIO
 
 from .detectors import DETECTORS
+from .recovery_strategies import configured_strategy
 
 
 @dataclass(frozen=True)
@@ -147,12 +148,6 @@ def check_calibration_robot(calibration: Section, robot: Robot, config_path: str
             f'cdpr-calibrate --config {config_path} --motions MOTIONS.yaml --out FILE')
 
 
-# How a platform is recovered after a break (docs/platform.md): steered to its safe pose
-# (pose_approach.py), or braked to rest and moved there where the cables left hold it
-# where it is named (pose_recovery.py; steered elsewhere).
-PLATFORM_RECOVERIES = ('steered', 'braked')
-
-
 @dataclass(frozen=True)
 class RecoveryConfig:
     """Paper §3.2: where to go after a failure and how (heights m, times s, speeds)."""
@@ -178,7 +173,8 @@ class RecoveryConfig:
     swing_damping_ratio: float
     safe_pose_turns_deg: tuple[float, ...]
     safe_pose_grid_m: float
-    platform_recovery: str
+    # the name of the recovery strategy (recovery_strategies/), `auto` resolved
+    strategy: str
     approach_gains: ApproachGains
     approach_tension_margin_n: float
     approach_turn_limit_deg: float
@@ -202,8 +198,8 @@ class RecoveryConfig:
         (the case outside the residual workspace), braking, the move to SP re-planned
         `replan_attempts` times (each `replan_slowdown` times longer), and the hold that
         shows SP is kept; where the recovery may be `steered` (a platform's,
-        pose_approach.py), its approach's limit where that is longer. A run ends sooner
-        when its recovery does (cdpr_twin.nodes.run_length)."""
+        recovery_strategies/steered.py), its approach's limit where that is longer. A run
+        ends sooner when its recovery does (cdpr_twin.nodes.run_length)."""
         brake = self.brake_s(float(np.linalg.norm(velocity_m_s)))
         rest = np.asarray(position_m) + 0.5 * brake * np.asarray(velocity_m_s)
         move = self.move_s(float(np.linalg.norm(np.asarray(safe_point_m) - rest)))
@@ -260,7 +256,7 @@ class RecoveryConfig:
             swing_damping_ratio=recovery.number('swing_damping_ratio', non_negative=True),
             safe_pose_turns_deg=tuple(turns.tolist()),
             safe_pose_grid_m=recovery.number('safe_pose_grid_m', positive=True),
-            platform_recovery=recovery.string('platform_recovery', choices=PLATFORM_RECOVERIES),
+            strategy=configured_strategy(recovery, robot),
             approach_gains=ApproachGains(
                 position_frequency_rad_s=recovery.number('approach_frequency_rad_s', positive=True),
                 orientation_frequency_rad_s=recovery.number('approach_turn_frequency_rad_s', positive=True),

@@ -24,10 +24,9 @@ import numpy as np
 
 from cdpr_control.config import Section
 from cdpr_control.model.robot import Robot
-from cdpr_control.point_mass.workspace import sew_cross_section
 
 from .config import RecoveryConfig
-from .recovery import RecoveryInfeasible, safe_point_for, safe_pose_for
+from .recovery import RecoveryInfeasible, safe_target
 
 # Every point is in the world frame of docs/design.md §4 (z up).
 FRAME_ID = 'world'
@@ -170,32 +169,22 @@ class Frame:
         return self.robot.cable_mask([cable - 1 for cable in self.broken_cables])
 
     def on_broken_cable(self, cable: int) -> None:
-        """fdi/broken_cable: 0 while healthy, then each broken cable (1-based)."""
+        """fdi/broken_cable: 0 while healthy, then each broken cable (1-based): the safe
+        target after the cables broken so far (recovery.safe_target), its residual section,
+        and where it has an orientation, the platform's body there; nothing where there is
+        none."""
         if cable <= 0 or cable in self.broken_cables:
             return
         self.broken_cables.append(cable)
-        if self.robot.body.has_orientation:
-            self.on_platform_broken_cable()
-            return
+        self.safe_point_m = self.sew_outline_m = self.safe_body_m = self.residual_section_m = None
         try:
-            self.safe_point_m = safe_point_for(self.robot, self.recovery, self.attached)
-            outline = sew_cross_section(self.robot, self.attached, self.safe_point_m[2])
-            self.sew_outline_m = np.column_stack([outline, np.full(len(outline), self.safe_point_m[2])])
+            target = safe_target(self.robot, self.recovery, self.attached)
         except RecoveryInfeasible:
-            self.safe_point_m = self.sew_outline_m = None
-
-    def on_platform_broken_cable(self) -> None:
-        """A platform's safe pose after the cables broken so far: its position, its body
-        there, and the points of its residual section; nothing where there is none."""
-        try:
-            pose = safe_pose_for(self.robot, self.recovery, self.attached)
-        except RecoveryInfeasible:
-            self.safe_point_m = self.safe_body_m = self.residual_section_m = None
             return
-        self.safe_point_m = pose.position_m
-        self.safe_body_m = platform_body(self.robot, pose.position_m, pose.orientation)
-        self.residual_section_m = np.column_stack([pose.section_m, np.full(len(pose.section_m),
-                                                                           pose.position_m[2])])
+        self.safe_point_m = target.position_m
+        self.sew_outline_m, self.residual_section_m = target.outline_m, target.section_points_m
+        if target.orientation is not None:
+            self.safe_body_m = platform_body(self.robot, target.position_m, target.orientation)
 
     def on_view(self, name: str, stamp_ns: int, value) -> None:
         """A view message of the tick stamped `stamp_ns`: `name` twin, reference or
@@ -241,6 +230,7 @@ class Frame:
             shapes.append(_single('sew_outline', LINE_STRIP, closed, SEW_COLOUR, style.line_width_m))
         if self.safe_body_m is not None:
             shapes.append(_single('safe_pose', LINE_LIST, self.safe_body_m, SAFE_POINT_COLOUR, style.cable_width_m))
+        if self.residual_section_m is not None:
             shapes.append(_single('residual_section', SPHERE_LIST, self.residual_section_m, SEW_COLOUR,
                                   style.line_width_m))
         if len(self.path_m) >= 2:

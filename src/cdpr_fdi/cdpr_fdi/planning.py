@@ -2,7 +2,7 @@
 
 A recovery sends its brake's first ticks at the naming, and plans the rest of the brake
 (its tries), then the move from where the brake brings the platform to rest
-(pose_recovery.py). The in-process engine and a lockstep graph plan them at once:
+(recovery_strategies/braked.py). The in-process engine and a lockstep graph plan them at once:
 nothing moves meanwhile. A realtime supervisor cannot stop judging ticks and sending
 the brake's references for the up to ~25 ms and ~0.7 s they take to plan on this
 machine (docs/platform.md): it plans them on a thread of its own while the platform

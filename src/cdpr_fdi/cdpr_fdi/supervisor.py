@@ -13,11 +13,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cdpr_control.platform import substeps as platform_substeps
 from cdpr_control.control.controller import JointReference
-from cdpr_control.point_mass.kinematics import KinematicsError, forward_kinematics
+from cdpr_control.point_mass.kinematics import KinematicsError
 from cdpr_control.model.robot import Robot
-from cdpr_control.platform.safe_pose import tension_margin_n
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_msgs_py.contract import FAULT, NOMINAL, VERDICT_DELAY_TICKS
 
@@ -25,12 +23,10 @@ from . import tick_arithmetic
 from .config import FdiConfig, RecoveryConfig
 from .detectors import make_detector
 from .identification import identify_broken_cables
-from .pose_approach import PoseApproach
-from .pose_recovery import PlatformRecovery, PoseRecovery
-from .recovery import (Recovery, RecoveryInfeasible, check_recoverable, entry_point, find_safe_poses,
-                       initial_tensions, taut_tension_n)
+from .recovery import RecoveryInfeasible, check_recoverable
+from .recovery_strategies import STRATEGIES, Naming, StartedRecovery
 from .tension_collapse import TensionCollapse
-from .wrench_balance import WrenchBalance, overstretch_m, placement
+from .wrench_balance import WrenchBalance, overstretch_m
 
 
 class AlarmEvidence:
@@ -98,8 +94,10 @@ class Supervisor:
 
     def __init__(self, robot: Robot, fdi: FdiConfig, recovery: RecoveryConfig,
                  distribution: TensionDistribution, period_s: float, planner=None):
-        """`planner` plans the rest of a platform's brake and its move to the safe pose
-        (planning.py: at once when None; a realtime node's on a thread of its own)."""
+        """`planner` plans what a recovery plans beside the loop (planning.py: at once when
+        None; a realtime node's on a thread of its own): a platform's brake and its move to
+        the safe pose. The recovery strategy is recovery.strategy's (recovery_strategies/),
+        prepared now: the naming tick has no time to load kernels or find safe poses."""
         self.robot = robot
         self.planner = planner
         self.fdi = fdi
@@ -112,17 +110,14 @@ class Supervisor:
         self.alarm_tick: int | None = None
         self.identified_tick: int | None = None
         self.unidentified_alarms = 0
-        self.recovery: Recovery | None = None
+        self.strategy = STRATEGIES[recovery.strategy]
+        self.recovery: StartedRecovery | None = None
         self.fault_reason = ''
         self.previous_speed: np.ndarray | None = None
         self.previous_reference: JointReference | None = None
         self.tension_bounds_n = (np.zeros(robot.cable_count), np.zeros(robot.cable_count))
         # the per-tick arithmetic (tick_arithmetic), and what it takes of the robot
         self.arithmetic = tick_arithmetic.kernel().load_all()
-        if robot.body.has_orientation:
-            # a platform's recovery steps its steered approach with them from the naming
-            # on, when there is no time to load (or compile) them
-            platform_substeps.kernel().load_all()
         self.motor_constants = tick_arithmetic.motor_constants(robot.motor, fdi.friction)
         self.evidence = AlarmEvidence(fdi.identification_window_cycles)
         self.collapse = TensionCollapse(fdi.collapse_window_cycles, fdi.collapse_band_n,
@@ -147,7 +142,7 @@ class Supervisor:
         self.overstretched_since: dict[int, int] = {}
         self.disturbance_reported = False
         self.disturbances = 0
-        find_safe_poses(robot, recovery)
+        self.strategy.prepare(robot, recovery)
 
     def update(self, tick: int, angle_rad, angular_velocity_rad_s, applied_torque_nm,
                command_nm, twin_torque_nm, twin_angular_velocity_rad_s,
@@ -223,8 +218,7 @@ class Supervisor:
                 # the pose cannot be found or the move to SP cannot be planned: hold
                 self.mode, tensions, setpoint = FAULT, None, None
                 self.fault_reason = f'recovery failed at tick {tick}: {err}'
-            if isinstance(self.recovery, PlatformRecovery):
-                events += self.recovery.take_notes()
+            events += self.recovery.take_notes()
             if self.mode != previous_mode:
                 events.append(f'{self.mode} from tick {tick + VERDICT_DELAY_TICKS}'
                               + (f': {self.fault_reason}' if self.mode == FAULT else ''))
@@ -366,39 +360,15 @@ class Supervisor:
                   f'{self.alarm_tick}, identified at tick {tick}']
         try:
             check_recoverable(self.robot, attached)
-            if self.robot.body.has_orientation:
-                self.recovery = self.pose_recovery(tick, attached, angle_rad, angular_velocity_rad_s, command_nm)
-                return events
-            position = forward_kinematics(self.robot, np.asarray(angle_rad, float), attached)
-            taut = taut_tension_n(self.robot, self.recovery_config, attached)
-            entry = entry_point(self.robot, attached, position, taut)
-            start = initial_tensions(self.robot, position, attached,
-                                     forward_kinematics(self.robot, reference.angle_rad),
-                                     self.reference_tensions(reference),
-                                     np.asarray(command_nm, float) - reference.feedforward_nm, taut)
-            self.recovery = Recovery(self.robot, self.recovery_config, self.distribution,
-                                     self.period_s, attached, tick, start, entry,
-                                     inside=bool(np.all(entry == position)))
+            self.recovery = self.strategy.start(Naming(
+                self.robot, self.recovery_config, self.distribution, self.period_s, self.planner, tick, attached,
+                np.asarray(angle_rad, float), np.asarray(angular_velocity_rad_s, float),
+                np.asarray(command_nm, float), reference, self.reference_tensions(reference)))
         except (RecoveryInfeasible, ValueError) as err:
             self.mode = FAULT
             self.fault_reason = str(err)
             events.append(f'FAULT: {err}')
         return events
-
-    def pose_recovery(self, tick: int, attached: np.ndarray, angle_rad, angular_velocity_rad_s,
-                      command_nm) -> PoseRecovery | PoseApproach:
-        """A platform's recovery from its pose and velocity as the remaining cables give
-        them, and the torques commanded on the tick: steered to its safe pose
-        (pose_approach.py), or with recovery.platform_recovery `braked`, braked where it
-        is and moved there where those cables hold it there (pose_recovery.py);
-        RecoveryInfeasible where it cannot start."""
-        position, orientation, twist, _ = placement(self.robot, angle_rad, angular_velocity_rad_s, attached)
-        if (self.recovery_config.platform_recovery == 'steered'
-                or tension_margin_n(self.robot, position, orientation, attached) < 0.0):
-            return PoseApproach(self.robot, self.recovery_config, self.distribution, self.period_s, attached,
-                                tick, position, orientation, twist[:3], twist[3:], command_nm)
-        return PoseRecovery(self.robot, self.recovery_config, self.distribution, self.period_s, attached, tick,
-                            position, orientation, twist[:3], twist[3:], command_nm, self.planner)
 
     def planned_references(self, tick: int, count: int, due_tick: int | None = None) -> list[tuple[int, JointReference]]:
         """(tick, joint reference) of the `count` ticks after tick + VERDICT_DELAY_TICKS that the recovery's
@@ -422,11 +392,10 @@ class Supervisor:
         return tension
 
     def summary(self) -> dict:
-        """What happened so far, in plain types (ticks, 1-based cables, SP in m; a
-        platform's recovery also its safe orientation, a unit quaternion w, x, y, z)."""
+        """What happened so far, in plain types (ticks, 1-based cables, SP in m), and what
+        the recovery adds (a platform's: its safe orientation, a unit quaternion w, x, y,
+        z)."""
         recovery = self.recovery
-        platform = ({'safe_orientation': recovery.safe_orientation.tolist()}
-                    if isinstance(recovery, PlatformRecovery) else {})
         return {
             'alarm_tick': self.alarm_tick,
             'identified_tick': self.identified_tick,
@@ -440,5 +409,5 @@ class Supervisor:
             'late_commands': self.late_commands,
             'unjudged_ticks': self.unjudged_ticks,
             'disturbances': self.disturbances,
-            **platform,
+            **({} if recovery is None else recovery.summary()),
         }

@@ -22,6 +22,7 @@ from cdpr_control.geometry.rotation import conjugate, from_axis_angle, product, 
 from cdpr_control.point_mass.workspace import safe_point
 from cdpr_fdi.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.recovery import RecoveryInfeasible, safe_pose_for
+from cdpr_fdi.recovery_strategies import STRATEGIES
 
 from ..cli import command
 from ..paths import DEFAULT_MOTIONS, DEFAULT_ROBOT, config_file
@@ -160,9 +161,8 @@ def print_platform(robot, config, distribution, motions, period_s: float, safe_h
         print(f'  after cable {i + 1}: p = ({pose.position_m[0]:.3f}, {pose.position_m[1]:.3f}, '
               f'{pose.position_m[2]:.3f}) m, turned ({turn[0]:.1f}, {turn[1]:.1f}, {turn[2]:.1f})° from the '
               f'nominal orientation, margin {pose.tension_margin_n:.2f} N')
-    how = ('steered to its safe pose under tensions within their bounds' if recovery.platform_recovery == 'steered'
-           else 'braked and moved to its safe pose where the cables left hold it at rest, else steered there')
-    print(f'after a break: {how} (recovery.platform_recovery; docs/platform.md)')
+    print(f'after a break: {STRATEGIES[recovery.strategy].description} (recovery.strategy; '
+          f'docs/recovery-strategies.md)')
 
 
 @command('cdpr-robot')

@@ -1,4 +1,5 @@
-"""A platform's recovery after a cable failure, in pose space (issue 29; docs/platform.md).
+"""A platform's recovery braked where it is named, recovery.strategy `braked` (issue 29;
+docs/platform.md).
 
 Where the remaining cables can hold the platform at rest where it is at the naming —
 static tensions within [τ_min, τ_max] exist at its pose — position control takes over at
@@ -36,7 +37,7 @@ position control keeps the platform on its way. What each part gave up is said o
 (`take_notes`).
 
 Where no static tensions within the bounds hold the platform at its pose it cannot be
-braked to rest there: pose_approach.py steers it to its safe pose instead.
+braked to rest there: it is steered to its safe pose instead (steered.py).
 """
 from __future__ import annotations
 
@@ -46,24 +47,21 @@ from concurrent.futures import Future
 
 import numpy as np
 
-from cdpr_control.platform import substeps as platform_substeps
-from cdpr_control.platform import dynamics as pose_dynamics
 from cdpr_control.control.controller import JointReference
-from cdpr_control.platform.kinematics import joint_velocity
 from cdpr_control.platform.reference import PoseReferenceTable, tabulate_pose_reference, tabulate_pose_references
 from cdpr_control.geometry.pose_trajectories import BrakedTurn, PoseSample, PoseTrajectory, Turn
 from cdpr_control.model.robot import Robot
 from cdpr_control.geometry.rotation import difference, from_rotation_vector, normalised, product
 from cdpr_control.platform.safe_pose import tension_margin_n
-from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError, LoweredFloor,
-                                               TensionDistribution, make_tension_distribution)
+from cdpr_control.tension_distribution import FlooredLeastSquares, InfeasibleTensionError, TensionDistribution
 from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N
 from cdpr_control.geometry.trajectories import HermiteQuintic, Hold, Sequence
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 
-from .config import RecoveryConfig
-from .planning import PlanAtOnce
-from .recovery import safe_pose_for, table_reference
+from ..planning import PlanAtOnce
+from .base import Naming, RecoveryStrategy, StartedRecovery, table_reference
+from .platform import PlatformRecovery, after_the_naming_tick, ease_in, named_state, prepare_platform
+from .steered import approach
 
 # Least tensions (N) of two tries this close count as equal (best_of says which is kept).
 LEAST_TENSION_RESOLUTION_N = 0.01
@@ -80,41 +78,6 @@ def brake_from(state: PoseSample, duration_s: float, rest_m, rest_orientation) -
                                            difference(rest_orientation, state.orientation)))
 
 
-def after_the_naming_tick(robot: Robot, attached: np.ndarray, position_m, orientation, velocity_m_s,
-                          angular_velocity_rad_s, command_nm, period_s: float) -> PoseSample:
-    """The platform's state on the tick its recovery takes over, VERDICT_DELAY_TICKS
-    periods after the naming tick's (p, q, v, ω): the torques `command_nm` commanded on
-    the naming tick move it over the first period, and the controller's nominal answer of
-    the tick after, not known here, is taken as the same (the rigid model's direct
-    dynamics, a period at a time by semi-implicit Euler as the steered approach's rows
-    are, platform_substeps.move). A recovery's plans start there — planned from the
-    naming state with their own motion over those periods, the drives chased the
-    difference at the takeover (docs/platform.md). Its accelerations are zero (the plans
-    set their own)."""
-    pose = np.concatenate([np.asarray(position_m, dtype=float), normalised(orientation)])
-    twist = np.concatenate([np.asarray(velocity_m_s, dtype=float), np.asarray(angular_velocity_rad_s, dtype=float)])
-    for _ in range(VERDICT_DELAY_TICKS):
-        position, turned, velocity, angular_velocity = pose[:3], pose[3:], twist[:3], twist[3:]
-        commanded = pose_dynamics.direct_dynamics(robot, position, turned, velocity, angular_velocity, command_nm,
-                                                  joint_velocity(robot, position, turned, velocity, angular_velocity),
-                                                  attached)
-        acceleration = np.concatenate([commanded.acceleration_m_s2, commanded.angular_acceleration_rad_s2])
-        platform_substeps.kernel().move(pose, twist, acceleration, period_s)
-    zero = np.zeros(3)
-    return PoseSample(pose[:3].copy(), pose[3:].copy(), twist[:3].copy(), twist[3:].copy(), zero, zero)
-
-
-def ease_in(table: PoseReferenceTable, command_nm: np.ndarray, step_share: float, attached: np.ndarray,
-            drum_radius_m: float) -> None:
-    """The first row the controller tracks (row 0, the tick after the naming) takes
-    `step_share` of the step from `command_nm` to its feed-forward, the next row the rest:
-    a step in torque rings elastic cables, and half of it rings them half as much
-    (docs/platform.md)."""
-    held = (1.0 - step_share) * (command_nm - table.feedforward_nm[0]) * attached
-    table.feedforward_nm[0] += held
-    table.tension_n[0] -= held / drum_radius_m
-
-
 def joined(first: PoseReferenceTable, rows: int, rest: PoseReferenceTable) -> PoseReferenceTable:
     """`first`'s first `rows` rows, then `rest`'s (its first row the state `first` has there)."""
     return PoseReferenceTable(first.period_s, *(np.concatenate([getattr(first, field.name)[:rows],
@@ -122,50 +85,19 @@ def joined(first: PoseReferenceTable, rows: int, rest: PoseReferenceTable) -> Po
                                                 for field in dataclasses.fields(first)[1:]))
 
 
-class PlatformRecovery:
-    """What a platform's recoveries share (this one, and pose_approach's): the safe pose of
-    the `attached` cables left (recovery.safe_pose_for; RecoveryInfeasible where there is
-    none), the recovery's distribution with its margin above τ_min, lowered where a pose
-    needs it, the mode and the ticks each phase began on (the first row of a plan is the
-    tick after the naming's), and the notes to say once."""
-
-    def __init__(self, robot: Robot, config: RecoveryConfig, distribution: TensionDistribution,
-                 period_s: float, attached: np.ndarray, start_tick: int):
-        safe = safe_pose_for(robot, config, attached)
-        self.robot = robot
-        self.config = config
-        self.period_s = period_s
-        self.attached = np.asarray(attached, dtype=bool).copy()
-        self.safe_point_m = safe.position_m
-        self.safe_orientation = safe.orientation
-        self.margin = make_tension_distribution(
-            distribution.name, distribution.tension_min_n + config.plan_tension_margin_n, distribution.tension_max_n)
-        self.lowered = LoweredFloor(self.margin, robot.tension_min_n)
-        self.mode = RECOVERY_MOVE
-        self.phase_ticks = {RECOVERY_MOVE: start_tick}
-        self.first_tick = start_tick + VERDICT_DELAY_TICKS
-        self.timed_out = False
-        self.notes: list[str] = []
-
-    def take_notes(self) -> list[str]:
-        """What the plans gave up, or how they came late, each said once."""
-        notes, self.notes = self.notes, []
-        return notes
-
-
 class PoseRecovery(PlatformRecovery):
-    """Steps through a platform's recovery, one control tick at a time, as Recovery does
-    a point mass's: `setpoint(tick, angle, speed)` gives the mode and the joint reference
-    of the next tick."""
+    """Steps through a platform's braked recovery, one control tick at a time, as
+    paper.Recovery does a point mass's: `setpoint(tick, angle, speed)` gives the mode and
+    the joint reference of the next tick."""
 
-    def __init__(self, robot: Robot, config: RecoveryConfig, distribution: TensionDistribution,
+    def __init__(self, robot: Robot, config, distribution: TensionDistribution,
                  period_s: float, attached: np.ndarray, start_tick: int, position_m, orientation,
                  velocity_m_s, angular_velocity_rad_s, command_nm, planner=None):
         """From the pose (p, q) and twist (v m/s, ω rad/s) the remaining (`attached`) cables
         give at detection, and the torques (N·m) the motors were commanded on that tick, to
         their safe pose (recovery.safe_pose_for), the move planned by `planner`
         (planning.py; at once when None); static tensions within the bounds hold the
-        platform at that pose (else pose_approach.py); RecoveryInfeasible where there is
+        platform at that pose (else steered.py); RecoveryInfeasible where there is
         no safe pose."""
         super().__init__(robot, config, distribution, period_s, attached, start_tick)
         self.planner = planner or PlanAtOnce()
@@ -418,3 +350,23 @@ class PoseRecovery(PlatformRecovery):
                 break
             planned.append((later, reference))
         return planned
+
+
+class Braked(RecoveryStrategy):
+    """A platform braked to rest where it is named and moved to its safe pose, where the
+    cables left hold it at rest there; steered there elsewhere (module docstring)."""
+
+    name = 'braked'
+    degrees_of_freedom = 6
+    description = 'braked and moved to its safe pose where the cables left hold it at rest, else steered there'
+
+    def prepare(self, robot: Robot, config) -> None:
+        prepare_platform(robot, config)
+
+    def start(self, naming: Naming) -> StartedRecovery:
+        state = position, orientation, velocity, angular_velocity = named_state(naming)
+        if tension_margin_n(naming.robot, position, orientation, naming.attached) < 0.0:
+            return approach(naming, *state)
+        return PoseRecovery(naming.robot, naming.config, naming.distribution, naming.period_s, naming.attached,
+                            naming.tick, position, orientation, velocity, angular_velocity, naming.command_nm,
+                            naming.planner)

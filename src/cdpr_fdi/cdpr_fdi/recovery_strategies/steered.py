@@ -1,14 +1,14 @@
-"""A platform's recovery steered to its safe pose (issue 29; docs/platform.md): after every
-break by default (recovery.platform_recovery `steered`), and with `braked` where no static
-tensions of the remaining cables within [τ_min, τ_max] hold the platform at its pose at
-the naming, so that it cannot be braked to rest there.
+"""A platform's recovery steered to its safe pose, recovery.strategy `steered` (issue 29;
+docs/platform.md): after every break, the default of every platform robot; and with
+`braked` where no static tensions of the remaining cables within [τ_min, τ_max] hold the
+platform at its pose at the naming, so that it cannot be braked to rest there.
 
 The platform is steered by cdpr_control.platform.steered_approach, under tensions kept
 `approach_tension_margin_n` above τ_min, its orientation pulled hard, its position let
 move as those tensions allow. The steered motion is tabulated per tick for the drives
 (its wrench shared again by the recovery's distribution), stepped as the ticks ask for
 it, so that a realtime supervisor plans a few rows at a time; from where the naming
-tick's torques take the platform (pose_recovery.after_the_naming_tick), its first row
+tick's torques take the platform (platform.after_the_naming_tick), its first row
 eased in from them (ease_in). Once the platform is within `approach_arrival_m` and
 `approach_arrival_deg` of the safe pose, nearly at rest, it is held there (SAFE_HOLD).
 
@@ -33,9 +33,9 @@ from cdpr_control.platform.steered_approach import SteeredApproach
 from cdpr_control.tension_distribution import FlooredLeastSquares, TensionDistribution
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 
-from .config import RecoveryConfig
-from .pose_recovery import PlatformRecovery, after_the_naming_tick, ease_in
-from .recovery import RecoveryInfeasible, table_reference
+from ..recovery import RecoveryInfeasible
+from .base import Naming, RecoveryStrategy, table_reference
+from .platform import PlatformRecovery, after_the_naming_tick, ease_in, named_state, prepare_platform
 
 # Rows are stepped and tabulated this many at a time (the rows do not depend on it): a
 # realtime supervisor's tick is held up ~0.35 ms once every ten ticks for them (~0.27 ms of
@@ -46,9 +46,9 @@ ROWS_PER_STEP = 10
 
 class PoseApproach(PlatformRecovery):
     """Steps through a platform's steered approach to its safe pose, one control tick at a
-    time, as PoseRecovery does a braked one (module docstring)."""
+    time, as braked.PoseRecovery does a braked one (module docstring)."""
 
-    def __init__(self, robot: Robot, config: RecoveryConfig, distribution: TensionDistribution,
+    def __init__(self, robot: Robot, config, distribution: TensionDistribution,
                  period_s: float, attached: np.ndarray, start_tick: int, position_m, orientation,
                  velocity_m_s, angular_velocity_rad_s, command_nm):
         """From the pose and twist the remaining (`attached`) cables give at detection and
@@ -151,3 +151,25 @@ class PoseApproach(PlatformRecovery):
                 break
             planned.append((later, reference))
         return planned
+
+
+def approach(naming: Naming, position_m, orientation, velocity_m_s, angular_velocity_rad_s) -> PoseApproach:
+    """The steered approach from the platform's state on the naming tick (platform.named_state)."""
+    return PoseApproach(naming.robot, naming.config, naming.distribution, naming.period_s, naming.attached,
+                        naming.tick, position_m, orientation, velocity_m_s, angular_velocity_rad_s,
+                        naming.command_nm)
+
+
+class Steered(RecoveryStrategy):
+    """A platform steered to its safe pose under tensions within their bounds (module
+    docstring)."""
+
+    name = 'steered'
+    degrees_of_freedom = 6
+    description = 'steered to its safe pose under tensions within their bounds'
+
+    def prepare(self, robot: Robot, config) -> None:
+        prepare_platform(robot, config)
+
+    def start(self, naming: Naming) -> PoseApproach:
+        return approach(naming, *named_state(naming))
