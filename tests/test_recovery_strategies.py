@@ -11,7 +11,7 @@ import pytest
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.config import ConfigError
-from cdpr_control.model.robot import load_robot
+from cdpr_control.setup.robot_file import load_robot
 from cdpr_fdi.config import load_recovery_config
 from cdpr_fdi.recovery import safe_point_for
 from cdpr_fdi.recovery_strategies import STRATEGIES
