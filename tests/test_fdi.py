@@ -277,11 +277,12 @@ def test_recovery_budget_grows_with_the_distance_to_sp_and_the_re_plans(recovery
     one_more = dataclasses.replace(recovery_config, replan_attempts=recovery_config.replan_attempts + 1)
     assert (one_more.budget_s(at_rest, np.zeros(3), at_rest + [0.5, 0.0, 0.0])
             > recovery_config.budget_s(at_rest, np.zeros(3), at_rest + [0.5, 0.0, 0.0]))
-    # a steered approach's limit counts where one may be steered (a platform) only: a
-    # point mass's budget stays what its phases take
+    # a steered approach's limit counts where the strategy may steer only: the paper's
+    # budget stays what its phases take
     patient = dataclasses.replace(recovery_config, approach_limit_s=100.0)
     assert patient.budget_s(at_rest, np.zeros(3), at_rest + [0.2, 0.0, 0.0]) == budgets[0] < 100.0
-    assert (patient.budget_s(at_rest, np.zeros(3), at_rest + [0.2, 0.0, 0.0], steered=True)
+    steered = dataclasses.replace(patient, strategy='steered')
+    assert (steered.budget_s(at_rest, np.zeros(3), at_rest + [0.2, 0.0, 0.0])
             == 100.0 + recovery_config.hold_after_s)
 
 

@@ -1,6 +1,7 @@
 """A package in rooms: its top holds only its base modules and its rooms; each room is small
 and its docstring names the rooms it may import; those names form no circle, and no import
-(function-level ones too) goes anywhere else; the base imports no room."""
+(function-level ones too) goes anywhere else; the base imports no room. And no module
+outside a body's own room asks which body a robot has."""
 from __future__ import annotations
 
 import ast
@@ -26,6 +27,10 @@ EXPECTED = {
 }
 MOST_MODULES = 11
 ALLOWED = re.compile(r'^Rooms it may import: (.+?)[.(]', re.M)
+# The rooms where a body is defined: only there may code tell one body from another.
+BODY_ROOMS = ('src/cdpr_control/cdpr_control/point_mass/', 'src/cdpr_control/cdpr_control/platform/')
+# Ways of asking which body a robot has.
+BODY_SWITCHES = re.compile(r'platform is (not )?None|isinstance\([^)]*\b(Platform\w*|PointMass|PoseMotion)\b')
 
 
 def root(package: str) -> Path:
@@ -120,3 +125,32 @@ def test_an_import_against_the_rooms_is_found(tmp_path):
     files = {**module_files(), 'cdpr_bringup.runs.stray': stray}
     assert against_the_rooms('cdpr_bringup', files) == [
         'cdpr_bringup.runs.stray (runs) imports cdpr_bringup.graph.launcher (graph)']
+
+
+def body_switches(sources: dict[str, str]) -> list[str]:
+    """file:line of each line that asks which body a robot has, outside the body rooms;
+    `sources`: each file's text by its path in the repository."""
+    found = []
+    for relative, text in sources.items():
+        if relative.startswith(BODY_ROOMS):
+            continue
+        for number, line in enumerate(text.splitlines(), 1):
+            if BODY_SWITCHES.search(line.split('#')[0]):
+                found.append(f'{relative}:{number}: {line.strip()}')
+    return found
+
+
+def test_no_module_outside_a_body_room_asks_which_body_it_has():
+    sources = {path.relative_to(REPO).as_posix(): path.read_text()
+               for path in sorted((REPO / 'src').glob('cdpr_*/cdpr_*/**/*.py'))}
+    assert any(name.startswith(BODY_ROOMS) for name in sources), 'the body rooms are read'
+    assert body_switches(sources) == []
+
+
+@pytest.mark.parametrize('line', ['    if robot.platform is None:', 'x = a if robot.platform is not None else b',
+                                  '        if isinstance(self.recovery, PlatformRecovery):',
+                                  '    if isinstance(motion, PoseMotion):'])
+def test_a_body_switch_is_found(line):
+    stray = 'src/cdpr_fdi/cdpr_fdi/stray.py'
+    assert body_switches({stray: f'"""A module."""\n{line}\n'}) == [f'{stray}:2: {line.strip()}']
+    assert body_switches({BODY_ROOMS[1] + 'stray.py': line}) == []

@@ -20,7 +20,7 @@ from cdpr_control.platform.steered_approach import ApproachGains
 from cdpr_control.geometry.trajectories import QUINTIC_PEAK_SPEED_RATIO
 
 from .detectors import DETECTORS
-from .recovery_strategies import configured_strategy
+from .recovery_strategies import STRATEGIES, configured_strategy
 
 
 @dataclass(frozen=True)
@@ -192,20 +192,20 @@ class RecoveryConfig:
         return max(QUINTIC_PEAK_SPEED_RATIO * distance_m / self.move_peak_speed_m_s,
                    self.minimum_move_s)
 
-    def budget_s(self, position_m, velocity_m_s, safe_point_m, steered: bool = False) -> float:
+    def budget_s(self, position_m, velocity_m_s, safe_point_m) -> float:
         """The longest a recovery may take (s) from the failure of a robot whose end-effector
         is at `position_m` moving at `velocity_m_s`: the tension phase and its settle time
         (the case outside the residual workspace), braking, the move to SP re-planned
         `replan_attempts` times (each `replan_slowdown` times longer), and the hold that
-        shows SP is kept; where the recovery may be `steered` (a platform's,
-        recovery_strategies/steered.py), its approach's limit where that is longer. A run
+        shows SP is kept; where the strategy may steer (RecoveryStrategy.steers), its
+        approach's limit where that is longer. A run
         ends sooner when its recovery does (cdpr_twin.nodes.run_length)."""
         brake = self.brake_s(float(np.linalg.norm(velocity_m_s)))
         rest = np.asarray(position_m) + 0.5 * brake * np.asarray(velocity_m_s)
         move = self.move_s(float(np.linalg.norm(np.asarray(safe_point_m) - rest)))
         slowest_move = move * self.replan_slowdown ** self.replan_attempts
         braked = self.tension_phase_s + self.settle_timeout_s + brake + slowest_move
-        return (max(braked, self.approach_limit_s) if steered else braked) + self.hold_after_s
+        return (max(braked, self.approach_limit_s) if STRATEGIES[self.strategy].steers else braked) + self.hold_after_s
 
     @classmethod
     def from_section(cls, recovery: Section, robot: Robot) -> 'RecoveryConfig':

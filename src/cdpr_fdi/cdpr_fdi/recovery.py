@@ -41,11 +41,17 @@ def safe_target(robot: Robot, config, attached: np.ndarray) -> SafeTarget:
     """The safe target after the `attached` cables are left, with `config` the robot's
     RecoveryConfig: a platform's safe pose (`safe_pose_for`), a point mass's SP
     (`safe_point_for`); RecoveryInfeasible where there is none."""
-    if robot.body.has_orientation:
-        pose = safe_pose_for(robot, config, attached)
-        return SafeTarget(pose.position_m, pose.orientation, None, at_height(pose.section_m, pose.position_m[2]))
+    return SAFE_TARGETS[robot.body.kind](robot, config, attached)
+
+
+def point_mass_target(robot: Robot, config, attached: np.ndarray) -> SafeTarget:
     position = safe_point_for(robot, config, attached)
     return SafeTarget(position, None, at_height(sew_cross_section(robot, attached, position[2]), position[2]), None)
+
+
+def platform_target(robot: Robot, config, attached: np.ndarray) -> SafeTarget:
+    pose = safe_pose_for(robot, config, attached)
+    return SafeTarget(pose.position_m, pose.orientation, None, at_height(pose.section_m, pose.position_m[2]))
 
 
 def at_height(points_xy: np.ndarray, height_m: float) -> np.ndarray:
@@ -60,8 +66,11 @@ def safe_point_for(robot: Robot, config, attached: np.ndarray) -> np.ndarray:
     broken = np.flatnonzero(~attached) + 1
     if broken.size == 1 and int(broken[0]) in config.safe_points_m:
         return config.safe_points_m[int(broken[0])].copy()
-    if robot.body.has_orientation:
-        return safe_pose_for(robot, config, attached).position_m
+    return SAFE_POINTS[robot.body.kind](robot, config, attached)
+
+
+def residual_barycentre(robot: Robot, config, attached: np.ndarray) -> np.ndarray:
+    """A point mass's SP: the barycentre of the residual SEW's section at the safe height."""
     try:
         return safe_point(robot, attached, config.safe_height_m)
     except ValueError as err:
@@ -75,6 +84,12 @@ def safe_pose_for(robot: Robot, config, attached: np.ndarray) -> SafePose:
         return safe_pose(robot, attached, config.safe_height_m, config.safe_pose_turns_deg, config.safe_pose_grid_m)
     except ValueError as err:
         raise RecoveryInfeasible(str(err)) from None
+
+
+# The safe target, and SP, of each body (Body.kind)
+SAFE_TARGETS = {'point_mass': point_mass_target, 'platform': platform_target}
+SAFE_POINTS = {'point_mass': residual_barycentre,
+               'platform': lambda robot, config, attached: safe_pose_for(robot, config, attached).position_m}
 
 
 def find_safe_poses(robot: Robot, config) -> None:

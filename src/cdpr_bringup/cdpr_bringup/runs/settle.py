@@ -124,8 +124,7 @@ class Scenario:
             safe_point = safe_point_for(self.robot, self.recovery, attached)
         except RecoveryInfeasible:
             safe_point = position
-        return self.recovery.budget_s(position, self.reference.velocity_m_s[row], safe_point,
-                                      steered=self.robot.body.has_orientation)
+        return self.recovery.budget_s(position, self.reference.velocity_m_s[row], safe_point)
 
     @property
     def duration_s(self) -> float:

@@ -27,6 +27,7 @@ from .steered import Steered
 
 STRATEGIES: dict[str, RecoveryStrategy] = {strategy.name: strategy
                                            for strategy in (Paper(), Steered(), Braked(), Line())}
+__all__ = ['AUTO', 'FITTING', 'STRATEGIES', 'Naming', 'RecoveryStrategy', 'StartedRecovery', 'configured_strategy']
 AUTO = 'auto'
 # recovery.strategy `auto`: the strategy of a robot by its degrees of freedom (the shipped
 # robots' behaviour before strategies could be chosen)

@@ -90,6 +90,9 @@ class RecoveryStrategy:
     name: str
     degrees_of_freedom: int
     description: str
+    # it may steer the end-effector (its approach's time limit then bounds how long a
+    # recovery may take: RecoveryConfig.budget_s)
+    steers = False
 
     def prepare(self, robot: Robot, config) -> None:
         """Make ready, when the supervisor is built, what `start` would not have the time

@@ -358,6 +358,8 @@ class Braked(RecoveryStrategy):
 
     name = 'braked'
     degrees_of_freedom = 6
+    # steered where the cables left cannot hold the platform at rest
+    steers = True
     description = 'braked and moved to its safe pose where the cables left hold it at rest, else steered there'
 
     def prepare(self, robot: Robot, config) -> None:

@@ -166,6 +166,7 @@ class Steered(RecoveryStrategy):
 
     name = 'steered'
     degrees_of_freedom = 6
+    steers = True
     description = 'steered to its safe pose under tensions within their bounds'
 
     def prepare(self, robot: Robot, config) -> None:
