@@ -101,3 +101,13 @@ def test_an_unknown_strategy_is_refused_with_the_registered_ones(tmp_path):
     config = with_strategy(tmp_path, PAPER_ROBOT, 'teleport')
     with pytest.raises(ConfigError, match=r"'recovery.strategy' must be one of auto, paper, steered, braked, line"):
         load_recovery_config(config, load_robot(config))
+
+
+def test_the_key_strategy_replaced_is_refused_not_dropped(tmp_path):
+    """A file of before recovery.strategy, with recovery.platform_recovery: braked, would
+    otherwise run steered without a word."""
+    config = tmp_path / 'old.yaml'
+    config.write_text(PLATFORM_ROBOT.read_text() + '\nrecovery:\n  platform_recovery: braked\n')
+    with pytest.raises(ConfigError) as refused:
+        load_recovery_config(config, load_robot(config))
+    assert str(refused.value).startswith(f"{config}: 'recovery.platform_recovery' is gone: recovery.strategy")

@@ -209,6 +209,10 @@ class RecoveryConfig:
 
     @classmethod
     def from_section(cls, recovery: Section, robot: Robot) -> 'RecoveryConfig':
+        if recovery.has('platform_recovery'):
+            # an older file's choice would otherwise be dropped without a word
+            raise recovery.error('platform_recovery', 'is gone: recovery.strategy chooses the recovery '
+                                 '(steered or braked for a platform)')
         table_height = recovery.number('table_height_m', non_negative=True)
         # SP is clear of the table, inside the workspace
         safe_height = recovery.number('safe_height_m', positive=True, maximum=robot.workspace_max_m[2])

@@ -12,7 +12,7 @@ class FlooredLeastSquares(TensionDistribution):
     (base.floored_fit), none above its tension_max_n. It never raises
     InfeasibleTensionError: a wrench out of the cables' reach is missed by a little, and
     no cable is planned slack (a platform's recovery move through poses where the cables
-    cannot pull its wrench within the bounds, cdpr_fdi.pose_recovery)."""
+    cannot pull its wrench within the bounds, cdpr_fdi.recovery_strategies.braked)."""
 
     name = 'floored_least_squares'
 
