@@ -18,12 +18,16 @@ PACKAGES = {
     'cdpr_bringup': {'cli', 'paths'},
     'cdpr_control': {'config', 'kernels'},
     'cdpr_twin': set(),
+    # the interface contract is the base, the node runtime its one room
+    'cdpr_msgs_py': {'cdr', 'contract', 'conversions', 'dds', 'health', 'qos', 'scheduling', 'sole_writer',
+                     'stamps'},
 }
 # Rooms a package must have, as a check that the rooms are read at all.
 EXPECTED = {
     'cdpr_bringup': {'runs', 'bags', 'reports', 'graph', 'scenario', 'campaigns', 'bench'},
     'cdpr_control': {'model', 'point_mass', 'platform', 'geometry', 'control', 'setup'},
     'cdpr_twin': {'models', 'nodes'},
+    'cdpr_msgs_py': {'runtime'},
 }
 MOST_MODULES = 11
 ALLOWED = re.compile(r'^Rooms it may import: (.+?)[.(]', re.M)
@@ -114,7 +118,7 @@ def test_the_base_imports_no_room(package):
 @pytest.mark.parametrize('package', sorted(PACKAGES))
 def test_every_import_between_rooms_goes_the_way_the_rooms_allow(package):
     files = module_files()
-    assert crossings(package, files), 'the imports are read'
+    assert crossings(package, files) or len(rooms(package)) == 1, 'the imports are read'
     assert against_the_rooms(package, files) == []
 
 

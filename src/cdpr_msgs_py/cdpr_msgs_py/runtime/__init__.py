@@ -10,6 +10,8 @@
 - `handshake`: the start handshake (subscribe to the tick once every peer is matched);
 - `node`: `CdprNode`, a node of the graph, made of the above.
 
-The interface contract (topics, QoS, conversions) is beside it in `cdpr_msgs_py`, and
-nothing there imports the runtime.
+The interface contract (topics, QoS, conversions) is beside it in `cdpr_msgs_py`, its
+base, and nothing there imports the runtime.
+
+Rooms it may import: none.
 """
