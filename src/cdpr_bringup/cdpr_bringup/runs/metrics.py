@@ -162,6 +162,7 @@ def metrics_json(run: KnownRun) -> dict:
                    else float(np.linalg.norm(np.asarray(final) - np.asarray(run.safe_point_m))))
     hold = run.phase_times_s.get(SAFE_HOLD)
     failure_known = failure is not None or run.true_broken_cables is not None
+    has_orientation = run.robot.body.has_orientation
     return {
         'epsilon_nm': run.epsilon_nm,
         'failure_time_s': failure,
@@ -189,7 +190,7 @@ def metrics_json(run: KnownRun) -> dict:
             'phase_times_s': dict(run.phase_times_s),
             'settle_timed_out': run.supervisor.get('settle_timed_out'),
             # a platform's: the angle (deg) from its last true orientation to the safe one
-            **({'final_orientation_error_deg': final_orientation_error_deg(run)} if run.robot.body.has_orientation else {}),
+            **({'final_orientation_error_deg': final_orientation_error_deg(run)} if has_orientation else {}),
         },
         'kpi': twin_kpis(run.robot, run.recording, nominal),
         'tracking_error_m': window['tracking_error_m'] if run.recording.has_ground_truth else None,
@@ -197,7 +198,7 @@ def metrics_json(run: KnownRun) -> dict:
         'wall_time_s': run.wall_time_s,
         # a platform's: the largest angle between its true and its reference orientation
         **({'orientation_tracking_error_rad': window['orientation_tracking_error_rad']
-            if run.recording.has_ground_truth else None} if run.robot.body.has_orientation else {}),
+            if run.recording.has_ground_truth else None} if has_orientation else {}),
     }
 
 

@@ -44,8 +44,8 @@ class PointMass(Body):
     def pose_of_angles(self, robot, angles_rad, cables=None):
         return forward_kinematics(robot, np.asarray(angles_rad, dtype=float), cables), None
 
-    def poses_of_angles(self, robot, angles_rad, cables=None):
-        return forward_kinematics(robot, np.asarray(angles_rad, dtype=float), cables), None
+    # forward_kinematics takes one set of angles or a stack of them alike
+    poses_of_angles = pose_of_angles
 
     def holding_torques_nm(self, robot, position_m, orientation, attached=None) -> np.ndarray:
         return holding_torque_nm(robot, position_m,
