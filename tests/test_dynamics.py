@@ -6,7 +6,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cdpr_control.point_mass.dynamics import direct_dynamics, inverse_dynamics
+from cdpr_control.model.dynamics import inverse_dynamics
+from cdpr_control.point_mass.dynamics import direct_dynamics
 from cdpr_control.point_mass.kinematics import (inverse_kinematics, joint_acceleration, joint_velocity, structure_matrix,
                                      structure_matrix_rate)
 from cdpr_control.tension_distribution import InfeasibleTensionError, make_tension_distribution

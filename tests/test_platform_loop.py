@@ -11,7 +11,7 @@ from cdpr_control.config import load_config
 from cdpr_control.control.controller import JointController, JointReference, PdGains
 from cdpr_control.geometry.motions import motion_names, settled_motion
 from cdpr_control.platform.motion import pose_motion_from_settled
-from cdpr_control.platform.reference import tabulate_pose_reference
+from cdpr_control.model.reference_table import tabulate_reference
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.geometry.rotation import difference, rotation_matrix, tilt_rad
 from cdpr_control.tension_distribution import configured_tension_distribution
@@ -34,8 +34,8 @@ def setup(motion_name: str, reverse: bool = False):
     control = settings.section('control')
     motion = pose_motion_from_settled(settled_motion(MOTIONS, motion_name, reverse),
                                       robot.body.home_orientation)
-    reference = tabulate_pose_reference(robot, configured_tension_distribution(control, robot),
-                                        motion.trajectory, control.number('period_s', positive=True))
+    reference = tabulate_reference(robot, configured_tension_distribution(control, robot),
+                                   motion.trajectory, control.number('period_s', positive=True))
     return robot, settings, motion, reference
 
 

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 from cdpr_control.config import load_section
-from cdpr_control.point_mass.dynamics import inverse_dynamics
+from cdpr_control.model.dynamics import inverse_dynamics
 from cdpr_control.point_mass.kinematics import inverse_kinematics
 from cdpr_control.geometry.motions import load_motion
-from cdpr_control.point_mass.reference import tabulate_reference
+from cdpr_control.geometry.pose_trajectories import PoseTrajectory
+from cdpr_control.model.reference_table import tabulate_reference
 from cdpr_control.control.reference_schedule import GoalRejected, PlannedMove, ReferenceSchedule
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_control.geometry.trajectories import QUINTIC_PEAK_SPEED_RATIO, Hold, quintic_profile
@@ -31,7 +32,7 @@ def distribution(paper_robot):
 @pytest.fixture
 def schedule(paper_robot, distribution):
     first = tabulate_reference(paper_robot, distribution,
-                               Hold(paper_robot.home_position_m, (FIRST_ROWS - 1) * PERIOD_S), PERIOD_S)
+                               PoseTrajectory(Hold(paper_robot.home_position_m, (FIRST_ROWS - 1) * PERIOD_S)), PERIOD_S)
     return ReferenceSchedule(paper_robot, distribution, PERIOD_S, PEAK_SPEED_M_S, first)
 
 
@@ -40,14 +41,14 @@ def test_a_tabulated_reference_is_each_tick_s_inverse_kinematics_and_dynamics(pa
                                                                             broken):
     """The table is computed for all its rows at once; each row must be what the tick's
     pose gives alone (a part of the motion, with cable 4 detached too)."""
-    trajectory = load_motion(MOTIONS, 'circle').trajectory
+    trajectory = load_motion(MOTIONS, 'circle').pose_trajectory
     attached = None if broken is None else paper_robot.cable_mask([broken])
     start_s, rows = 1.0, 400
     table = tabulate_reference(paper_robot, distribution, trajectory, PERIOD_S, start_s,
                                (rows - 1) * PERIOD_S, attached)
     assert len(table) == rows
     for row in range(0, rows, 7):
-        position, velocity, acceleration = trajectory.sample(start_s + row * PERIOD_S)
+        position, velocity, acceleration = trajectory.path.sample(start_s + row * PERIOD_S)
         alone = inverse_dynamics(paper_robot, distribution, position, velocity, acceleration, attached)
         angle = inverse_kinematics(paper_robot, position)
         if attached is not None:

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog, lsq_linear, minimize
 
-from cdpr_control.point_mass.dynamics import inverse_dynamics
+from cdpr_control.model.dynamics import inverse_dynamics
 from cdpr_control.point_mass.kinematics import structure_matrix
 from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError,
                                                make_tension_distribution, minimum_norm)

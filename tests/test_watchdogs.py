@@ -268,7 +268,7 @@ def test_twin_bridges_a_gap_in_the_references_as_the_controller_does(realtime_ro
     from cdpr_control.config import load_section
     from cdpr_control.point_mass.kinematics import forward_kinematics
     from cdpr_control.geometry.motions import load_motion
-    from cdpr_control.point_mass.reference import tabulate_reference
+    from cdpr_control.model.reference_table import tabulate_reference
     from cdpr_control.tension_distribution import configured_tension_distribution
     from cdpr_msgs_py.contract import joint_names
     from cdpr_msgs_py.conversions import joint_state
@@ -277,7 +277,7 @@ def test_twin_bridges_a_gap_in_the_references_as_the_controller_does(realtime_ro
     control = load_section(PAPER_ROBOT, 'control')
     motion = load_motion(MOTIONS, 'along-2', False)
     table = tabulate_reference(paper_robot, configured_tension_distribution(control, paper_robot),
-                               motion.trajectory, control.number('period_s'), duration_s=0.2)
+                               motion.pose_trajectory, control.number('period_s'), duration_s=0.2)
     rows = [JointReference(table.angle_rad[k], table.angular_velocity_rad_s[k], table.feedforward_nm[k])
             for k in range(len(table))]
     node = DigitalTwinNode()

@@ -24,7 +24,8 @@ import time
 import numpy as np
 
 from cdpr_control.config import load_config
-from cdpr_control.point_mass.dynamics import direct_dynamics, inverse_dynamics
+from cdpr_control.model.dynamics import inverse_dynamics
+from cdpr_control.point_mass.dynamics import direct_dynamics
 from cdpr_control.platform import dynamics as pose_dynamics
 from cdpr_control.platform import kinematics as pose_kinematics
 from cdpr_control.point_mass.kinematics import forward_kinematics, inverse_kinematics, structure_matrix
@@ -112,7 +113,8 @@ def bench_platform_model(robot, path) -> dict:
     wrench = body.mass_matrix @ np.concatenate([acceleration, angular_acceleration]) - body.free_wrench
     pseudo_inverse = make_tension_distribution('pseudo_inverse', robot.tension_min_n, robot.tension_max_n)
     motion = (position, orientation, velocity, angular_velocity)
-    torque = pose_dynamics.inverse_dynamics(robot, pseudo_inverse, *motion, acceleration, angular_acceleration)
+    sample = PoseSample(*motion, acceleration, angular_acceleration)
+    torque = inverse_dynamics(robot, pseudo_inverse, *sample.motion)
     figures = {
         'inverse_kinematics_us': median_us(pose_kinematics.inverse_kinematics, robot, position, orientation),
         'forward_kinematics_us': median_us(lambda: pose_kinematics.forward_kinematics(robot, angles, start=before)),
@@ -122,12 +124,11 @@ def bench_platform_model(robot, path) -> dict:
     for name in METHODS:
         method = make_tension_distribution(name, robot.tension_min_n, robot.tension_max_n)
         figures[f'tension_{name}_us'] = median_us(method.distribute, structure, wrench)
-    figures['inverse_dynamics_us'] = median_us(pose_dynamics.inverse_dynamics, robot, pseudo_inverse, *motion,
-                                               acceleration, angular_acceleration)
+    figures['inverse_dynamics_us'] = median_us(inverse_dynamics, robot, pseudo_inverse, *sample.motion)
     figures['direct_dynamics_us'] = median_us(pose_dynamics.direct_dynamics, robot, *motion,
                                               torque.torque_nm, torque.joint_velocity_rad_s)
     attached = robot.cable_mask([robot.cable_count - 1])
-    approach = SteeredApproach(robot, attached, PoseSample(*motion, acceleration, angular_acceleration),
+    approach = SteeredApproach(robot, attached, sample,
                                robot.home_position_m, robot.body.home_orientation, recovery.approach_gains,
                                robot.tension_min_n + recovery.approach_tension_margin_n, robot.tension_max_n,
                                period_s)

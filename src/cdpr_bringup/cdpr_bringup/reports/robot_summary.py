@@ -10,10 +10,10 @@ import numpy as np
 
 from cdpr_control.config import ConfigError, load_config
 from cdpr_control.control.controller import PdGains
-from cdpr_control.point_mass.dynamics import inverse_dynamics
+from cdpr_control.model.dynamics import inverse_dynamics
+from cdpr_control.model.reference_table import tabulate_reference
 from cdpr_control.geometry.motions import load_motion, motion_names, settled_motion
 from cdpr_control.platform.motion import pose_motion_from_settled
-from cdpr_control.platform.reference import tabulate_pose_reference
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.point_mass.statics import closed_form_coverage
 from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
@@ -139,7 +139,7 @@ def print_platform(robot, config, distribution, motions, period_s: float, safe_h
     for name in motion_names(motions):
         motion = pose_motion_from_settled(settled_motion(motions, name), nominal)
         try:
-            reference = tabulate_pose_reference(robot, distribution, motion.trajectory, period_s)
+            reference = tabulate_reference(robot, distribution, motion.trajectory, period_s)
         except InfeasibleTensionError as err:
             print(f'  {name:<14} {motion.path.move.duration_s:7.3f} no tensions within the bounds: {err}')
             continue

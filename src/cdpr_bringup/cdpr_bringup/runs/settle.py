@@ -13,7 +13,7 @@ from pathlib import Path
 from cdpr_control.config import Section, load_config, load_yaml
 from cdpr_control.control.controller import PdGains
 from cdpr_control.geometry.motions import Motion, settled_motion
-from cdpr_control.model.reference_table import ReferenceTable
+from cdpr_control.model.reference_table import ReferenceTable, tabulate_reference
 from cdpr_control.model.robot import Robot
 from cdpr_control.setup.robot_file import robot_from_section
 from cdpr_control.setup.settings import ROBOT_DESCRIPTION, flatten, robot_description
@@ -263,7 +263,7 @@ def motion_reference(robot: Robot, distribution: TensionDistribution, motion, pe
     motion, the pose and what to change, where no tensions within the bounds hold the
     end-effector on it."""
     try:
-        return robot.body.tabulate(robot, distribution, motion, period_s)
+        return tabulate_reference(robot, distribution, motion.pose_trajectory, period_s)
     except InfeasibleTensionError as err:
         remedy = ('set control.tension_distribution: bounded_minimum_norm (the nearest tensions '
                   'within the bounds), or move the motion' if isinstance(distribution, PseudoInverse)

@@ -14,11 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cdpr_control.point_mass.reference import IncrementalTabulation
-
-from cdpr_control.model.reference_table import ReferenceTable
+from cdpr_control.model.reference_table import IncrementalTabulation, ReferenceTable
 from cdpr_control.model.robot import Robot
 from cdpr_control.tension_distribution import InfeasibleTensionError, TensionDistribution
+from cdpr_control.geometry.pose_trajectories import PoseTrajectory
 from cdpr_control.geometry.trajectories import Hold, Sequence, StraightLine
 
 
@@ -81,8 +80,8 @@ class ReferenceSchedule:
             goal = self.goals.popleft()
             here = self.end_m
             if not np.allclose(goal, here):
-                trajectory = Sequence([StraightLine.with_peak_speed(here, goal, self.goal_peak_speed_m_s),
-                                       Hold(goal, self.period_s)])
+                trajectory = PoseTrajectory(Sequence([
+                    StraightLine.with_peak_speed(here, goal, self.goal_peak_speed_m_s), Hold(goal, self.period_s)]))
                 self.planning = (goal, IncrementalTabulation(self.robot, self.tension_distribution,
                                                              trajectory, self.period_s))
 

@@ -26,6 +26,7 @@ from cdpr_msgs_py.runtime.spin import run
 
 from cdpr_control.geometry.motions import settled_motion
 from cdpr_control.control.reference_schedule import GoalRejected, ReferenceSchedule
+from cdpr_control.model.reference_table import tabulate_reference
 from cdpr_control.setup.settings import node_settings
 from cdpr_control.tension_distribution import configured_tension_distribution
 
@@ -47,7 +48,8 @@ class TrajectoryGeneratorNode(CdprNode):
         self.goal_speed_m_s = motion.number('goal_peak_speed_m_s', positive=True)
         self.schedule = ReferenceSchedule(
             self.robot, self.distribution, self.period_s, self.goal_speed_m_s,
-            self.robot.body.tabulate(self.robot, self.distribution, self.robot.body.motion(motion), self.period_s))
+            tabulate_reference(self.robot, self.distribution, self.robot.body.motion(motion).pose_trajectory,
+                               self.period_s))
         self.names = contract.joint_names(self.robot.cable_count)
         self.origin_ns: int | None = None
         self.rows_per_tick = control.integer('realtime_planning_rows_per_tick', minimum=1)

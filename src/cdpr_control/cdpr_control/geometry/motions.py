@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from cdpr_control.config import Section, load_config, load_section
+from cdpr_control.geometry.pose_trajectories import PoseTrajectory
 from cdpr_control.geometry.trajectories import Circle, Hold, Sequence, StraightLine, quintic_time_at_fraction
 
 MOTION_TYPES = ('line', 'circle')
@@ -25,6 +26,12 @@ class Motion:
     def path(self) -> 'Motion':
         """The motion of the position: this one (PoseMotion: its path's)."""
         return self
+
+    @property
+    def pose_trajectory(self) -> PoseTrajectory:
+        """The motion of the pose, as it is tabulated: the path without a turn (PoseMotion:
+        with its turn)."""
+        return PoseTrajectory(self.trajectory)
 
     @property
     def move(self):

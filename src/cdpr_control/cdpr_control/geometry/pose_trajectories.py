@@ -1,5 +1,7 @@
-"""Reference motions of a platform: a path of its position (trajectories.py) and a turn of
-its orientation, both starting and ending at rest.
+"""Reference motions of an end-effector's pose: a path of its position (trajectories.py)
+and a turn of its orientation, both starting and ending at rest. A point mass's pose has
+no orientation: its turn is NO_TURN, whose figures have no entries (a pose of 3 numbers,
+a twist of 3), so that one code path serves either body.
 
 A turn rotates the platform by `angle_rad` about a fixed world axis, from its starting
 orientation, with the quintic rest-to-rest law; with the axis fixed, ω = axis · angle · ṡ
@@ -31,10 +33,39 @@ class PoseSample:
     angular_acceleration_rad_s2: np.ndarray
 
     @property
+    def pose(self) -> np.ndarray:
+        """(p, q): 3 numbers, 7 with an orientation; a row of each of a stack."""
+        return np.concatenate([self.position_m, self.orientation], axis=-1)
+
+    @property
+    def twist(self) -> np.ndarray:
+        """(v, ω)."""
+        return np.concatenate([self.velocity_m_s, self.angular_velocity_rad_s], axis=-1)
+
+    @property
+    def twist_rate(self) -> np.ndarray:
+        """(a, α)."""
+        return np.concatenate([self.acceleration_m_s2, self.angular_acceleration_rad_s2], axis=-1)
+
+    @property
     def motion(self) -> tuple:
-        """(p, q, v, ω, a, α), the arguments of the pose dynamics."""
-        return (self.position_m, self.orientation, self.velocity_m_s, self.angular_velocity_rad_s,
-                self.acceleration_m_s2, self.angular_acceleration_rad_s2)
+        """(pose, twist, its rate), the arguments of the inverse dynamics."""
+        return self.pose, self.twist, self.twist_rate
+
+
+class NoTurn:
+    """The orientation's part of a point mass's motion: none (figures of no entries)."""
+
+    @staticmethod
+    def sample(t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        nothing = np.empty(np.shape(t) + (0,))
+        return nothing, nothing, nothing
+
+    def reversed(self, total_s: float) -> 'NoTurn':
+        return self
+
+
+NO_TURN = NoTurn()
 
 
 class Turn:
@@ -96,10 +127,10 @@ class BrakedTurn:
 
 
 class PoseTrajectory:
-    """A platform's motion: `path` for its position, `turn` (a Turn or BrakedTurn) for its
-    orientation."""
+    """An end-effector's motion: `path` for its position, `turn` (a Turn or BrakedTurn; a
+    point mass's NO_TURN) for its orientation."""
 
-    def __init__(self, path: Trajectory, turn: Turn | BrakedTurn):
+    def __init__(self, path: Trajectory, turn: Turn | BrakedTurn | NoTurn = NO_TURN):
         self.path = path
         self.turn = turn
         self.duration_s = path.duration_s

@@ -62,6 +62,12 @@ class Body(ABC):
         angles (n × m), as a recorded run is read."""
 
     @abstractmethod
+    def motion_terms(self, robot, poses, twists, twist_rates):
+        """model.dynamics.MotionTerms of each row of the poses (n × 3, or n × 7 with the
+        orientation), twists and their rates (n × dof): what the inverse dynamics of
+        either body is computed from."""
+
+    @abstractmethod
     def holding_torques_nm(self, robot, position_m, orientation, attached=None) -> np.ndarray:
         """c = −ρ t (N·m): the motor torques whose static tensions t of the `attached`
         cables (all when None) hold the end-effector still at the pose."""
@@ -75,13 +81,8 @@ class Body(ABC):
     @abstractmethod
     def motion(self, motion):
         """The reference motion of the settled `motion` section for this body (a path,
-        and for a platform its turn), with its `path` (the position's Motion) and
-        `start_orientation`."""
-
-    @abstractmethod
-    def tabulate(self, robot, distribution, motion, period_s: float):
-        """The joint-space reference table of `motion` (this body's `motion`) every
-        `period_s`; InfeasibleTensionError naming the first pose no tensions hold."""
+        and for a platform its turn), with its `path` (the position's Motion), its
+        `pose_trajectory` (what model.reference_table tabulates) and `start_orientation`."""
 
     @abstractmethod
     def reference_poses(self, robot, motion, period_s: float):

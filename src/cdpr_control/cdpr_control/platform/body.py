@@ -2,7 +2,7 @@
 position p (m) of its frame's origin and the unit quaternion q (w, x, y, z) of its
 orientation (docs/platform.md).
 
-Its equations are this room's modules (kinematics, statics, dynamics, reference,
+Its equations are this room's modules (kinematics, statics, dynamics, motion,
 substeps, safe_pose, steered_approach); this class is what the rest of the stack calls
 them by.
 """
@@ -17,10 +17,10 @@ from cdpr_control.geometry.motions import motion_from_settled
 from cdpr_control.geometry.rotation import normalised, rotation_matrix
 from cdpr_control.model.body import Body
 from cdpr_control.platform import substeps
-from cdpr_control.platform.dynamics import rigid_body
+from cdpr_control.model.reference_table import sampled
+from cdpr_control.platform.dynamics import motion_terms, rigid_body
 from cdpr_control.platform.kinematics import forward_kinematics, forward_kinematics_rows, wrench_matrix
 from cdpr_control.platform.motion import pose_motion_from_settled, with_turn
-from cdpr_control.platform.reference import sampled, tabulate_pose_reference
 from cdpr_control.platform.statics import static_tensions
 
 # An inertia tensor this far from symmetric (relative) is a typing mistake.
@@ -68,6 +68,9 @@ class Platform(Body):
     def poses_of_angles(self, robot, angles_rad, cables=None):
         return forward_kinematics_rows(robot, np.asarray(angles_rad, dtype=float), cables)
 
+    def motion_terms(self, robot, poses, twists, twist_rates):
+        return motion_terms(robot, poses, twists, twist_rates)
+
     def holding_torques_nm(self, robot, position_m, orientation, attached=None) -> np.ndarray:
         return -robot.motor.drum_radius_m * static_tensions(robot, position_m, orientation, attached)
 
@@ -77,9 +80,6 @@ class Platform(Body):
 
     def motion(self, motion):
         return with_turn(motion_from_settled(motion), motion, self.home_orientation)
-
-    def tabulate(self, robot, distribution, motion, period_s: float):
-        return tabulate_pose_reference(robot, distribution, motion.trajectory, period_s)
 
     def reference_poses(self, robot, motion, period_s: float):
         sample = sampled(pose_motion_from_settled(motion, self.home_orientation).trajectory, period_s)

@@ -24,21 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from cdpr_control.platform import substeps as platform_substeps
+from cdpr_control.model.dynamics import MotionTerms
 from cdpr_control.model.robot import Robot
 from cdpr_control.geometry.rotation import rotation_matrix
-from cdpr_control.tension_distribution import InfeasibleTensionError, TensionDistribution
-
-
-@dataclass
-class PlatformInverseDynamics:
-    """Torques c (N·m), the tensions (N) they produce, and the joint motion: θ (rad, the
-    pose's inverse kinematics, every cable's), θ̇ (rad/s) and θ̈ (rad/s²)."""
-
-    torque_nm: np.ndarray
-    tension_n: np.ndarray
-    joint_angle_rad: np.ndarray
-    joint_velocity_rad_s: np.ndarray
-    joint_acceleration_rad_s2: np.ndarray
 
 
 @dataclass
@@ -71,22 +59,10 @@ def rigid_body(robot: Robot, orientation, angular_velocity_rad_s, kernel: str = 
     return RigidBody(mass_matrix, free)
 
 
-@dataclass
-class MotionTerms:
-    """Per row of a motion (n poses with their twists and twist rates): W (n × 6 × m), the
-    cable lengths d (m), the wrench the cables must apply, M (a, α) − (w_g − h) (N, N·m),
-    and the joint motion θ̇ (rad/s) and θ̈ (rad/s²) of taut cables."""
-
-    structure: np.ndarray
-    length_m: np.ndarray
-    wrench_n: np.ndarray
-    joint_velocity_rad_s: np.ndarray
-    joint_acceleration_rad_s2: np.ndarray
-
-
 def motion_terms(robot: Robot, poses, twists, accelerations) -> MotionTerms:
-    """MotionTerms of each row of the poses (n × 7: p, q), twists (n × 6: v, ω) and their
-    rates (n × 6: a, α), by platform_substeps.motion_rows."""
+    """MotionTerms (model.dynamics) of each row of the poses (n × 7: p, q), twists (n × 6:
+    v, ω) and their rates (n × 6: a, α), by platform_substeps.motion_rows: the wrench
+    M (a, α) + h − w_g (module docstring)."""
     rows, m = len(poses), robot.cable_count
     columns, lengths, wrench = np.empty((rows, m, 6)), np.empty((rows, m)), np.empty((rows, 6))
     joint_velocity, joint_acceleration = np.empty((rows, m)), np.empty((rows, m))
@@ -96,43 +72,6 @@ def motion_terms(robot: Robot, poses, twists, accelerations) -> MotionTerms:
                                                                      for figure in (poses, twists, accelerations)),
         columns, lengths, wrench, joint_velocity, joint_acceleration)
     return MotionTerms(np.swapaxes(columns, 1, 2), lengths, wrench, joint_velocity, joint_acceleration)
-
-
-def inverse_dynamics(robot: Robot, tension_distribution: TensionDistribution, position_m, orientation,
-                     velocity_m_s, angular_velocity_rad_s, acceleration_m_s2, angular_acceleration_rad_s2,
-                     attached=None, external_wrench=None, nan_where_infeasible: bool = False) -> PlatformInverseDynamics:
-    """Torques that make the platform follow the pose x, twist and its rate with the
-    `attached` cables: the cables' wrench w = M (a, α) + h − w_g − w_ext is shared by
-    `tension_distribution`, and c = J θ̈ + b θ̇ − ρ τ. A detached cable carries no tension
-    and its motor is not tied to the platform: its figures are 0. Of one pose, or of each
-    row of stacks (n × 3, n × 4 for the orientations), a tabulated motion at once;
-    InfeasibleTensionError names the first pose whose wrench no tensions pull (with
-    `nan_where_infeasible`, such rows' tensions and torques are NaN instead)."""
-    motor = robot.motor
-    single = np.ndim(position_m) == 1
-    poses = np.concatenate([np.atleast_2d(position_m), np.atleast_2d(orientation)], axis=1)
-    terms = motion_terms(
-        robot, poses, np.concatenate([np.atleast_2d(velocity_m_s), np.atleast_2d(angular_velocity_rad_s)], axis=1),
-        np.concatenate([np.atleast_2d(acceleration_m_s2), np.atleast_2d(angular_acceleration_rad_s2)], axis=1))
-    wrench = terms.wrench_n if external_wrench is None else terms.wrench_n - external_wrench
-    theta_dot, theta_ddot = terms.joint_velocity_rad_s, terms.joint_acceleration_rad_s2
-    distribute = tension_distribution.distribute_each if nan_where_infeasible else tension_distribution.distribute_rows
-    try:
-        if attached is None:
-            tension = distribute(terms.structure, wrench)
-        else:
-            tension = np.zeros(theta_dot.shape)
-            tension[:, attached] = distribute(terms.structure[:, :, attached], wrench)
-    except InfeasibleTensionError as err:
-        raise err.at(poses[err.row, :3], poses[err.row, 3:]) from None
-    if attached is not None:
-        theta_dot[:, ~attached] = 0.0
-        theta_ddot[:, ~attached] = 0.0
-    torque = (motor.inertia_kg_m2 * theta_ddot + motor.viscous_friction_nm_s_rad * theta_dot
-              - motor.drum_radius_m * tension)
-    angle = (terms.length_m - robot.cable_length_offset_m) / motor.drum_radius_m
-    figures = (torque, tension, angle, theta_dot, theta_ddot)
-    return PlatformInverseDynamics(*(figure[0] for figure in figures) if single else figures)
 
 
 def direct_dynamics(robot: Robot, position_m, orientation, velocity_m_s, angular_velocity_rad_s,

@@ -43,6 +43,10 @@ class PoseMotion:
     trajectory: PoseTrajectory
 
     @property
+    def pose_trajectory(self) -> PoseTrajectory:
+        return self.trajectory
+
+    @property
     def name(self) -> str:
         return self.path.name
 

@@ -1,7 +1,7 @@
 """The point mass: an end-effector of 3 translations, its pose the position p (m).
 
-Its equations are this room's modules (kinematics, statics, dynamics, reference,
-substeps: docs/design.md §4); this class is what the rest of the stack calls them by.
+Its equations are this room's modules (kinematics, statics, dynamics, substeps:
+docs/design.md §4); this class is what the rest of the stack calls them by.
 """
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from cdpr_control.geometry.motions import motion_from_settled
 from cdpr_control.model.body import Body
 from cdpr_control.model.reference_table import tick_times
 from cdpr_control.point_mass import substeps
+from cdpr_control.point_mass.dynamics import motion_terms
 from cdpr_control.point_mass.kinematics import forward_kinematics, structure_matrix
-from cdpr_control.point_mass.reference import tabulate_reference
 from cdpr_control.point_mass.statics import holding_torque_nm
 
 NO_POINTS = np.empty((0, 3))
@@ -47,6 +47,9 @@ class PointMass(Body):
     # forward_kinematics takes one set of angles or a stack of them alike
     poses_of_angles = pose_of_angles
 
+    def motion_terms(self, robot, poses, twists, twist_rates):
+        return motion_terms(robot, poses, twists, twist_rates)
+
     def holding_torques_nm(self, robot, position_m, orientation, attached=None) -> np.ndarray:
         return holding_torque_nm(robot, position_m,
                                  np.ones(robot.cable_count, dtype=bool) if attached is None else attached)
@@ -56,9 +59,6 @@ class PointMass(Body):
 
     def motion(self, motion):
         return motion_from_settled(motion)
-
-    def tabulate(self, robot, distribution, motion, period_s: float):
-        return tabulate_reference(robot, distribution, motion.trajectory, period_s)
 
     def reference_poses(self, robot, motion, period_s: float):
         path = motion_from_settled(motion).trajectory

@@ -1,4 +1,5 @@
-"""Inverse and rigid direct dynamics of the cable robot (docs/design.md §4).
+"""The point mass's motion terms (for model.dynamics' inverse dynamics) and its rigid
+direct dynamics (docs/design.md §4).
 
 Motor i:        J θ̈_i = −b θ̇_i + c_i + ρ τ_i
 End-effector:   m_e p̈ = S τ + m_e g
@@ -11,21 +12,11 @@ import numpy as np
 
 from cdpr_control.point_mass import substeps as point_mass_substeps
 from cdpr_control.point_mass.kinematics import joint_acceleration, joint_velocity, structure_matrix, structure_matrix_rate
+from cdpr_control.model.dynamics import MotionTerms
 from cdpr_control.model.robot import Robot
-from cdpr_control.tension_distribution import InfeasibleTensionError, TensionDistribution
 
 # No force on the end-effector but its weight and the cables' (N, world frame).
 NO_FORCE = (0.0, 0.0, 0.0)
-
-
-@dataclass
-class InverseDynamics:
-    """Torques c (N·m) and the joint motion and tensions (N) they produce."""
-
-    torque_nm: np.ndarray
-    tension_n: np.ndarray
-    joint_velocity_rad_s: np.ndarray
-    joint_acceleration_rad_s2: np.ndarray
 
 
 @dataclass
@@ -38,38 +29,15 @@ class DirectDynamics:
     taut: np.ndarray
 
 
-def inverse_dynamics(robot: Robot, tension_distribution: TensionDistribution,
-                     position_m, velocity_m_s, acceleration_m_s2, attached=None) -> InverseDynamics:
-    """Torques that make the end-effector follow (p, ṗ, p̈) with the `attached` cables.
-
-    w = m_e p̈ − m_e g is shared among the attached cables by `tension_distribution`;
-    c = J θ̈ + b θ̇ − ρ τ. A detached (broken) cable carries no tension and its motor
-    is not tied to p: its torque, velocity and acceleration are reported as 0.
-    p, ṗ, p̈ are one pose (3,) or a stack (n × 3), which gives rows (n × m) of each figure;
-    an infeasible pose names its position (the first of a stack).
-    """
-    if attached is None:
-        attached = np.ones(robot.cable_count, dtype=bool)
-    motor = robot.motor
-    position_m = np.asarray(position_m, dtype=float)
-    structure, lengths = structure_matrix(robot, position_m)
-    rate = structure_matrix_rate(structure, lengths, velocity_m_s)
-    wrench = robot.mass_kg * (acceleration_m_s2 - robot.gravity_m_s2)
-    tension = np.zeros(lengths.shape)
-    distribute = (tension_distribution.distribute if position_m.ndim == 1
-                  else tension_distribution.distribute_rows)
-    try:
-        tension[..., attached] = distribute(structure[..., attached], wrench)
-    except InfeasibleTensionError as err:
-        raise err.at(position_m if err.row is None else position_m[err.row]) from None
-    theta_dot = joint_velocity(structure, velocity_m_s, motor.drum_radius_m)
-    theta_ddot = joint_acceleration(structure, rate, velocity_m_s, acceleration_m_s2,
-                                    motor.drum_radius_m)
-    theta_dot[..., ~attached] = 0.0
-    theta_ddot[..., ~attached] = 0.0
-    torque = (motor.inertia_kg_m2 * theta_ddot + motor.viscous_friction_nm_s_rad * theta_dot
-              - motor.drum_radius_m * tension)
-    return InverseDynamics(torque, tension, theta_dot, theta_ddot)
+def motion_terms(robot: Robot, positions_m, velocities_m_s, accelerations_m_s2) -> MotionTerms:
+    """MotionTerms of each row of the positions, velocities and accelerations (n × 3): S,
+    the lengths, the wrench w = m_e p̈ − m_e g, θ̇ = −Sᵀ ṗ / ρ and θ̈ = −(Sᵀ p̈ + Ṡᵀ ṗ) / ρ."""
+    radius = robot.motor.drum_radius_m
+    structure, lengths = structure_matrix(robot, positions_m)
+    rate = structure_matrix_rate(structure, lengths, velocities_m_s)
+    return MotionTerms(structure, lengths, robot.mass_kg * (accelerations_m_s2 - robot.gravity_m_s2),
+                       joint_velocity(structure, velocities_m_s, radius),
+                       joint_acceleration(structure, rate, velocities_m_s, accelerations_m_s2, radius))
 
 
 def direct_dynamics(robot: Robot, position_m, velocity_m_s, torque_nm, joint_velocity_rad_s,

@@ -48,7 +48,7 @@ from concurrent.futures import Future
 import numpy as np
 
 from cdpr_control.control.controller import JointReference
-from cdpr_control.platform.reference import PoseReferenceTable, tabulate_pose_reference, tabulate_pose_references
+from cdpr_control.model.reference_table import ReferenceTable, tabulate_reference, tabulate_references
 from cdpr_control.geometry.pose_trajectories import BrakedTurn, PoseSample, PoseTrajectory, Turn
 from cdpr_control.model.robot import Robot
 from cdpr_control.geometry.rotation import difference, from_rotation_vector, normalised, product
@@ -78,13 +78,6 @@ def brake_from(state: PoseSample, duration_s: float, rest_m, rest_orientation) -
                                            difference(rest_orientation, state.orientation)))
 
 
-def joined(first: PoseReferenceTable, rows: int, rest: PoseReferenceTable) -> PoseReferenceTable:
-    """`first`'s first `rows` rows, then `rest`'s (its first row the state `first` has there)."""
-    return PoseReferenceTable(first.period_s, *(np.concatenate([getattr(first, field.name)[:rows],
-                                                                getattr(rest, field.name)])
-                                                for field in dataclasses.fields(first)[1:]))
-
-
 class PoseRecovery(PlatformRecovery):
     """Steps through a platform's braked recovery, one control tick at a time, as
     paper.Recovery does a point mass's: `setpoint(tick, angle, speed)` gives the mode and
@@ -110,7 +103,7 @@ class PoseRecovery(PlatformRecovery):
         # the brake's last row (its rest, where the move starts), once the brake is settled
         self.brake_end_tick: int | None = None
         self.planned_move = None
-        self.move: PoseReferenceTable | None = None
+        self.move: ReferenceTable | None = None
         self.move_start_tick: int | None = None
         self.settle_brake(self.first_tick)
 
@@ -141,7 +134,7 @@ class PoseRecovery(PlatformRecovery):
         if 0 < committed < round(rests[-1][0] / self.period_s) - 1:
             self.committed_try = self.try_to_commit(rests)
             first = tries[self.committed_try]
-            prefix = tabulate_pose_references(self.robot, self.lowered, [first], self.period_s, self.attached,
+            prefix = tabulate_references(self.robot, self.lowered, [first], self.period_s, self.attached,
                                               rows=committed + 1)[0]
             if not isinstance(prefix, InfeasibleTensionError):
                 self.committed_ticks = committed
@@ -211,7 +204,7 @@ class PoseRecovery(PlatformRecovery):
                 return
             self.continuation = None
             committed = self.committed_ticks
-            self.brake = joined(self.brake, committed, rest)
+            self.brake = ReferenceTable.joined([self.brake.rows(slice(committed)), rest])
             if not note and not self.keeps_margin(self.brake):
                 note = (f'the brake cannot keep the planned tension margin in its first {committed} ticks, '
                         f'planned at once: the least tension {self.brake.tension_n[:, self.attached].min():.2f} N')
@@ -226,7 +219,7 @@ class PoseRecovery(PlatformRecovery):
         return (not isinstance(table, InfeasibleTensionError)
                 and table.tension_n[:, self.attached].min() >= self.margin.tension_min_n - BOUND_TOLERANCE_N)
 
-    def plan_move(self, position_m, orientation) -> tuple[PoseReferenceTable, str]:
+    def plan_move(self, position_m, orientation) -> tuple[ReferenceTable, str]:
         """The move's joint references per tick from rest at (p, q) to the safe pose, its
         last row there at rest, and a note where it cannot keep the margin: over
         move_s(distance), then `replan_slowdown` times longer, up to `replan_attempts`
@@ -242,7 +235,7 @@ class PoseRecovery(PlatformRecovery):
         return self.best_of(moves, 'the move to the safe pose', slowest_on_ties=True)
 
     def best_of(self, tries: list[PoseTrajectory], part: str, slowest_on_ties: bool = False,
-                tables=None) -> tuple[PoseReferenceTable, str]:
+                tables=None) -> tuple[ReferenceTable, str]:
         """The table of the first try whose tensions keep the planned margin; else of the
         try whose least tension is highest with the margin lowered where a pose needs it
         (of equals, the first, or with `slowest_on_ties` the last); else of the last try
@@ -268,8 +261,8 @@ class PoseRecovery(PlatformRecovery):
         if best is not None:
             return best, (f'{part} cannot keep the planned tension margin ({short}): planned with the margin '
                           f'each pose allows, the least tension {best_least:.2f} N')
-        return (tabulate_pose_reference(self.robot, FlooredLeastSquares(self.lowered), tries[-1], self.period_s,
-                                        self.attached),
+        return (tabulate_reference(self.robot, FlooredLeastSquares(self.lowered), tries[-1], self.period_s,
+                                   attached=self.attached),
                 f'{part} cannot keep the planned tension margin ({short}); no try keeps every cable at '
                 f'{self.robot.tension_min_n:g} N: the last planned nearest the bounds')
 
@@ -278,7 +271,7 @@ class PoseRecovery(PlatformRecovery):
         τ_min holds), in the tries' order: tries[`first`] tabulated alone (and handed to
         `first_table`), then the others in one pass — where the first try is it, only if
         it does not keep the margin."""
-        alone = tabulate_pose_references(self.robot, self.lowered, tries[first:first + 1], self.period_s,
+        alone = tabulate_references(self.robot, self.lowered, tries[first:first + 1], self.period_s,
                                          self.attached)[0]
         if first_table is not None:
             first_table.set_result(alone)
@@ -286,7 +279,7 @@ class PoseRecovery(PlatformRecovery):
             yield alone
         others = tries[:first] + tries[first + 1:]
         if others:
-            tables = tabulate_pose_references(self.robot, self.lowered, others, self.period_s, self.attached)
+            tables = tabulate_references(self.robot, self.lowered, others, self.period_s, self.attached)
             yield from tables[:first] + ([alone] if first else []) + tables[first:]
 
     def take_move(self, tick: int) -> None:

@@ -13,8 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.point_mass.reference import tabulate_reference
+from cdpr_control.model.reference_table import tabulate_reference
 from cdpr_control.tension_distribution import InfeasibleTensionError, make_tension_distribution
+from cdpr_control.geometry.pose_trajectories import PoseTrajectory
 from cdpr_control.geometry.trajectories import HermiteQuintic, Hold, Sequence
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
 
@@ -67,7 +68,7 @@ class Line(RecoveryStrategy):
             naming.distribution.name, naming.distribution.tension_min_n + config.plan_tension_margin_n,
             naming.distribution.tension_max_n)
         try:
-            table = tabulate_reference(robot, distribution, path, naming.period_s, attached=attached)
+            table = tabulate_reference(robot, distribution, PoseTrajectory(path), naming.period_s, attached=attached)
         except InfeasibleTensionError as err:
             raise RecoveryInfeasible(f'no straight line to SP keeps the tensions within their bounds: {err}') from None
         return LineMove(naming.tick, table, safe)

@@ -31,11 +31,12 @@ from __future__ import annotations
 import numpy as np
 
 from cdpr_control.point_mass.kinematics import cable_vectors, forward_kinematics
-from cdpr_control.point_mass.reference import tabulate_reference
+from cdpr_control.model.reference_table import tabulate_reference
 from cdpr_control.model.robot import Robot
 from cdpr_control.point_mass.statics import static_tensions
 from cdpr_control.tension_distribution import (InfeasibleTensionError, TensionDistribution,
                                                floored_fit, make_tension_distribution)
+from cdpr_control.geometry.pose_trajectories import PoseTrajectory
 from cdpr_control.geometry.trajectories import HermiteQuintic, Hold, Sequence, quintic_profile
 from cdpr_control.point_mass.workspace import safe_point
 from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, VERDICT_DELAY_TICKS
@@ -227,8 +228,8 @@ class Recovery(TabulatedMove):
                 slowdown = self.config.replan_slowdown ** attempt
                 try:
                     table = tabulate_reference(
-                        self.robot, self.distribution, self.move_to_safe_point(
-                            start_m, velocity_m_s, acceleration, brake_s / slowdown, slowdown),
+                        self.robot, self.distribution, PoseTrajectory(self.move_to_safe_point(
+                            start_m, velocity_m_s, acceleration, brake_s / slowdown, slowdown)),
                         self.period_s, attached=self.attached)
                 except InfeasibleTensionError as err:
                     self.last_plan_error = err

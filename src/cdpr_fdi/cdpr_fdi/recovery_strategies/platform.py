@@ -9,7 +9,7 @@ import numpy as np
 from cdpr_control.platform import dynamics as pose_dynamics
 from cdpr_control.platform import substeps as platform_substeps
 from cdpr_control.platform.kinematics import joint_velocity
-from cdpr_control.platform.reference import PoseReferenceTable
+from cdpr_control.model.reference_table import ReferenceTable
 from cdpr_control.geometry.pose_trajectories import PoseSample
 from cdpr_control.model.robot import Robot
 from cdpr_control.geometry.rotation import normalised
@@ -61,7 +61,7 @@ def after_the_naming_tick(robot: Robot, attached: np.ndarray, position_m, orient
     return PoseSample(pose[:3].copy(), pose[3:].copy(), twist[:3].copy(), twist[3:].copy(), zero, zero)
 
 
-def ease_in(table: PoseReferenceTable, command_nm: np.ndarray, step_share: float, attached: np.ndarray,
+def ease_in(table: ReferenceTable, command_nm: np.ndarray, step_share: float, attached: np.ndarray,
             drum_radius_m: float) -> None:
     """The first row the controller tracks (row 0, the tick after the naming) takes
     `step_share` of the step from `command_nm` to its feed-forward, the next row the rest:

@@ -23,9 +23,9 @@ import math
 
 import numpy as np
 
-from cdpr_control.platform import dynamics as pose_dynamics
 from cdpr_control.control.controller import JointReference
-from cdpr_control.platform.reference import PoseReferenceTable, table_of
+from cdpr_control.model.dynamics import inverse_dynamics
+from cdpr_control.model.reference_table import ReferenceTable, table_of
 from cdpr_control.geometry.pose_trajectories import PoseSample
 from cdpr_control.model.robot import Robot
 from cdpr_control.geometry.rotation import normalised
@@ -68,7 +68,7 @@ class PoseApproach(PlatformRecovery):
         self.turn_limit_rad = (self.approach.errors(self.approach.samples(0, 1))[1][0]
                                + math.radians(config.approach_turn_limit_deg))
         self.row_limit = math.ceil(config.approach_limit_s / period_s)
-        self.tables: list[PoseReferenceTable] = []
+        self.tables: list[ReferenceTable] = []
         self.arrival_row: int | None = None
         self.hold: JointReference | None = None
         self.notes.append('steered to the safe pose under tensions within their bounds')
@@ -87,9 +87,8 @@ class PoseApproach(PlatformRecovery):
                     f'{self.config.approach_limit_s:g} s')
             sample = self.approach.samples(start, start + ROWS_PER_STEP)
             self.check(start, sample)
-            dynamics = pose_dynamics.inverse_dynamics(self.robot, self.distribution, *sample.motion,
-                                                      attached=self.attached)
-            self.tables.append(table_of(self.period_s, sample, dynamics, slice(None)))
+            dynamics = inverse_dynamics(self.robot, self.distribution, *sample.motion, attached=self.attached)
+            self.tables.append(table_of(self.period_s, sample, dynamics))
             if start == 0:
                 ease_in(self.tables[0], self.command_nm, self.config.command_step_share, self.attached,
                         self.robot.motor.drum_radius_m)
@@ -111,10 +110,9 @@ class PoseApproach(PlatformRecovery):
         if self.arrival_row is None and arrived.size:
             offset = int(arrived[0])
             self.arrival_row = start + offset
-            zero = np.zeros(3)
-            rest = pose_dynamics.inverse_dynamics(self.robot, self.distribution, sample.position_m[offset],
-                                                  sample.orientation[offset], zero, zero, zero, zero,
-                                                  attached=self.attached)
+            zero = np.zeros(6)
+            rest = inverse_dynamics(self.robot, self.distribution, sample.pose[offset], zero, zero,
+                                    attached=self.attached)
             self.hold = JointReference(rest.joint_angle_rad, rest.joint_velocity_rad_s, rest.torque_nm)
 
     def reference_at(self, tick: int) -> JointReference | None:
