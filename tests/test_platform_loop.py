@@ -35,7 +35,7 @@ def setup(motion_name: str, reverse: bool = False):
     motion = pose_motion_from_settled(settled_motion(MOTIONS, motion_name, reverse),
                                       robot.body.home_orientation)
     reference = tabulate_reference(robot, configured_tension_distribution(control, robot),
-                                   motion.trajectory, control.number('period_s', positive=True))
+                                   motion.pose_trajectory, control.number('period_s', positive=True))
     return robot, settings, motion, reference
 
 

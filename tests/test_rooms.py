@@ -34,7 +34,7 @@ ALLOWED = re.compile(r'^Rooms it may import: (.+?)[.(]', re.M)
 # The rooms where a body is defined: only there may code tell one body from another.
 BODY_ROOMS = ('src/cdpr_control/cdpr_control/point_mass/', 'src/cdpr_control/cdpr_control/platform/')
 # Ways of asking which body a robot has.
-BODY_SWITCHES = re.compile(r'platform is (not )?None|isinstance\([^)]*\b(Platform\w*|PointMass|PoseMotion)\b')
+BODY_SWITCHES = re.compile(r'platform is (not )?None|is (not )?NO_TURN|isinstance\([^)]*\b(Platform\w*|PointMass|NoTurn)\b')
 
 
 def root(package: str) -> Path:
@@ -153,7 +153,7 @@ def test_no_module_outside_a_body_room_asks_which_body_it_has():
 
 @pytest.mark.parametrize('line', ['    if robot.platform is None:', 'x = a if robot.platform is not None else b',
                                   '        if isinstance(self.recovery, PlatformRecovery):',
-                                  '    if isinstance(motion, PoseMotion):'])
+                                  '    if isinstance(motion.turn, NoTurn):', '    if motion.turn is not NO_TURN:'])
 def test_a_body_switch_is_found(line):
     stray = 'src/cdpr_fdi/cdpr_fdi/stray.py'
     assert body_switches({stray: f'"""A module."""\n{line}\n'}) == [f'{stray}:2: {line.strip()}']

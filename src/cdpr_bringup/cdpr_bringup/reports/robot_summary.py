@@ -139,12 +139,12 @@ def print_platform(robot, config, distribution, motions, period_s: float, safe_h
     for name in motion_names(motions):
         motion = pose_motion_from_settled(settled_motion(motions, name), nominal)
         try:
-            reference = tabulate_reference(robot, distribution, motion.trajectory, period_s)
+            reference = tabulate_reference(robot, distribution, motion.pose_trajectory, period_s)
         except InfeasibleTensionError as err:
-            print(f'  {name:<14} {motion.path.move.duration_s:7.3f} no tensions within the bounds: {err}')
+            print(f'  {name:<14} {motion.move.duration_s:7.3f} no tensions within the bounds: {err}')
             continue
-        turn = np.degrees(abs(motion.trajectory.turn.angle_rad))
-        print(f'  {name:<14} {motion.path.move.duration_s:7.3f} {turn:7.1f} {reference.tension_n.min():7.2f} '
+        turn = np.degrees(abs(motion.turn.angle_rad))
+        print(f'  {name:<14} {motion.move.duration_s:7.3f} {turn:7.1f} {reference.tension_n.min():7.2f} '
               f'{reference.tension_n.max():7.2f} {np.abs(reference.feedforward_nm).max():12.3f}')
     recovery = load_recovery_config(config, robot)
     if safe_height is not None:

@@ -159,9 +159,8 @@ class SettledRun:
     config_path: Path
     calibration_path: Path | None
     robot: Robot
-    motion: Motion
+    motion: Motion    # the body's (Body.motion): a platform's with its turn
     plant: PlantConfig
-    reference_motion: object    # the body's motion (Body.motion): `motion`, and a platform's turn
 
 
 def settle(options: ScenarioOptions) -> SettledRun:
@@ -178,8 +177,7 @@ def settle(options: ScenarioOptions) -> SettledRun:
     settings = Section(document, config_path, defaulted=loaded.defaulted, sources=loaded.sources)
     robot = robot_from_section(settings.section('robot'))
     motion_section = settled_motion(config_file(options.motions), options.motion, options.reverse)
-    reference_motion = robot.body.motion(motion_section)
-    motion = reference_motion.path
+    motion = robot.body.motion(motion_section)
     check_options(options, robot, motion)
     if options.fidelity is not None:
         document['plant']['fidelity'] = options.fidelity
@@ -203,8 +201,7 @@ def settle(options: ScenarioOptions) -> SettledRun:
     document['motion'] = dict(motion_section.data)
     document['run'] = {
         'start_position_m': motion.trajectory.start.tolist(),
-        **({} if reference_motion.start_orientation is None
-           else {'start_orientation': reference_motion.start_orientation.tolist()}),
+        **({} if motion.start_orientation is None else {'start_orientation': motion.start_orientation.tolist()}),
         'failure_times_s': [motion.failure_time(options.fail_at_s, options.fail_at_fraction)
                             for _ in options.fail_cables],
         'failure_cable_indices': [cable - 1 for cable in options.fail_cables],
@@ -213,7 +210,7 @@ def settle(options: ScenarioOptions) -> SettledRun:
         'push_force_n': [float(f) for push in options.pushes for f in push[2:]],
     }
     return SettledRun(settings, config_path, None if calibration is None else Path(calibration.path),
-                      robot, motion, plant, reference_motion)
+                      robot, motion, plant)
 
 
 def build_scenario(options: ScenarioOptions) -> Scenario:
@@ -241,7 +238,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         gains=gains,
         twin_substeps=settings.section('twin').integer('substeps', minimum=1),
         motion=settled.motion,
-        reference=motion_reference(robot, distribution, settled.reference_motion, period),
+        reference=motion_reference(robot, distribution, settled.motion, period),
         plant=settled.plant,
         failures=failures,
         pushes=settled_pushes(run),

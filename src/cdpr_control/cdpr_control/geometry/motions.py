@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from cdpr_control.config import Section, load_config, load_section
-from cdpr_control.geometry.pose_trajectories import PoseTrajectory
+from cdpr_control.geometry.pose_trajectories import NO_TURN, NoTurn, PoseTrajectory, Turn
 from cdpr_control.geometry.trajectories import Circle, Hold, Sequence, StraightLine, quintic_time_at_fraction
 
 MOTION_TYPES = ('line', 'circle')
@@ -15,23 +15,24 @@ MOTION_TYPES = ('line', 'circle')
 
 @dataclass
 class Motion:
-    """A rest → move → rest reference: the move is the middle segment of `trajectory`."""
+    """A rest → move → rest reference: the move is the middle segment of `trajectory`, the
+    position's path; `turn` the orientation's over it (a platform's; NO_TURN for a point
+    mass, whose pose has none)."""
 
     name: str
     trajectory: Sequence
-    # a point's motion has no orientation to start from (PoseMotion: a platform's)
-    start_orientation = None
-
-    @property
-    def path(self) -> 'Motion':
-        """The motion of the position: this one (PoseMotion: its path's)."""
-        return self
+    turn: Turn | NoTurn = NO_TURN
 
     @property
     def pose_trajectory(self) -> PoseTrajectory:
-        """The motion of the pose, as it is tabulated: the path without a turn (PoseMotion:
-        with its turn)."""
-        return PoseTrajectory(self.trajectory)
+        """The motion of the pose, as it is tabulated."""
+        return PoseTrajectory(self.trajectory, self.turn)
+
+    @property
+    def start_orientation(self) -> np.ndarray | None:
+        """The orientation it starts from; None for a pose without one."""
+        orientation = self.turn.sample(0.0)[0]
+        return orientation if orientation.size else None
 
     @property
     def move(self):

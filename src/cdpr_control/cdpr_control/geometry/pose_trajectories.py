@@ -1,6 +1,6 @@
 """Reference motions of an end-effector's pose: a path of its position (trajectories.py)
 and a turn of its orientation, both starting and ending at rest. A point mass's pose has
-no orientation: its turn is NO_TURN, whose figures have no entries (a pose of 3 numbers,
+no orientation: its turn, NO_TURN, has figures of no entries (a pose of 3 numbers,
 a twist of 3), so that one code path serves either body.
 
 A turn rotates the platform by `angle_rad` about a fixed world axis, from its starting

@@ -80,9 +80,8 @@ class Body(ABC):
 
     @abstractmethod
     def motion(self, motion):
-        """The reference motion of the settled `motion` section for this body (a path,
-        and for a platform its turn), with its `path` (the position's Motion), its
-        `pose_trajectory` (what model.reference_table tabulates) and `start_orientation`."""
+        """The reference motion (geometry.motions.Motion) of the settled `motion` section
+        for this body: its path, and for a platform its turn."""
 
     @abstractmethod
     def reference_poses(self, robot, motion, period_s: float):

@@ -82,7 +82,7 @@ class Platform(Body):
         return with_turn(motion_from_settled(motion), motion, self.home_orientation)
 
     def reference_poses(self, robot, motion, period_s: float):
-        sample = sampled(pose_motion_from_settled(motion, self.home_orientation).trajectory, period_s)
+        sample = sampled(pose_motion_from_settled(motion, self.home_orientation).pose_trajectory, period_s)
         return sample.position_m, sample.orientation
 
     def check_goal(self, goal_m) -> None:
