@@ -83,8 +83,8 @@ def test_a_platform_of_points_at_its_origin_is_the_point_mass(rng):
     assert np.allclose(lengths, expected_lengths, atol=1e-15)
     velocity, torque = rng.normal(size=3) * 0.1, -0.3 + 0.05 * rng.normal(size=4)
     joint_velocity = pose_kinematics.joint_velocity(platform, position, IDENTITY, velocity, np.zeros(3))
-    ours = pose_dynamics.direct_dynamics(platform, position, IDENTITY, velocity, np.zeros(3), torque,
-                                         joint_velocity)
+    ours = pose_dynamics.direct_dynamics(platform, np.concatenate([position, IDENTITY]),
+                                         np.concatenate([velocity, np.zeros(3)]), torque, joint_velocity)
     theirs = point_mass_direct_dynamics(point_mass, position, velocity, torque, joint_velocity)
     assert np.allclose(ours.acceleration_m_s2, theirs.acceleration_m_s2, rtol=1e-12, atol=1e-12)
     assert np.allclose(ours.angular_acceleration_rad_s2, 0.0, atol=1e-12)
@@ -371,8 +371,9 @@ def test_direct_dynamics_undoes_inverse_dynamics(robot, distribution):
         inverse = inverse_dynamics(robot, distribution, *PoseSample(position, orientation, velocity, omega,
                                                                     acceleration, alpha).motion)
         assert inverse.tension_n.min() > 0.0
-        direct = pose_dynamics.direct_dynamics(robot, position, orientation, velocity, omega,
-                                               inverse.torque_nm, inverse.joint_velocity_rad_s)
+        direct = pose_dynamics.direct_dynamics(robot, np.concatenate([position, orientation]),
+                                               np.concatenate([velocity, omega]), inverse.torque_nm,
+                                               inverse.joint_velocity_rad_s)
         assert direct.taut.all()
         assert np.allclose(direct.acceleration_m_s2, acceleration, atol=1e-9)
         assert np.allclose(direct.angular_acceleration_rad_s2, alpha, atol=1e-9)
@@ -384,7 +385,7 @@ def test_the_holding_torques_keep_the_platform_at_rest(robot, distribution, rng)
     for position, orientation in random_poses(robot, rng, 5):
         holding = inverse_dynamics(robot, distribution, *PoseSample(position, orientation, *[np.zeros(3)] * 4).motion)
         assert np.all(holding.torque_nm < 0.0)   # every motor holds its cable up
-        at_rest = pose_dynamics.direct_dynamics(robot, position, orientation, np.zeros(3), np.zeros(3),
+        at_rest = pose_dynamics.direct_dynamics(robot, np.concatenate([position, orientation]), np.zeros(6),
                                                 holding.torque_nm, np.zeros(8))
         assert np.allclose(at_rest.acceleration_m_s2, 0.0, atol=1e-10)
         assert np.allclose(at_rest.angular_acceleration_rad_s2, 0.0, atol=1e-10)
@@ -394,8 +395,8 @@ def derivative(robot, state, torque, attached):
     """(ṗ, q̇, a, α) of the state (p, q, v, ω) under constant motor torques, cables rigid."""
     position, orientation, velocity, omega = state
     joint_velocity = pose_kinematics.joint_velocity(robot, position, orientation, velocity, omega)
-    direct = pose_dynamics.direct_dynamics(robot, position, orientation, velocity, omega, torque,
-                                           joint_velocity, attached)
+    direct = pose_dynamics.direct_dynamics(robot, np.concatenate([position, orientation]),
+                                           np.concatenate([velocity, omega]), torque, joint_velocity, attached)
     return (velocity, 0.5 * product(np.concatenate([[0.0], omega]), orientation),
             direct.acceleration_m_s2, direct.angular_acceleration_rad_s2), direct
 

@@ -82,7 +82,8 @@ def test_a_cable_paid_out_goes_slack_and_the_rest_solve_as_without_it(robot):
     joint_velocity = pose_kinematics.joint_velocity(robot, position, orientation, velocity, omega)
     torque = np.full(robot.cable_count, -0.6)
     torque[5] = 2.0
-    result = pose_dynamics.direct_dynamics(robot, position, orientation, velocity, omega, torque, joint_velocity)
+    result = pose_dynamics.direct_dynamics(robot, np.concatenate([position, orientation]),
+                                           np.concatenate([velocity, omega]), torque, joint_velocity)
     assert not result.taut[5] and result.taut.sum() == 7 and result.tension_n[5] == 0.0
     assert result.joint_acceleration_rad_s2[5] == pytest.approx(
         (torque[5] - motor.viscous_friction_nm_s_rad * joint_velocity[5]) / motor.inertia_kg_m2)

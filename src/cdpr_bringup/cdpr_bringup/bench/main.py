@@ -125,7 +125,7 @@ def bench_platform_model(robot, path) -> dict:
         method = make_tension_distribution(name, robot.tension_min_n, robot.tension_max_n)
         figures[f'tension_{name}_us'] = median_us(method.distribute, structure, wrench)
     figures['inverse_dynamics_us'] = median_us(inverse_dynamics, robot, pseudo_inverse, *sample.motion)
-    figures['direct_dynamics_us'] = median_us(pose_dynamics.direct_dynamics, robot, *motion,
+    figures['direct_dynamics_us'] = median_us(robot.body.direct_dynamics, robot, sample.pose, sample.twist,
                                               torque.torque_nm, torque.joint_velocity_rad_s)
     attached = robot.cable_mask([robot.cable_count - 1])
     approach = SteeredApproach(robot, attached, sample,

@@ -68,6 +68,13 @@ class Body(ABC):
         either body is computed from."""
 
     @abstractmethod
+    def direct_dynamics(self, robot, pose, twist, torque_nm, joint_velocity_rad_s, attached=None,
+                        external_wrench=None, kernel: str = 'compiled'):
+        """model.dynamics.DirectDynamics at the pose and twist under the motor torques
+        (N·m), the motors at `joint_velocity_rad_s`, with the `attached` cables (all when
+        None) and `external_wrench` (dof: N, and N·m for a platform) besides, rigid cables."""
+
+    @abstractmethod
     def holding_torques_nm(self, robot, position_m, orientation, attached=None) -> np.ndarray:
         """c = −ρ t (N·m): the motor torques whose static tensions t of the `attached`
         cables (all when None) hold the end-effector still at the pose."""

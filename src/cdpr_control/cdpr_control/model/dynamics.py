@@ -1,5 +1,5 @@
 """Inverse dynamics of either body: the motor torques that make the end-effector follow a
-motion (docs/design.md §4, docs/platform.md).
+motion (docs/design.md §4, docs/platform.md); and what the direct dynamics give.
 
 A pose is (p, q) — 3 numbers for a point mass, 7 for a platform —, its twist (v, ω) and
 the twist's rate (a, α) have as many entries as the body has degrees of freedom (3 or 6).
@@ -40,6 +40,26 @@ class InverseDynamics:
     joint_angle_rad: np.ndarray
     joint_velocity_rad_s: np.ndarray
     joint_acceleration_rad_s2: np.ndarray
+
+
+@dataclass
+class DirectDynamics:
+    """The twist's rate (a, α) (m/s², and rad/s² for a platform), θ̈ (rad/s²), the tensions
+    (N) and which cables are taut, under given motor torques (Body.direct_dynamics)."""
+
+    twist_rate: np.ndarray
+    joint_acceleration_rad_s2: np.ndarray
+    tension_n: np.ndarray
+    taut: np.ndarray
+
+    @property
+    def acceleration_m_s2(self) -> np.ndarray:
+        return self.twist_rate[:3]
+
+    @property
+    def angular_acceleration_rad_s2(self) -> np.ndarray:
+        """α (rad/s²): no entries for a point mass."""
+        return self.twist_rate[3:]
 
 
 def inverse_dynamics(robot, distribution: TensionDistribution, pose, twist, twist_rate, attached=None,

@@ -18,7 +18,7 @@ from cdpr_control.geometry.rotation import normalised, rotation_matrix
 from cdpr_control.model.body import Body
 from cdpr_control.platform import substeps
 from cdpr_control.model.reference_table import sampled
-from cdpr_control.platform.dynamics import motion_terms, rigid_body
+from cdpr_control.platform.dynamics import direct_dynamics, motion_terms, rigid_body
 from cdpr_control.platform.kinematics import forward_kinematics, forward_kinematics_rows, wrench_matrix
 from cdpr_control.platform.motion import pose_motion_from_settled, with_turn
 from cdpr_control.platform.statics import static_tensions
@@ -70,6 +70,10 @@ class Platform(Body):
 
     def motion_terms(self, robot, poses, twists, twist_rates):
         return motion_terms(robot, poses, twists, twist_rates)
+
+    def direct_dynamics(self, robot, pose, twist, torque_nm, joint_velocity_rad_s, attached=None,
+                        external_wrench=None, kernel: str = 'compiled'):
+        return direct_dynamics(robot, pose, twist, torque_nm, joint_velocity_rad_s, attached, external_wrench, kernel)
 
     def holding_torques_nm(self, robot, position_m, orientation, attached=None) -> np.ndarray:
         return -robot.motor.drum_radius_m * static_tensions(robot, position_m, orientation, attached)

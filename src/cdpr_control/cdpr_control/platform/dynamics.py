@@ -24,20 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from cdpr_control.platform import substeps as platform_substeps
-from cdpr_control.model.dynamics import MotionTerms
+from cdpr_control.model.dynamics import DirectDynamics, MotionTerms
 from cdpr_control.model.robot import Robot
 from cdpr_control.geometry.rotation import rotation_matrix
-
-
-@dataclass
-class PlatformDirectDynamics:
-    """(a, α) (m/s², rad/s²), θ̈ (rad/s²), tensions (N) and which cables are taut."""
-
-    acceleration_m_s2: np.ndarray
-    angular_acceleration_rad_s2: np.ndarray
-    joint_acceleration_rad_s2: np.ndarray
-    tension_n: np.ndarray
-    taut: np.ndarray
 
 
 @dataclass
@@ -74,10 +63,9 @@ def motion_terms(robot: Robot, poses, twists, accelerations) -> MotionTerms:
     return MotionTerms(np.swapaxes(columns, 1, 2), lengths, wrench, joint_velocity, joint_acceleration)
 
 
-def direct_dynamics(robot: Robot, position_m, orientation, velocity_m_s, angular_velocity_rad_s,
-                    torque_nm, joint_velocity_rad_s, attached=None, external_wrench=None,
-                    kernel: str = 'compiled') -> PlatformDirectDynamics:
-    """(a, α) under motor torques c with rigid cables: the attached cables that stay taut
+def direct_dynamics(robot: Robot, pose, twist, torque_nm, joint_velocity_rad_s, attached=None,
+                    external_wrench=None, kernel: str = 'compiled') -> DirectDynamics:
+    """(a, α) at the pose (p, q) and twist (v, ω) under motor torques c with rigid cables: the attached cables that stay taut
     pull (module docstring); one whose tension comes out negative goes slack and the
     rest are solved again, the most negative first. The motor of a slack or detached
     cable spins freely: J θ̈ = −b θ̇ + c. Solved by platform_substeps' `kernel`."""
@@ -86,12 +74,12 @@ def direct_dynamics(robot: Robot, position_m, orientation, velocity_m_s, angular
     exits, attachments, _ = platform_substeps.geometry_of(robot)
     platform_substeps.kernel(kernel).direct_dynamics(
         platform_substeps.constants_of(robot), exits, attachments,
-        np.concatenate([position_m, orientation]), np.concatenate([velocity_m_s, angular_velocity_rad_s]),
+        np.array(pose, dtype=float), np.array(twist, dtype=float),
         np.array(torque_nm, dtype=float), np.array(joint_velocity_rad_s, dtype=float),
         np.ones(m) if attached is None else np.array(attached, dtype=float),
         np.zeros(6) if external_wrench is None else np.array(external_wrench, dtype=float),
         acceleration, joint_acceleration, tension, taut)
-    return PlatformDirectDynamics(acceleration[:3], acceleration[3:], joint_acceleration, tension, taut != 0.0)
+    return DirectDynamics(acceleration, joint_acceleration, tension, taut != 0.0)
 
 
 def wrench_at_origin(force_n) -> np.ndarray:

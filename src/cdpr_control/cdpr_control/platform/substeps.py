@@ -2,7 +2,7 @@
 approach's rows (cdpr_control.platform.steered_approach): one source, run by CPython or compiled
 by numba (docs/platform.md, "Speed").
 
-The equations are those of pose_dynamics' docstring (Newton–Euler at the platform frame's
+The equations are those of platform.dynamics' docstring (Newton–Euler at the platform frame's
 origin, the motors J θ̈ = −b θ̇ + c + ρ τ) and of pose_kinematics' (l_i = A_i − p − R b_i,
 W's column [u_i ; r_i × u_i]); here they are written on floats and small arrays, element
 by element, the form numba compiles to a few µs a call where numpy's per-call cost
@@ -110,7 +110,7 @@ def length_rate(wrench_columns, i, twist) -> float:
 
 def rigid_body(constants, rotation, twist, mass_matrix, free_wrench) -> None:
     """The platform's M (6 × 6, into `mass_matrix`) and w_g − h (6, into `free_wrench`) at
-    its rotation R and twist: pose_dynamics' docstring."""
+    its rotation R and twist: platform.dynamics' docstring."""
     mass = constants[MASS]
     cx, cy, cz = constants[CENTRE], constants[CENTRE + 1], constants[CENTRE + 2]
     # c_w = R c, I_w = R I_c Rᵀ
@@ -203,7 +203,7 @@ def velocity_product(units, lengths, arms, twist, kappa) -> None:
 def direct_dynamics(constants, exits, attachments, pose, twist, torque, joint_velocity, candidates, external_wrench,
                     acceleration, joint_acceleration, tension, taut) -> None:
     """(a, α) (into `acceleration`), θ̈, the tensions and which cables are taut, under
-    motor torques c with rigid cables: pose_dynamics.direct_dynamics. The `candidates`
+    motor torques c with rigid cables: platform.dynamics.direct_dynamics. The `candidates`
     that stay taut pull; one whose tension comes out negative goes slack and the rest are
     solved again, the most negative first; a slack motor spins freely."""
     m = exits.shape[0]
@@ -267,7 +267,7 @@ def motion_rows(constants, exits, attachments, poses, twists, accelerations, wre
     """For each row k of a motion — pose, twist (v, ω) and its rate (a, α) — W's columns as
     rows (into `wrench_columns[k]`, m × 6), the lengths d (m), the wrench the cables must
     apply, M (a, α) − (w_g − h) (N, N·m), and the joint motion θ̇ = ḋ / ρ (rad/s) and
-    θ̈ = (−Wᵀ (a, α) + κ) / ρ (rad/s²): the inverse dynamics of pose_dynamics but for the
+    θ̈ = (−Wᵀ (a, α) + κ) / ρ (rad/s²): the inverse dynamics of model.dynamics but for the
     tension distribution, a whole tabulated motion per call."""
     m = exits.shape[0]
     radius = constants[RADIUS]

@@ -11,7 +11,7 @@ from cdpr_control.geometry.motions import motion_from_settled
 from cdpr_control.model.body import Body
 from cdpr_control.model.reference_table import tick_times
 from cdpr_control.point_mass import substeps
-from cdpr_control.point_mass.dynamics import motion_terms
+from cdpr_control.point_mass.dynamics import direct_dynamics, motion_terms
 from cdpr_control.point_mass.kinematics import forward_kinematics, structure_matrix
 from cdpr_control.point_mass.statics import holding_torque_nm
 
@@ -49,6 +49,10 @@ class PointMass(Body):
 
     def motion_terms(self, robot, poses, twists, twist_rates):
         return motion_terms(robot, poses, twists, twist_rates)
+
+    def direct_dynamics(self, robot, pose, twist, torque_nm, joint_velocity_rad_s, attached=None,
+                        external_wrench=None, kernel: str = 'compiled'):
+        return direct_dynamics(robot, pose, twist, torque_nm, joint_velocity_rad_s, attached, external_wrench, kernel)
 
     def holding_torques_nm(self, robot, position_m, orientation, attached=None) -> np.ndarray:
         return holding_torque_nm(robot, position_m,

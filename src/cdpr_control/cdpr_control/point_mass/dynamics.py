@@ -12,21 +12,11 @@ import numpy as np
 
 from cdpr_control.point_mass import substeps as point_mass_substeps
 from cdpr_control.point_mass.kinematics import joint_acceleration, joint_velocity, structure_matrix, structure_matrix_rate
-from cdpr_control.model.dynamics import MotionTerms
+from cdpr_control.model.dynamics import DirectDynamics, MotionTerms
 from cdpr_control.model.robot import Robot
 
 # No force on the end-effector but its weight and the cables' (N, world frame).
 NO_FORCE = (0.0, 0.0, 0.0)
-
-
-@dataclass
-class DirectDynamics:
-    """p̈ (m/s²), θ̈ (rad/s²), tensions (N) and which cables are taut."""
-
-    acceleration_m_s2: np.ndarray
-    joint_acceleration_rad_s2: np.ndarray
-    tension_n: np.ndarray
-    taut: np.ndarray
 
 
 def motion_terms(robot: Robot, positions_m, velocities_m_s, accelerations_m_s2) -> MotionTerms:
@@ -41,13 +31,14 @@ def motion_terms(robot: Robot, positions_m, velocities_m_s, accelerations_m_s2) 
 
 
 def direct_dynamics(robot: Robot, position_m, velocity_m_s, torque_nm, joint_velocity_rad_s,
-                    attached=None, kernel: str = 'compiled') -> DirectDynamics:
+                    attached=None, external_wrench=None, kernel: str = 'compiled') -> DirectDynamics:
     """Accelerations under torques c for a rigid-cable robot.
 
     Taut cables obey (m_e I + (J/ρ²) S Sᵀ) p̈ = m_e g − (J/ρ²) S Ṡᵀ ṗ − (b/ρ²) S Sᵀ ṗ − (1/ρ) S c.
     A cable whose implied tension would be negative goes slack and leaves S (the most
     negative first, until all remaining tensions are non-negative); the motors of slack
     and detached cables spin freely, J θ̈ = −b θ̇ + c, from `joint_velocity_rad_s`.
+    `external_wrench`, a force (N, world frame), acts on the end-effector besides.
     Solved by point_mass_substeps' `kernel`.
     """
     m = robot.cable_count
@@ -59,6 +50,7 @@ def direct_dynamics(robot: Robot, position_m, velocity_m_s, torque_nm, joint_vel
     acceleration, theta_ddot, tension, taut = np.empty(3), np.empty(m), np.empty(m), np.empty(m)
     solver.direct_dynamics(point_mass_substeps.constants_of(robot), directions,
                            np.array(velocity_m_s, dtype=float), np.array(torque_nm, dtype=float),
-                           np.array(joint_velocity_rad_s, dtype=float), candidates, np.zeros(3),
+                           np.array(joint_velocity_rad_s, dtype=float), candidates,
+                           np.zeros(3) if external_wrench is None else np.array(external_wrench, dtype=float),
                            acceleration, theta_ddot, tension, taut)
     return DirectDynamics(acceleration, theta_ddot, tension, taut != 0.0)

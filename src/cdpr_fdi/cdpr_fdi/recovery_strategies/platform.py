@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.platform import dynamics as pose_dynamics
 from cdpr_control.platform import substeps as platform_substeps
 from cdpr_control.platform.kinematics import joint_velocity
 from cdpr_control.model.reference_table import ReferenceTable
@@ -51,12 +50,9 @@ def after_the_naming_tick(robot: Robot, attached: np.ndarray, position_m, orient
     pose = np.concatenate([np.asarray(position_m, dtype=float), normalised(orientation)])
     twist = np.concatenate([np.asarray(velocity_m_s, dtype=float), np.asarray(angular_velocity_rad_s, dtype=float)])
     for _ in range(VERDICT_DELAY_TICKS):
-        position, turned, velocity, angular_velocity = pose[:3], pose[3:], twist[:3], twist[3:]
-        commanded = pose_dynamics.direct_dynamics(robot, position, turned, velocity, angular_velocity, command_nm,
-                                                  joint_velocity(robot, position, turned, velocity, angular_velocity),
-                                                  attached)
-        acceleration = np.concatenate([commanded.acceleration_m_s2, commanded.angular_acceleration_rad_s2])
-        platform_substeps.kernel().move(pose, twist, acceleration, period_s)
+        speed = joint_velocity(robot, pose[:3], pose[3:], twist[:3], twist[3:])
+        commanded = robot.body.direct_dynamics(robot, pose, twist, command_nm, speed, attached)
+        platform_substeps.kernel().move(pose, twist, commanded.twist_rate, period_s)
     zero = np.zeros(3)
     return PoseSample(pose[:3].copy(), pose[3:].copy(), twist[:3].copy(), twist[3:].copy(), zero, zero)
 
