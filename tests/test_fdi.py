@@ -25,7 +25,7 @@ from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
 from cdpr_fdi.supervisor import Supervisor
 from cdpr_fdi.tension_collapse import TensionCollapse
 from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, VERDICT_DELAY_TICKS
-from cdpr_twin.models.rigid_model import RigidCableRobot
+from cdpr_twin.models.rigid_model import RigidModel
 
 from conftest import PAPER_ROBOT
 
@@ -39,7 +39,7 @@ def recovery_config(paper_robot):
 
 def test_sensorless_tension_is_zero_for_a_free_motor_and_the_load_for_a_taut_cable(paper_robot):
     robot = paper_robot
-    model = RigidCableRobot(robot, robot.home_position_m + [0.1, -0.05, 0.0])
+    model = RigidModel(robot, robot.home_position_m + [0.1, -0.05, 0.0])
     hold = -robot.motor.drum_radius_m * static_tensions(robot, model.position_m, robot.cable_mask())
     model.break_cables([3])
     torque = hold + np.array([0.0, 0.0, 0.0, 0.4])
@@ -387,7 +387,8 @@ def test_a_moves_references_sent_ahead_are_those_its_later_ticks_get():
     tick later gets, none past the table, none once SAFE_HOLD has begun."""
     rows = 6
     table = ReferenceTable(PERIOD_S, np.zeros((rows, 3)), np.zeros((rows, 3)), np.arange(rows * 4.0).reshape(rows, 4),
-                           -np.arange(rows * 4.0).reshape(rows, 4), np.ones((rows, 4)))
+                           -np.arange(rows * 4.0).reshape(rows, 4), np.ones((rows, 4)), np.empty((rows, 0)),
+                           np.empty((rows, 0)), np.ones((rows, 4)))
 
     class Move(TabulatedMove):
         def __init__(self):

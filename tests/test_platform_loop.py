@@ -16,7 +16,7 @@ from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.geometry.rotation import difference, rotation_matrix, tilt_rad
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_twin.models.plant import PlantConfig, PlantSimulator
-from cdpr_twin.models.rigid_platform import RigidPlatform
+from cdpr_twin.models.rigid_model import RigidModel
 from cdpr_twin.models.twin import DigitalTwin
 
 from conftest import CONFIG_DIR, every_tick_scenario
@@ -72,7 +72,7 @@ def test_the_rigid_platform_tracks_each_motion_within_the_bounds(motion_name):
     robot, settings, _, reference = setup(motion_name)
     gains = PdGains.from_section(robot, settings.section('control'))
     assert gains.sampled_stable(robot, reference.period_s)
-    plant = RigidPlatform(robot, reference.position_m[0], reference.orientation[0])
+    plant = RigidModel(robot, reference.position_m[0], reference.orientation[0])
     errors, turns, tensions = run(robot, plant, gains, reference)
     assert errors.max() < POSITION_BOUND_M and turns.max() < ORIENTATION_BOUND_RAD
     assert tensions.min() >= robot.tension_min_n and tensions.max() <= robot.tension_max_n
@@ -83,7 +83,7 @@ def test_a_broken_cable_frees_its_motor_and_the_others_take_the_load():
     """Cable 1 detached in the rigid platform at rest under the holding torques: its motor,
     no longer held by the cable, spins up under its own torque; the others take the load."""
     robot, settings, _, reference = setup('along')
-    plant = RigidPlatform(robot, reference.position_m[0], reference.orientation[0])
+    plant = RigidModel(robot, reference.position_m[0], reference.orientation[0])
     holding = reference.feedforward_nm[0]
     plant.step(holding, reference.period_s)
     assert np.linalg.norm(plant.velocity_m_s) < 1e-9

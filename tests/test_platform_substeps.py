@@ -16,7 +16,7 @@ from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.geometry.rotation import from_axis_angle
 from cdpr_twin.models.elastic_platform import ElasticPlatform
 from cdpr_twin.models.plant import PlantConfig
-from cdpr_twin.models.rigid_platform import RigidPlatform
+from cdpr_twin.models.rigid_model import RigidModel
 
 from conftest import CONFIG_DIR
 
@@ -58,7 +58,7 @@ def test_both_kernels_give_the_same_numbers_on_every_path(robot, model_name):
 
     def model(kernel):
         if model_name == 'rigid':
-            return RigidPlatform(robot, position, orientation, 2, kernel)
+            return RigidModel(robot, position, orientation, 2, kernel)
         return ElasticPlatform(robot, position, orientation, config, kernel)
 
     python, compiled = drive(model('python'), robot, holding), drive(model('compiled'), robot, holding)

@@ -10,7 +10,7 @@ import pytest
 from cdpr_control.point_mass.dynamics import direct_dynamics
 from cdpr_control.kernels import KERNELS
 from cdpr_control.setup.robot_file import load_robot
-from cdpr_twin.models.rigid_model import RigidCableRobot
+from cdpr_twin.models.rigid_model import RigidModel
 
 from conftest import PAPER_ROBOT
 
@@ -22,7 +22,7 @@ STATE = ('position_m', 'velocity_m_s', 'angle_rad', 'angular_velocity_rad_s', 't
 def test_a_run_through_slack_a_break_and_a_push_is_the_same_with_both_kernels():
     robot = load_robot(PAPER_ROBOT)
     start = robot.home_position_m + np.array([0.1, -0.05, 0.0])
-    models = {name: RigidCableRobot(robot, start, substeps=3, kernel=name) for name in KERNELS}
+    models = {name: RigidModel(robot, start, substeps=3, kernel=name) for name in KERNELS}
     holding = -robot.motor.drum_radius_m * models['python'].tension_n
     slack_seen = np.zeros(robot.cable_count, dtype=bool)
     for k in range(600):
@@ -45,7 +45,7 @@ def test_a_run_through_slack_a_break_and_a_push_is_the_same_with_both_kernels():
 
 def test_locked_drums_hold_the_same_with_both_kernels():
     robot = load_robot(PAPER_ROBOT)
-    models = [RigidCableRobot(robot, robot.home_position_m, kernel=name) for name in KERNELS]
+    models = [RigidModel(robot, robot.home_position_m, kernel=name) for name in KERNELS]
     for model in models:
         model.step(np.full(robot.cable_count, -0.5), 0.002)
         model.drums_locked = True

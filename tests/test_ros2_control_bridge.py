@@ -16,7 +16,7 @@ from cdpr_control.geometry.rotation import difference, from_axis_angle
 from cdpr_control.point_mass.statics import holding_torque_nm
 from cdpr_msgs_py.contract import joint_names
 from cdpr_twin.nodes.joint_mapping import EffortBridge, JointMapping, JointMismatch, StaleWatch, TickStamps
-from cdpr_twin.models.rigid_platform import RigidPlatform
+from cdpr_twin.models.rigid_model import RigidModel
 
 from conftest import CONFIG_DIR, PAPER_ROBOT
 
@@ -146,7 +146,7 @@ def test_a_platforms_holding_torques_hold_it_at_its_measured_pose():
         held = bridge.tick(angles)
         assert bridge.holding and held.shape == (8,)
         assert np.all(held[platform.cable_mask(broken)] < 0.0) and np.all(held[broken] == 0.0)
-        model = RigidPlatform(platform, position, orientation)
+        model = RigidModel(platform, position, orientation)
         model.break_cables(broken)
         for _ in range(50):
             model.step(held, 0.002)

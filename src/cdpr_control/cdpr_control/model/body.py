@@ -105,5 +105,14 @@ class Body(ABC):
         point, whose marker is its sphere)."""
 
     @abstractmethod
+    def rigid_cables(self, robot, kernel: str, retaut_tolerance_m: float):
+        """The body's part of the rigid-cable model (cdpr_twin.models.rigid_model), its
+        `kernel` (KERNELS) loaded: `start(position_m, orientation)` gives the start pose's
+        orientation (the home one when None; the identity for a point mass), motor angles
+        (rad) and tensions (N); `substeps(count, h, attached, torque_nm, external_force_n,
+        pose, twist, angle, speed, tension, taut)` runs the body's rigid sub-steps on the
+        model's arrays (pose: p, q; twist: v, ω), updating them in place."""
+
+    @abstractmethod
     def load_kernels(self) -> None:
         """The compiled functions the body's models step with, loaded now."""

@@ -18,8 +18,9 @@ from cdpr_control.geometry.rotation import normalised, rotation_matrix
 from cdpr_control.model.body import Body
 from cdpr_control.platform import substeps
 from cdpr_control.model.reference_table import sampled
-from cdpr_control.platform.dynamics import direct_dynamics, motion_terms, rigid_body
-from cdpr_control.platform.kinematics import forward_kinematics, forward_kinematics_rows, wrench_matrix
+from cdpr_control.platform.dynamics import direct_dynamics, motion_terms, rigid_body, wrench_at_origin
+from cdpr_control.platform.kinematics import (forward_kinematics, forward_kinematics_rows, inverse_kinematics,
+                                              wrench_matrix)
 from cdpr_control.platform.motion import pose_motion_from_settled, with_turn
 from cdpr_control.platform.statics import static_tensions
 
@@ -97,8 +98,35 @@ class Platform(Body):
         ends = self.cable_ends_m(position_m, orientation, robot.cable_count)
         return np.array([point for end in ends for point in (position_m, end)])
 
+    def rigid_cables(self, robot, kernel: str, retaut_tolerance_m: float) -> 'RigidCables':
+        return RigidCables(robot, kernel, retaut_tolerance_m)
+
     def load_kernels(self) -> None:
         substeps.kernel().load_all()
+
+
+class RigidCables:
+    """The platform's part of the rigid model (Body.rigid_cables): substeps.rigid_substeps
+    on the whole pose and twist, an external force acting at the platform's origin."""
+
+    def __init__(self, robot, kernel: str, retaut_tolerance_m: float):
+        self.robot = robot
+        self.kernel = substeps.kernel(kernel).load_all()
+        self.exits, self.attachments, self.offsets = substeps.geometry_of(robot)
+        self.constants = substeps.constants_of(robot, retaut_tolerance_m=retaut_tolerance_m)
+
+    def start(self, position_m, orientation):
+        """q (the home orientation when None), θ (rad) at the pose, and no tensions yet."""
+        robot = self.robot
+        orientation = normalised(robot.body.home_orientation if orientation is None else orientation)
+        return (orientation, inverse_kinematics(robot, position_m, orientation),
+                np.zeros(robot.cable_count))
+
+    def substeps(self, count, h, attached, torque_nm, external_force_n, pose, twist, angle, speed, tension,
+                 taut) -> None:
+        self.kernel.rigid_substeps(count, h, self.constants, self.exits, self.attachments, self.offsets,
+                                   attached, np.array(torque_nm, dtype=float), wrench_at_origin(external_force_n),
+                                   pose, twist, angle, speed, tension, taut)
 
 
 def platform_from_section(platform: Section, cable_count: int) -> Platform:

@@ -545,7 +545,7 @@ def steered_rows(constants, exits, attachments, attached, target, gains, bounds,
 
 def rigid_substeps(substeps, h, constants, exits, attachments, offsets, attached, torque, external_wrench,
                    pose, twist, angle, speed, tension, taut) -> None:
-    """`substeps` sub-steps of `h` s of the rigid model (cdpr_twin.models.rigid_platform), the
+    """`substeps` sub-steps of `h` s of the rigid model (cdpr_twin.models.rigid_model), the
     state updated in place: each solves the direct dynamics with the attached cables not
     paid out beyond their straight-line length, moves, and puts the taut motors back on
     the kinematic constraint l = d, θ̇ = ḋ / ρ."""

@@ -8,15 +8,19 @@ from __future__ import annotations
 import numpy as np
 
 from cdpr_control.geometry.motions import motion_from_settled
+from cdpr_control.geometry.rotation import IDENTITY
 from cdpr_control.model.body import Body
 from cdpr_control.model.reference_table import tick_times
 from cdpr_control.point_mass import substeps
-from cdpr_control.point_mass.dynamics import direct_dynamics, motion_terms
-from cdpr_control.point_mass.kinematics import forward_kinematics, structure_matrix
-from cdpr_control.point_mass.statics import holding_torque_nm
+from cdpr_control.point_mass.dynamics import NO_FORCE, direct_dynamics, motion_terms
+from cdpr_control.point_mass.kinematics import forward_kinematics, inverse_kinematics, structure_matrix
+from cdpr_control.point_mass.statics import holding_torque_nm, static_tensions
 
 NO_POINTS = np.empty((0, 3))
 NO_POINTS.setflags(write=False)
+# NO_FORCE as the kernel takes it
+NO_FORCE_ROW = np.zeros(3)
+NO_FORCE_ROW.flags.writeable = False
 
 
 class PointMass(Body):
@@ -74,5 +78,37 @@ class PointMass(Body):
     def outline_m(self, robot, position_m, orientation) -> np.ndarray:
         return NO_POINTS
 
+    def rigid_cables(self, robot, kernel: str, retaut_tolerance_m: float) -> 'RigidCables':
+        return RigidCables(robot, kernel, retaut_tolerance_m)
+
     def load_kernels(self) -> None:
         substeps.kernel().load_all()
+
+
+class RigidCables:
+    """The point mass's part of the rigid model (Body.rigid_cables): substeps.rigid_substeps
+    on the position and velocity, the pose's and twist's first three entries."""
+
+    def __init__(self, robot, kernel: str, retaut_tolerance_m: float):
+        self.robot = robot
+        self.kernel = substeps.kernel(kernel).load_all()
+        self.constants = substeps.constants_of(robot, retaut_tolerance_m=retaut_tolerance_m)
+        self.exits = np.array(robot.exit_points_m, dtype=float)
+        self.offsets = np.array(robot.cable_length_offset_m, dtype=float)
+        # the cables' directions at the model's position, which its next sub-step starts from
+        # (the model's state, kept here as only this kernel takes it)
+        self.directions = np.empty((robot.cable_count, 4))
+
+    def start(self, position_m, orientation):
+        """The identity, θ (rad) at p and the static tensions (N) of every cable there."""
+        self.kernel.cable_directions(self.exits, position_m, self.directions)
+        return IDENTITY, inverse_kinematics(self.robot, position_m), static_tensions(self.robot, position_m,
+                                                                                     self.robot.cable_mask())
+
+    def substeps(self, count, h, attached, torque_nm, external_force_n, pose, twist, angle, speed, tension,
+                 taut) -> None:
+        self.kernel.rigid_substeps(count, h, self.constants, self.exits, self.offsets, attached,
+                                   np.ascontiguousarray(torque_nm, dtype=float),
+                                   NO_FORCE_ROW if external_force_n is NO_FORCE
+                                   else np.array(external_force_n, dtype=float),
+                                   pose[:3], twist[:3], angle, speed, tension, taut, self.directions)

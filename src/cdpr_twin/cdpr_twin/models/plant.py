@@ -24,8 +24,7 @@ from cdpr_control.model.robot import Robot
 from cdpr_twin.models.elastic_model import DriveTrain, ElasticCableRobot
 from cdpr_twin.models.elastic_platform import ElasticPlatform
 from cdpr_control.kernels import KERNELS
-from cdpr_twin.models.rigid_model import RigidCableRobot
-from cdpr_twin.models.rigid_platform import RigidPlatform
+from cdpr_twin.models.rigid_model import RigidModel
 
 FIDELITIES = ('rigid', 'elastic', 'field')
 # Instants closer than this (s) are one: summed 2 ms periods drift by ~1e-13 s.
@@ -167,10 +166,8 @@ def drive_train(robot: Robot, config: PlantConfig) -> DriveTrain:
     return dataclasses.replace(config.drive, hanging_mass_kg=tuple(hanging))
 
 
-def point_mass_model(robot: Robot, config: PlantConfig, position_m, orientation):
-    """A point-mass robot's model for the plant's fidelity."""
-    if config.fidelity == 'rigid':
-        return RigidCableRobot(robot, position_m, config.substeps)
+def point_mass_elastic_model(robot: Robot, config: PlantConfig, position_m, orientation):
+    """A point-mass robot's elastic model, with the field fidelity's drive train."""
     true_robot = mismatched_robot(robot, config)
     return ElasticCableRobot(
         true_robot, position_m, config.substeps, config.axial_stiffness_n,
@@ -178,18 +175,18 @@ def point_mass_model(robot: Robot, config: PlantConfig, position_m, orientation)
         config.coulomb_velocity_rad_s, drive_train(robot, config), config.kernel)
 
 
-def platform_model(robot: Robot, config: PlantConfig, position_m, orientation):
-    """A platform robot's model for the plant's fidelity (docs/platform.md)."""
-    if config.fidelity == 'rigid':
-        return RigidPlatform(robot, position_m, orientation, config.substeps)
+def platform_elastic_model(robot: Robot, config: PlantConfig, position_m, orientation):
+    """A platform robot's elastic model (docs/platform.md); it has no field fidelity."""
     if config.fidelity == 'elastic':
         return ElasticPlatform(mismatched_robot(robot, config), position_m, orientation, config)
     raise ValueError(f'plant.fidelity {config.fidelity}: the field plant models the paper\'s rig, a point '
                      'mass; a platform runs on the rigid or the elastic plant')
 
 
-# The plant's model of each body (Body.kind).
-PLANT_MODELS = {'point_mass': point_mass_model, 'platform': platform_model}
+# The elastic model of each body (Body.kind). Not the body's to supply, as it does its rigid
+# model's part: the point mass's carries the field rig's drive train and runs this room's
+# elastic_substeps, which the body rooms may not import.
+ELASTIC_MODELS = {'point_mass': point_mass_elastic_model, 'platform': platform_elastic_model}
 
 
 class PlantSimulator:
@@ -200,7 +197,10 @@ class PlantSimulator:
                  start_orientation=None):
         self.robot = robot
         self.config = config
-        self.model = PLANT_MODELS[robot.body.kind](robot, config, start_position_m, start_orientation)
+        # the twin's rigid model, or the body's elastic one
+        self.model = (RigidModel(robot, start_position_m, start_orientation, config.substeps)
+                      if config.fidelity == 'rigid'
+                      else ELASTIC_MODELS[robot.body.kind](robot, config, start_position_m, start_orientation))
         self.failures = sorted((float(t), int(c)) for t, c in failures)
         self.pushes = list(pushes)
         self.broken: list[int] = []

@@ -9,15 +9,7 @@ from cdpr_control.control import tracking
 from cdpr_control.control.controller import JointController, JointReference, PdGains
 from cdpr_control.model.robot import Robot
 
-from cdpr_twin.models.rigid_model import RigidCableRobot
-from cdpr_twin.models.rigid_platform import RigidPlatform
-
-
-# The rigid model of each body (Body.kind): the twin's, and the plant's `rigid` fidelity.
-RIGID_MODELS = {
-    'point_mass': lambda robot, position_m, orientation, substeps: RigidCableRobot(robot, position_m, substeps),
-    'platform': RigidPlatform,
-}
+from cdpr_twin.models.rigid_model import RigidModel
 
 
 @dataclass
@@ -33,12 +25,12 @@ class TwinOutput:
 
 
 class DigitalTwin:
-    """Fed the same reference as the robot; never sees the robot's measurements. A
-    platform robot's twin is its rigid platform model, starting at `start_orientation`
-    (its home orientation when None)."""
+    """Fed the same reference as the robot; never sees the robot's measurements. Its
+    model is the rigid one, a platform's starting at `start_orientation` (its home
+    orientation when None)."""
 
     def __init__(self, robot: Robot, gains: PdGains, start_position_m, substeps: int, start_orientation=None):
-        self.model = RIGID_MODELS[robot.body.kind](robot, start_position_m, start_orientation, substeps)
+        self.model = RigidModel(robot, start_position_m, start_orientation, substeps)
         self.controller = JointController(robot, gains)
 
     @staticmethod
