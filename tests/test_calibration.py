@@ -8,9 +8,9 @@ from cdpr_bringup.campaigns import calibrate as cdpr_calibrate
 from cdpr_control.config import ConfigError
 from cdpr_control.model.friction import FrictionModel
 from cdpr_control.setup.robot_file import load_robot
-from cdpr_fdi.calibration import (FailureFreeRun, calibrate, cusum_trace, fit_coulomb_friction,
+from cdpr_fdi.detection.calibration import (FailureFreeRun, calibrate, cusum_trace, fit_coulomb_friction,
                                   gumbel_threshold)
-from cdpr_fdi.config import load_fdi_config
+from cdpr_fdi.settings.config import load_fdi_config
 
 from conftest import CONFIG_DIR, PAPER_ROBOT
 

@@ -7,10 +7,11 @@ import sys
 
 CORE = ['cdpr_msgs_py.contract', 'cdpr_msgs_py.stamps', 'cdpr_msgs_py.health', 'cdpr_msgs_py.sole_writer',
         'cdpr_control.control.controller', 'cdpr_control.point_mass.dynamics', 'cdpr_control.model.reference_table',
-        'cdpr_control.control.setpoints', 'cdpr_control.setup.settings', 'cdpr_fdi.monitor',
+        'cdpr_control.control.setpoints', 'cdpr_control.setup.settings', 'cdpr_fdi.supervision.monitor',
         'cdpr_control.control.reference_schedule',
         'cdpr_twin.models.twin', 'cdpr_twin.models.plant', 'cdpr_twin.nodes.run_length', 'cdpr_twin.nodes.joint_mapping',
-        'cdpr_fdi.supervisor', 'cdpr_fdi.recovery', 'cdpr_fdi.recovery_strategies', 'cdpr_fdi.calibration', 'cdpr_fdi.markers',
+        'cdpr_fdi.supervision.supervisor', 'cdpr_fdi.recovery_planning.recovery', 'cdpr_fdi.recovery_strategies',
+        'cdpr_fdi.detection.calibration', 'cdpr_fdi.view.markers',
         'cdpr_bringup.runs.engine', 'cdpr_bringup.runs.settle']
 
 

@@ -8,8 +8,8 @@ import pytest
 
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions
-from cdpr_fdi.residual import sensorless_tension_bounds
-from cdpr_fdi.wrench_balance import WrenchBalance
+from cdpr_fdi.detection.residual import sensorless_tension_bounds
+from cdpr_fdi.detection.wrench_balance import WrenchBalance
 
 from conftest import MOTIONS, PAPER_ROBOT, every_tick_scenario
 

@@ -14,16 +14,16 @@ from cdpr_control.model.reference_table import ReferenceTable
 from cdpr_control.point_mass.statics import static_tensions
 from cdpr_control.tension_distribution import make_tension_distribution
 from cdpr_control.point_mass.workspace import polygon_centroid, safe_point, sew_cross_section
-from cdpr_fdi.config import load_fdi_config, load_recovery_config
+from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.detectors import CusumDetector, ThresholdDetector
-from cdpr_fdi.identification import identify_broken_cables
-from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
+from cdpr_fdi.detection.identification import identify_broken_cables
+from cdpr_fdi.recovery_planning.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_fdi.recovery_strategies.base import TabulatedMove
 from cdpr_fdi.recovery_strategies.paper import (Recovery, entry_point, initial_tensions, least_static_tension_n,
                                                 taut_tension_n)
-from cdpr_fdi.residual import sensorless_tension_bounds, sensorless_tensions
-from cdpr_fdi.supervisor import Supervisor
-from cdpr_fdi.tension_collapse import TensionCollapse
+from cdpr_fdi.detection.residual import sensorless_tension_bounds, sensorless_tensions
+from cdpr_fdi.supervision.supervisor import Supervisor
+from cdpr_fdi.detection.tension_collapse import TensionCollapse
 from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, VERDICT_DELAY_TICKS
 from cdpr_twin.models.rigid_model import RigidModel
 

@@ -36,7 +36,7 @@ from hypothesis import strategies as st
 from std_msgs.msg import Int32, String
 
 import cdpr_control.config
-import cdpr_fdi.config
+import cdpr_fdi.settings.config
 from cdpr_bringup.runs.settle import realtime_scheduling
 from cdpr_control.config import ConfigError, load_config, load_section, load_yaml, paper_defaults
 from cdpr_control.control.controller import PdGains
@@ -46,9 +46,9 @@ from cdpr_control.point_mass.kinematics import inverse_kinematics
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_control.control.trajectory_generator_node import TrajectoryGeneratorNode
-from cdpr_fdi.config import load_fdi_config, load_recovery_config
-from cdpr_fdi.markers import MarkerStyle
-from cdpr_fdi.supervisor_node import SupervisorNode
+from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config
+from cdpr_fdi.view.markers import MarkerStyle
+from cdpr_fdi.nodes.supervisor_node import SupervisorNode
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state, ns_to_stamp, point_stamped, stamp_to_ns
 from cdpr_msgs_py.stamps import NANOSECONDS
@@ -198,7 +198,7 @@ def parsing_once(parsed: dict):
         return copy.deepcopy(parsed[str(path)])
 
     with pytest.MonkeyPatch.context() as patch:
-        for module in (cdpr_control.config, cdpr_fdi.config):
+        for module in (cdpr_control.config, cdpr_fdi.settings.config):
             patch.setattr(module, 'load_yaml', load_once)
         yield
 

@@ -14,7 +14,7 @@ from cdpr_control import kernels
 from cdpr_control.platform import substeps as platform_substeps
 from cdpr_control.point_mass import substeps as point_mass_substeps
 from cdpr_control.control import tracking
-from cdpr_fdi import tick_arithmetic
+from cdpr_fdi.detection import tick_arithmetic
 from cdpr_twin.models import elastic_substeps
 
 pytest.importorskip('numba')

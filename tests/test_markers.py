@@ -1,4 +1,4 @@
-"""The markers of /cdpr/markers (cdpr_fdi.markers) against a simulated run's ground truth,
+"""The markers of /cdpr/markers (cdpr_fdi.view.markers) against a simulated run's ground truth,
 a frame per view tick from the view topics alone, and the same markers in an in-process
 run's bag."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ from cdpr_bringup.bags.bag_io import BagWriter, read_messages, write_recording
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.point_mass.workspace import contains
-from cdpr_fdi.markers import (BROKEN_GREY, LINE_LIST, LINE_STRIP, SPHERE_LIST, TENSION_SCALE,
+from cdpr_fdi.view.markers import (BROKEN_GREY, LINE_LIST, LINE_STRIP, SPHERE_LIST, TENSION_SCALE,
                               UNKNOWN_TENSION_COLOUR, Frame, cable_shapes, dashes, tension_colour)
 from cdpr_msgs_py import contract
 
@@ -266,7 +266,7 @@ def test_an_inprocess_bag_carries_the_same_markers(run, tmp_path):
 def test_the_node_sends_the_shapes_as_markers(run):
     from visualization_msgs.msg import Marker
 
-    from cdpr_fdi.markers_node import marker_array
+    from cdpr_fdi.nodes.markers_node import marker_array
     scenario, _, frames = run
     _, k, shapes = frames[-1]
     message = marker_array(list(shapes.values()), 123)
@@ -286,7 +286,7 @@ def test_a_platforms_safe_pose_is_drawn_as_its_body_over_the_section_it_was_foun
     safe orientation), its section's points at the safe height, each held by the seven
     cables there, and the recovery path ending at the safe point."""
     from cdpr_control.platform.safe_pose import tension_margin_n
-    from cdpr_fdi.recovery import safe_pose_for
+    from cdpr_fdi.recovery_planning.recovery import safe_pose_for
     from conftest import CONFIG_DIR
     scenario = build_scenario(ScenarioOptions(config=str(CONFIG_DIR / 'robots' / 'crossed_platform_robot.yaml'),
                                               motions=str(CONFIG_DIR / 'crossed_platform_motions.yaml'),

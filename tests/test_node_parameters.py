@@ -18,7 +18,7 @@ from cdpr_bringup.graph.params_files import parameter_files
 from cdpr_control.config import load_yaml
 from cdpr_control.control.controller_node import ControllerNode
 from cdpr_control.control.trajectory_generator_node import TrajectoryGeneratorNode
-from cdpr_fdi.supervisor_node import SupervisorNode
+from cdpr_fdi.nodes.supervisor_node import SupervisorNode
 from cdpr_msgs_py import contract
 from cdpr_twin.nodes.digital_twin_node import DigitalTwinNode
 from cdpr_twin.nodes.plant_simulator_node import PlantSimulatorNode

@@ -25,7 +25,7 @@ from cdpr_control.tension_distribution.lowered_floor import FLOOR_BISECTIONS
 
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions
-from cdpr_fdi.recovery import safe_pose_for
+from cdpr_fdi.recovery_planning.recovery import safe_pose_for
 
 from conftest import CONFIG_DIR, EIGHT_CABLE_ROBOT, PAPER_ROBOT, every_tick_scenario
 

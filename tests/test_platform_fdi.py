@@ -19,10 +19,10 @@ from cdpr_bringup.runs.settle import ScenarioOptions
 from cdpr_control.geometry.pose_trajectories import PoseSample
 from cdpr_control.geometry.rotation import difference
 from cdpr_control.tension_distribution import InfeasibleTensionError
-from cdpr_fdi.planning import PlanAtOnce, PlanInBackground
+from cdpr_fdi.recovery_planning.planning import PlanAtOnce, PlanInBackground
 from cdpr_fdi.recovery_strategies import braked as braked_strategy
 from cdpr_fdi.recovery_strategies.braked import PoseRecovery
-from cdpr_fdi.recovery import safe_pose_for
+from cdpr_fdi.recovery_planning.recovery import safe_pose_for
 from cdpr_msgs_py.contract import VERDICT_DELAY_TICKS
 
 from conftest import CONFIG_DIR, every_tick_scenario
@@ -266,7 +266,7 @@ def test_a_push_that_slackens_cables_taken_taut_names_none_and_raises_nothing():
 
 
 class TriesTooLate:
-    """A planner (cdpr_fdi.planning) whose brake tries never come: only the committed
+    """A planner (cdpr_fdi.recovery_planning.planning) whose brake tries never come: only the committed
     try's rest of the way, which a realtime supervisor's planning thread hands over
     first; the move planned at once. `withheld` counts the tries held back."""
 
@@ -300,7 +300,7 @@ def test_a_brake_whose_tries_come_too_late_keeps_every_cable_above_the_floor(mon
 
 
 class PlannedWhenTold:
-    """A planner (cdpr_fdi.planning) whose plans are made only when `finish` is called:
+    """A planner (cdpr_fdi.recovery_planning.planning) whose plans are made only when `finish` is called:
     a realtime supervisor's planning thread, as slow as a test needs it."""
 
     def __init__(self):

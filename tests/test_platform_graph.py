@@ -16,7 +16,7 @@ from cdpr_bringup.runs.metrics import fdi_summary_from_diagnostics, statuses_bes
 from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.geometry.rotation import difference
-from cdpr_fdi.recovery import safe_pose_for
+from cdpr_fdi.recovery_planning.recovery import safe_pose_for
 
 from conftest import CONFIG_DIR, LOOP_ROWS, GraphLog, assert_close_figures, timing_check
 

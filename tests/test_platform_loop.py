@@ -172,7 +172,7 @@ def test_a_goal_position_is_refused_for_a_platform_saying_why():
 def test_the_markers_draw_a_platforms_cables_to_its_attachment_points():
     """The markers' core on the platform's true pose: each cable ends at its attachment
     point p + R b_i of the pose, and the platform's body joins its origin to them."""
-    from cdpr_fdi.markers import Frame, MarkerStyle
+    from cdpr_fdi.view.markers import Frame, MarkerStyle
     robot, settings, _, reference = setup('climb-tilt')
     row = len(reference) - 1
     frame = Frame(robot, None, MarkerStyle.from_section(settings.section('markers')))

@@ -12,8 +12,8 @@ from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.config import ConfigError
 from cdpr_control.setup.robot_file import load_robot
-from cdpr_fdi.config import load_recovery_config
-from cdpr_fdi.recovery import safe_point_for
+from cdpr_fdi.settings.config import load_recovery_config
+from cdpr_fdi.recovery_planning.recovery import safe_point_for
 from cdpr_fdi.recovery_strategies import STRATEGIES
 from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD, VERDICT_DELAY_TICKS
 

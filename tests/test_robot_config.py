@@ -11,7 +11,7 @@ import yaml
 from cdpr_bringup.paths import shipped_calibration
 from cdpr_control.config import ConfigError, load_config, load_section
 from cdpr_control.setup.robot_file import load_robot
-from cdpr_fdi.config import load_fdi_config
+from cdpr_fdi.settings.config import load_fdi_config
 from cdpr_msgs_py import contract
 
 from conftest import CONFIG_DIR, PAPER_ROBOT

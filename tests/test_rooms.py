@@ -21,6 +21,7 @@ PACKAGES = {
     # the interface contract is the base, the node runtime its one room
     'cdpr_msgs_py': {'cdr', 'contract', 'conversions', 'dds', 'health', 'qos', 'scheduling', 'sole_writer',
                      'stamps'},
+    'cdpr_fdi': set(),
 }
 # Rooms a package must have, as a check that the rooms are read at all.
 EXPECTED = {
@@ -28,6 +29,8 @@ EXPECTED = {
     'cdpr_control': {'model', 'point_mass', 'platform', 'geometry', 'control', 'setup'},
     'cdpr_twin': {'models', 'nodes'},
     'cdpr_msgs_py': {'runtime'},
+    'cdpr_fdi': {'detection', 'detectors', 'recovery_planning', 'recovery_strategies', 'settings', 'supervision',
+                 'view', 'nodes'},
 }
 MOST_MODULES = 11
 ALLOWED = re.compile(r'^Rooms it may import: (.+?)[.(]', re.M)

@@ -16,9 +16,9 @@ from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.geometry.rotation import difference
 from cdpr_control.platform.safe_pose import candidate_orientations, safe_pose, tension_margin_n
 from cdpr_control.tension_distribution import PseudoInverse
-from cdpr_fdi.config import load_fdi_config, load_recovery_config
-from cdpr_fdi.recovery import safe_pose_for
-from cdpr_fdi.supervisor import Supervisor
+from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config
+from cdpr_fdi.recovery_planning.recovery import safe_pose_for
+from cdpr_fdi.supervision.supervisor import Supervisor
 
 from conftest import CONFIG_DIR
 

@@ -115,7 +115,7 @@ def workers_in_child(results) -> None:
 
 
 def test_a_planning_worker_runs_just_below_the_thread_that_started_it():
-    """A realtime supervisor's urgent planning thread (cdpr_fdi.planning): one SCHED_FIFO
+    """A realtime supervisor's urgent planning thread (cdpr_fdi.recovery_planning.planning): one SCHED_FIFO
     priority below its node's, so the node's thread takes the core back whenever it has
     work; under time-sharing it stays there."""
     if not fifo_granted(20):

@@ -11,7 +11,7 @@ from rclpy.parameter import Parameter
 
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.setup.settings import flatten, unflatten
-from cdpr_fdi.supervisor_node import SupervisorNode
+from cdpr_fdi.nodes.supervisor_node import SupervisorNode
 from cdpr_twin.nodes.plant_simulator_node import PlantSimulatorNode
 
 from conftest import MOTIONS, PAPER_ROBOT

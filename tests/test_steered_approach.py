@@ -13,7 +13,7 @@ from cdpr_control.geometry.pose_trajectories import PoseSample
 from cdpr_control.geometry.rotation import difference
 from cdpr_control.platform.safe_pose import tension_margin_n
 from cdpr_control.platform.steered_approach import SteeredApproach
-from cdpr_fdi.recovery import safe_pose_for
+from cdpr_fdi.recovery_planning.recovery import safe_pose_for
 
 from conftest import CONFIG_DIR
 

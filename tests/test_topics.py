@@ -14,8 +14,8 @@ from cdpr_bringup.bags.recorder_node import BagRecorderNode
 from cdpr_bringup.graph.launcher import graph_nodes
 from cdpr_control.control.controller_node import ControllerNode
 from cdpr_control.control.trajectory_generator_node import TrajectoryGeneratorNode
-from cdpr_fdi.markers_node import MarkersNode
-from cdpr_fdi.supervisor_node import SupervisorNode
+from cdpr_fdi.nodes.markers_node import MarkersNode
+from cdpr_fdi.nodes.supervisor_node import SupervisorNode
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state
 from cdpr_twin.nodes.digital_twin_node import DigitalTwinNode

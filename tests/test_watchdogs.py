@@ -9,7 +9,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_control.control.controller import JointReference
-from cdpr_fdi.supervisor import Supervisor
+from cdpr_fdi.supervision.supervisor import Supervisor
 from cdpr_twin.models.plant import FIDELITIES, PlantSimulator
 from cdpr_twin.nodes.watchdog import BRAKING, HOLDING, OK, CommandWatchdog
 
@@ -152,7 +152,7 @@ def test_controller_holds_when_the_reference_goes_stale(controller_node, paper_r
 
 def test_supervisor_whose_twin_stops_reports_fdi_unavailable_as_error_and_raises_no_alarm(
         realtime_ros, paper_robot):
-    from cdpr_fdi.supervisor_node import SupervisorNode
+    from cdpr_fdi.nodes.supervisor_node import SupervisorNode
     node = SupervisorNode()
     try:
         period = node.period_ns

@@ -20,8 +20,8 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'supervisor = cdpr_fdi.supervisor_node:main',
-            'markers = cdpr_fdi.markers_node:main',
+            'supervisor = cdpr_fdi.nodes.supervisor_node:main',
+            'markers = cdpr_fdi.nodes.markers_node:main',
         ],
     },
 )

@@ -22,7 +22,7 @@ from rosbags.rosbag2 import CompressionMode, Reader, StoragePlugin, Writer
 from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
 from rosbags.typesys import Stores, get_typestore
 
-from cdpr_fdi.markers import FRAME_ID, Frame, Shape
+from cdpr_fdi.view.markers import FRAME_ID, Frame, Shape
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.stamps import NANOSECONDS, ns_parts, stamp_to_ns
 
@@ -284,7 +284,7 @@ def write_recording(writer: BagWriter, recording: Recording,
     (`recording.fdi`), and that summary on /diagnostics at the last tick. Bag times are the
     tick stamps plus 1 ns per message in the graph's order: the state, the command, the
     reference and the twin, then the supervisor's verdict and mode, then its residual of
-    that tick. With a `frame` (cdpr_fdi.markers, the markers node's core) also `markers`,
+    that tick. With a `frame` (cdpr_fdi.view.markers, the markers node's core) also `markers`,
     a frame per view tick after the residual, from the view topics of the same tick, so
     that a viewer shows the run from its bag."""
     types = TYPESTORE.types
@@ -387,7 +387,7 @@ def write_recording(writer: BagWriter, recording: Recording,
 
 
 def marker_array(shapes: list[Shape], header):
-    """A frame of the markers node (cdpr_fdi.markers_node.marker_array) in the bag's types:
+    """A frame of the markers node (cdpr_fdi.nodes.markers_node.marker_array) in the bag's types:
     DELETEALL, then every shape, its points in the world frame."""
     types = TYPESTORE.types
     marker, point = types['visualization_msgs/msg/Marker'], types['geometry_msgs/msg/Point']

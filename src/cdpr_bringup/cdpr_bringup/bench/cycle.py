@@ -15,7 +15,7 @@ import time
 from contextlib import ExitStack, contextmanager
 
 from cdpr_control.control.setpoints import Setpoints
-from cdpr_fdi.supervisor import Supervisor
+from cdpr_fdi.supervision.supervisor import Supervisor
 from cdpr_twin.models.elastic_model import ElasticCableRobot
 from cdpr_control.kernels import KERNELS
 from cdpr_twin.models.elastic_substeps import kernel

@@ -34,7 +34,7 @@ from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.geometry.rotation import from_axis_angle, product
 from cdpr_control.platform.steered_approach import SteeredApproach
 from cdpr_control.tension_distribution import METHODS, make_tension_distribution
-from cdpr_fdi.config import load_recovery_config
+from cdpr_fdi.settings.config import load_recovery_config
 
 from cdpr_twin.models.plant import FIDELITIES
 

@@ -30,9 +30,9 @@ from pathlib import Path
 import numpy as np
 
 from cdpr_control.geometry.motions import motion_names
-from cdpr_fdi.config import FdiConfig
+from cdpr_fdi.settings.config import FdiConfig
 from cdpr_fdi.detectors import DETECTORS
-from cdpr_fdi.supervisor import Supervisor
+from cdpr_fdi.supervision.supervisor import Supervisor
 
 from .fdi import fmt
 from ..campaigns.campaign import MIDPOINT, PAPER_FAILURE_FRACTION, PAPER_TEST_CABLE

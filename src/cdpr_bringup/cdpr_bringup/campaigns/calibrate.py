@@ -19,7 +19,7 @@ import yaml
 from cdpr_control.config import load_section
 from cdpr_control.geometry.motions import motion_names
 from cdpr_control.setup.robot_file import load_robot
-from cdpr_fdi.calibration import FailureFreeRun, calibrate
+from cdpr_fdi.detection.calibration import FailureFreeRun, calibrate
 from cdpr_twin.models.plant import FIDELITIES
 
 from ..cli import command

@@ -25,7 +25,7 @@ COMPOSABLE = {
     contract.TRAJECTORY_GENERATOR: ('cdpr_control.control.trajectory_generator_node', 'TrajectoryGeneratorNode'),
     contract.CONTROLLER: ('cdpr_control.control.controller_node', 'ControllerNode'),
     contract.DIGITAL_TWIN: ('cdpr_twin.nodes.digital_twin_node', 'DigitalTwinNode'),
-    contract.SUPERVISOR: ('cdpr_fdi.supervisor_node', 'SupervisorNode'),
+    contract.SUPERVISOR: ('cdpr_fdi.nodes.supervisor_node', 'SupervisorNode'),
     contract.PLANT_SIMULATOR: ('cdpr_twin.nodes.plant_simulator_node', 'PlantSimulatorNode'),
 }
 

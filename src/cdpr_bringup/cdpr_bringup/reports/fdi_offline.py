@@ -17,8 +17,8 @@ from cdpr_control.config import load_section
 from cdpr_control.control.controller import JointReference, PdGains
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.tension_distribution import configured_tension_distribution
-from cdpr_fdi.config import load_fdi_config, load_recovery_config
-from cdpr_fdi.offline import RecordedTick, replay
+from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config
+from cdpr_fdi.supervision.offline import RecordedTick, replay
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.stamps import NANOSECONDS
 

@@ -27,9 +27,9 @@ from cdpr_control.config import Section, load_yaml
 from cdpr_control.model.friction import FrictionModel
 from cdpr_control.model.robot import Robot
 from cdpr_control.setup.robot_file import load_robot, robot_from_section
-from cdpr_fdi.config import load_fdi_config, load_recovery_config, settled_fdi
-from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
-from cdpr_fdi.residual import sensorless_tensions
+from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config, settled_fdi
+from cdpr_fdi.recovery_planning.recovery import RecoveryInfeasible, safe_point_for
+from cdpr_fdi.detection.residual import sensorless_tensions
 from cdpr_msgs_py import contract
 from cdpr_msgs_py.contract import NOMINAL
 from cdpr_msgs_py.stamps import NANOSECONDS

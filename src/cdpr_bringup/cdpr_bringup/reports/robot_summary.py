@@ -20,8 +20,8 @@ from cdpr_control.tension_distribution import InfeasibleTensionError, configured
 from cdpr_control.platform.statics import workspace_grid, wrench_feasible_share
 from cdpr_control.geometry.rotation import conjugate, from_axis_angle, product, to_rotation_vector
 from cdpr_control.point_mass.workspace import safe_point
-from cdpr_fdi.config import load_fdi_config, load_recovery_config
-from cdpr_fdi.recovery import RecoveryInfeasible, safe_pose_for
+from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config
+from cdpr_fdi.recovery_planning.recovery import RecoveryInfeasible, safe_pose_for
 from cdpr_fdi.recovery_strategies import STRATEGIES
 
 from ..cli import command

@@ -3,7 +3,7 @@
 Per cycle k, as the node graph does it: the plant reports θ, θ̇ (and the torque it
 applied); the controller answers with c from the setpoint of tick k (the reference, or
 the recovery's: cdpr_control.control.setpoints, as the controller node); the twin computes c_DT
-from the same reference and the supervisor judges tick k (cdpr_fdi.monitor); its verdict
+from the same reference and the supervisor judges tick k (cdpr_fdi.supervision.monitor); its verdict
 steers the controller from tick k + contract.VERDICT_DELAY_TICKS; the plant steps under
 c. The view topics' rows are kept on the view ticks only, as the graph publishes them;
 the figures of the end-effector come from every tick (cdpr_twin.models.run_figures), as the
@@ -15,8 +15,8 @@ import numpy as np
 
 from cdpr_control.control.controller import JointController, JointReference, command_lead_periods
 from cdpr_control.control.setpoints import Setpoints
-from cdpr_fdi.monitor import Monitor
-from cdpr_fdi.supervisor import Supervisor, Verdict
+from cdpr_fdi.supervision.monitor import Monitor
+from cdpr_fdi.supervision.supervisor import Supervisor, Verdict
 from cdpr_msgs_py.contract import VERDICT_DELAY_TICKS
 from cdpr_msgs_py.stamps import seconds_to_ns
 from cdpr_twin.models.plant import PlantSimulator

@@ -10,7 +10,7 @@ import numpy as np
 
 from cdpr_control.geometry.rotation import difference
 from cdpr_control.model.robot import Robot
-from cdpr_fdi.config import FdiConfig, RecoveryConfig
+from cdpr_fdi.settings.config import FdiConfig, RecoveryConfig
 from cdpr_msgs_py.contract import BROKEN_AT_KEY, JOINT_STATES, PLANT_SIMULATOR, RUN_FIGURES_KEY, SAFE_HOLD, SUPERVISOR
 from cdpr_twin.models.run_figures import RunFigures
 

@@ -19,9 +19,9 @@ from cdpr_control.setup.robot_file import robot_from_section
 from cdpr_control.setup.settings import ROBOT_DESCRIPTION, flatten, robot_description
 from cdpr_control.tension_distribution import (InfeasibleTensionError, PseudoInverse,
                                                TensionDistribution, configured_tension_distribution)
-from cdpr_fdi.config import FdiConfig, RecoveryConfig, calibrated_fdi, settled_fdi
-from cdpr_fdi.markers import Frame, MarkerStyle
-from cdpr_fdi.recovery import RecoveryInfeasible, safe_point_for
+from cdpr_fdi.settings.config import FdiConfig, RecoveryConfig, calibrated_fdi, settled_fdi
+from cdpr_fdi.view.markers import Frame, MarkerStyle
+from cdpr_fdi.recovery_planning.recovery import RecoveryInfeasible, safe_point_for
 from cdpr_msgs_py.contract import SETTINGS_OF, SETTINGS_OF_EVERY_NODE, ViewTicks
 from cdpr_msgs_py.scheduling import NICE_RANGE, PRIORITY_RANGE
 from cdpr_twin.models.plant import FIDELITIES, PlantConfig, Push, settled_pushes

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import yaml
 
-from cdpr_fdi.markers import Frame
+from cdpr_fdi.view.markers import Frame
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 from cdpr_twin.models.plant import FIDELITIES
 

@@ -35,7 +35,7 @@ AXES = np.eye(3)
 # Safe poses already found (~0.2 s each on the shipped platform), or why there is none:
 # by what the robot is (the digest of its pickled form, so that a robot loaded anew for
 # each run of a campaign is found again), the remaining cables and the settings. A
-# supervisor finds every single break's when it starts (cdpr_fdi.recovery.find_safe_poses),
+# supervisor finds every single break's when it starts (cdpr_fdi.recovery_planning.recovery.find_safe_poses),
 # a run's length and the naming ask again. The oldest goes first.
 KEPT_SAFE_POSES = 64
 _found: dict[tuple, 'SafePose | str'] = {}

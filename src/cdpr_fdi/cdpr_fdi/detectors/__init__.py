@@ -1,4 +1,7 @@
-"""Failure detectors behind one interface, chosen by name (parameter `detector`)."""
+"""Failure detectors behind one interface, chosen by name (parameter `detector`).
+
+Rooms it may import: none.
+"""
 from __future__ import annotations
 
 from .base import Detector

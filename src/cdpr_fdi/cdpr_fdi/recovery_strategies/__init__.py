@@ -13,6 +13,8 @@ the cable, the strategy takes the end-effector from there.
   control.
 
 `auto`, the default, is the strategy fitting the robot's degrees of freedom (FITTING).
+
+Rooms it may import: detection, recovery_planning.
 """
 from __future__ import annotations
 

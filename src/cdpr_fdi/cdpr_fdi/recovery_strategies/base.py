@@ -8,7 +8,7 @@ with what it has then (`Naming`). The `StartedRecovery` it returns is stepped by
 supervisor on every tick after, until SAFE_HOLD or FAULT; the supervisor asks it nothing
 else, and nothing of the kind of end-effector.
 
-`config` below is the robot's cdpr_fdi.config.RecoveryConfig, passed on as it is: that
+`config` below is the robot's cdpr_fdi.settings.config.RecoveryConfig, passed on as it is: that
 module reads recovery.strategy against this package's strategies, so nothing here
 imports it.
 """
@@ -28,7 +28,7 @@ from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 class Naming:
     """What the supervisor has on the tick it names the broken cables: the robot, its
     recovery settings (`config`), the controller's tension distribution, the control
-    period, the planner of a realtime node (cdpr_fdi.planning; None: plan at once), the
+    period, the planner of a realtime node (cdpr_fdi.recovery_planning.planning; None: plan at once), the
     naming `tick`, the `attached` cables (a boolean mask), the measured motor angles and
     speeds, the torques commanded on the tick (N·m), the tick's joint reference, and the
     tensions that reference asks for (N; supervisor.reference_tensions)."""

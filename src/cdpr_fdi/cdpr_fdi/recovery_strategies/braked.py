@@ -58,7 +58,7 @@ from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N
 from cdpr_control.geometry.trajectories import HermiteQuintic, Hold, Sequence
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 
-from ..planning import PlanAtOnce
+from ..recovery_planning.planning import PlanAtOnce
 from .base import Naming, RecoveryStrategy, StartedRecovery, table_reference
 from .platform import PlatformRecovery, after_the_naming_tick, ease_in, named_state, prepare_platform
 from .steered import approach

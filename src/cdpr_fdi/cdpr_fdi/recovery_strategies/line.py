@@ -19,8 +19,8 @@ from cdpr_control.geometry.pose_trajectories import PoseTrajectory
 from cdpr_control.geometry.trajectories import HermiteQuintic, Hold, Sequence
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD
 
-from ..recovery import RecoveryInfeasible, safe_point_for
-from ..wrench_balance import placement
+from ..recovery_planning.recovery import RecoveryInfeasible, safe_point_for
+from ..detection.wrench_balance import placement
 from .base import Naming, RecoveryStrategy, TabulatedMove
 
 

@@ -41,7 +41,7 @@ from cdpr_control.geometry.trajectories import HermiteQuintic, Hold, Sequence, q
 from cdpr_control.point_mass.workspace import safe_point
 from cdpr_msgs_py.contract import RECOVERY_MOVE, RECOVERY_TENSION, VERDICT_DELAY_TICKS
 
-from ..recovery import RecoveryInfeasible, check_recoverable, safe_point_for
+from ..recovery_planning.recovery import RecoveryInfeasible, check_recoverable, safe_point_for
 from .base import Naming, RecoveryStrategy, TabulatedMove
 
 # Bisection steps for the entry point: 2⁻²⁰ of the way to the barycentre.

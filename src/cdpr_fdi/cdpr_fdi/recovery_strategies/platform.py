@@ -15,8 +15,8 @@ from cdpr_control.geometry.rotation import normalised
 from cdpr_control.tension_distribution import LoweredFloor, TensionDistribution, make_tension_distribution
 from cdpr_msgs_py.contract import RECOVERY_MOVE, VERDICT_DELAY_TICKS
 
-from ..recovery import find_safe_poses, safe_pose_for
-from ..wrench_balance import placement
+from ..recovery_planning.recovery import find_safe_poses, safe_pose_for
+from ..detection.wrench_balance import placement
 from .base import Naming, StartedRecovery
 
 

@@ -33,7 +33,7 @@ from cdpr_control.platform.steered_approach import SteeredApproach
 from cdpr_control.tension_distribution import FlooredLeastSquares, TensionDistribution
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 
-from ..recovery import RecoveryInfeasible
+from ..recovery_planning.recovery import RecoveryInfeasible
 from .base import Naming, RecoveryStrategy, table_reference
 from .platform import PlatformRecovery, after_the_naming_tick, ease_in, named_state, prepare_platform
 

@@ -25,8 +25,8 @@ import numpy as np
 from cdpr_control.config import Section
 from cdpr_control.model.robot import Robot
 
-from .config import RecoveryConfig
-from .recovery import RecoveryInfeasible, safe_target
+from ..settings.config import RecoveryConfig
+from ..recovery_planning.recovery import RecoveryInfeasible, safe_target
 
 # Every point is in the world frame of docs/design.md §4 (z up).
 FRAME_ID = 'world'

@@ -17,7 +17,7 @@ from cdpr_control.model.robot import Robot
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_twin.models.twin import DigitalTwin
 
-from .config import FdiConfig, RecoveryConfig
+from ..settings.config import FdiConfig, RecoveryConfig
 from .monitor import Monitor
 from .supervisor import Supervisor
 

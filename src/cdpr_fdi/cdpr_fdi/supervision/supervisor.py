@@ -19,14 +19,14 @@ from cdpr_control.model.robot import Robot
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_msgs_py.contract import FAULT, NOMINAL, VERDICT_DELAY_TICKS
 
-from . import tick_arithmetic
-from .config import FdiConfig, RecoveryConfig
-from .detectors import make_detector
-from .identification import identify_broken_cables
-from .recovery import RecoveryInfeasible, check_recoverable
-from .recovery_strategies import STRATEGIES, Naming, StartedRecovery
-from .tension_collapse import TensionCollapse
-from .wrench_balance import WrenchBalance, overstretch_m
+from ..detection import tick_arithmetic
+from ..detection.identification import identify_broken_cables
+from ..detection.tension_collapse import TensionCollapse
+from ..detection.wrench_balance import WrenchBalance, overstretch_m
+from ..detectors import make_detector
+from ..recovery_planning.recovery import RecoveryInfeasible, check_recoverable
+from ..recovery_strategies import STRATEGIES, Naming, StartedRecovery
+from ..settings.config import FdiConfig, RecoveryConfig
 
 
 class AlarmEvidence:

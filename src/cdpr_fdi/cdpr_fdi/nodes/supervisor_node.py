@@ -31,9 +31,9 @@ from cdpr_msgs_py.runtime.diagnostics import LOG_THROTTLE_S
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 
-from .config import settled_fdi
-from .planning import PlanAtOnce, PlanInBackground
-from .supervisor import Supervisor
+from ..settings.config import settled_fdi
+from ..recovery_planning.planning import PlanAtOnce, PlanInBackground
+from ..supervision.supervisor import Supervisor
 
 INPUTS = ('state', 'command', 'twin', 'reference')
 ACK_TIMEOUT = Duration(seconds=1.0)

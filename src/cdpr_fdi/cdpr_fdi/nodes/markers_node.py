@@ -4,7 +4,7 @@ frame `world`), a frame per view tick (streams.view_rate_hz), stamped with it.
 It reads the view topics of the tick it draws (ground_truth/pose and /tensions,
 twin/pose, reference/pose) and the verdict (fdi/broken_cable), no loop topic; it takes no
 part in the start handshake and runs at background priority in realtime: the loop never
-waits for it. The shapes are cdpr_fdi.markers'.
+waits for it. The shapes are cdpr_fdi.view.markers'.
 """
 from __future__ import annotations
 
@@ -21,8 +21,8 @@ from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import run
 from cdpr_msgs_py.stamps import stamp_to_ns
 
-from .config import settled_fdi
-from .markers import FRAME_ID, Frame, MarkerStyle, Shape
+from ..settings.config import settled_fdi
+from ..view.markers import FRAME_ID, Frame, MarkerStyle, Shape
 
 
 def marker(shape: Shape, header: Header) -> Marker:

@@ -19,8 +19,8 @@ from cdpr_control.model.robot import Robot
 from cdpr_control.platform.steered_approach import ApproachGains
 from cdpr_control.geometry.trajectories import QUINTIC_PEAK_SPEED_RATIO
 
-from .detectors import DETECTORS
-from .recovery_strategies import STRATEGIES, configured_strategy
+from ..detectors import DETECTORS
+from ..recovery_strategies import STRATEGIES, configured_strategy
 
 
 @dataclass(frozen=True)
