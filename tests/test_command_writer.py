@@ -15,6 +15,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -22,6 +23,7 @@ from rclpy.serialization import deserialize_message
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from cdpr_bringup.bags.bag_io import read_messages
@@ -32,7 +34,7 @@ from cdpr_bringup.runs.settle import ScenarioOptions, build_scenario
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.runtime.node import CdprNode
 from cdpr_msgs_py.runtime.spin import make_executor
-from cdpr_msgs_py.runtime.subscriptions import message_info_callback
+from cdpr_msgs_py.runtime.subscriptions import PROBE_IDLE_S, UNKNOWN_NODE_NAME, message_info_callback
 from cdpr_msgs_py.sole_writer import Endpoint, SoleWriter
 from cdpr_msgs_py.stamps import stamp_to_ns
 
@@ -120,6 +122,23 @@ def test_the_graph_is_asked_about_an_unknown_writer_at_most_once_per_interval():
     assert not writer.lookup_due(OTHER, 5.0), 'a named writer needs no second look'
 
 
+def test_a_graph_that_long_shows_publishers_without_their_node_is_looked_at_again():
+    """A graph that dropped the writer's participant (lease) and found it again shows its
+    publisher without a node for good: after the grace, a second look is due, until pinned."""
+    writer = SoleWriter(CONTROLLER, unnamed_grace_s=2.0)
+    writer.learn([Endpoint(None, REAL)])
+    assert not writer.second_look_due(10.0) and not writer.second_look_due(11.9)
+    assert writer.second_look_due(12.0)
+    writer.learn([Endpoint('/cdpr/intruder', OTHER)])
+    assert not writer.second_look_due(13.0), 'every publisher named: nothing to look at again'
+    writer.learn([Endpoint(None, REAL)])
+    assert not writer.second_look_due(14.0), 'the grace starts again'
+    writer.learn([Endpoint(CONTROLLER, REAL)])
+    assert writer.pinned == REAL and not writer.second_look_due(20.0)
+    writer.learn([Endpoint(None, REAL), Endpoint(None, SPOOF)])
+    assert writer.admits(REAL) and not writer.second_look_due(30.0), 'a pinned writer needs none'
+
+
 def test_the_writer_must_be_fully_qualified():
     with pytest.raises(ValueError, match='fully qualified'):
         SoleWriter('controller')
@@ -200,6 +219,43 @@ def test_only_the_controllers_publisher_reaches_the_motors(ros, make):
     finally:
         executor.shutdown()
         for node in nodes:
+            node.destroy_node()
+
+
+def without_nodes(node):
+    """`node`'s graph as one that dropped its peers' participants and found them again
+    shows their publishers: without a node (subscriptions.GraphProbe)."""
+    def publishers(topic_name, no_mangle=False):
+        return [SimpleNamespace(node_name=UNKNOWN_NODE_NAME, node_namespace='_NODE_NAMESPACE_UNKNOWN_',
+                                endpoint_gid=info.endpoint_gid)
+                for info in Node.get_publishers_info_by_topic(node, topic_name, no_mangle)]
+    return publishers
+
+
+def test_a_writer_the_nodes_graph_has_lost_the_name_of_is_pinned_by_a_second_look(ros):
+    """The plant never started when its graph had lost the controller's name (the
+    supervisor's had not): a participant of its own names it, then closes."""
+    motors = Motors()
+    motors.get_publishers_info_by_topic = without_nodes(motors)
+    controller = rclpy.create_node('controller')
+    executor = make_executor()
+    try:
+        publisher = controller.create_publisher(JointState, contract.EFFORT_COMMAND, qos.STREAM)
+        for node in (motors, controller):
+            executor.add_node(node)
+        spin_until(executor, motors.matched, 'the motors never learnt the controller')
+        [named] = controller.get_publishers_info_by_topic(publisher.topic_name)
+        assert motors.required_writers[0].core.pinned == bytes(named.endpoint_gid)
+        assert motors.graph_probe.probe is not None
+        deadline = time.monotonic() + PROBE_IDLE_S + 1.0
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+            motors.idle()
+        assert motors.graph_probe.probe is None, 'the second look stays open once the writer is pinned'
+    finally:
+        motors.graph_probe.close()
+        executor.shutdown()
+        for node in (motors, controller):
             node.destroy_node()
 
 

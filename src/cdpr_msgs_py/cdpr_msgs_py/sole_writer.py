@@ -26,6 +26,11 @@ from dataclasses import dataclass
 # How often (s) the ROS graph is asked about a publisher it could not name yet: a flood
 # from an unknown GID must not turn into a flood of graph queries.
 LOOKUP_INTERVAL_S = 1.0
+# How long (s) the graph may show publishers of the topic without their node, no writer
+# pinned, before a second look is due (runtime.subscriptions.GraphProbe): a node's name
+# follows its endpoints by ~0.1 s here, by seconds on a loaded machine; a graph that
+# dropped the writer's participant and found it again never names it.
+UNNAMED_GRACE_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -45,12 +50,18 @@ def qualified_name(namespace: str, name: str) -> str:
 class SoleWriter:
     """Admits the messages of one publisher: the one of node `writer` (fully qualified)."""
 
-    def __init__(self, writer: str, lookup_interval_s: float = LOOKUP_INTERVAL_S):
+    def __init__(self, writer: str, lookup_interval_s: float = LOOKUP_INTERVAL_S,
+                 unnamed_grace_s: float = UNNAMED_GRACE_S):
         if not writer.startswith('/'):
             raise ValueError(f'the writer must be a fully qualified node name, got {writer!r}')
         self.writer = writer
         self.lookup_interval_s = lookup_interval_s
+        self.unnamed_grace_s = unnamed_grace_s
         self.pinned: bytes | None = None
+        # The publishers the graph showed without their node when last asked, and since
+        # when (no writer pinned) it has shown some.
+        self.unnamed: set[bytes] = set()
+        self.unnamed_since: float | None = None
         # What the graph said each GID belongs to, and when an unnamed one was last asked about.
         self.names: dict[bytes, str] = {}
         self.asked_at: dict[bytes, float] = {}
@@ -83,6 +94,7 @@ class SoleWriter:
         for endpoint in endpoints:
             if endpoint.node is not None:
                 self.names[endpoint.gid] = endpoint.node
+        self.unnamed = {endpoint.gid for endpoint in endpoints if endpoint.node is None}
         if self.pinned is not None and self.pinned not in {e.gid for e in endpoints}:
             self.pinned = None
         if self.pinned is not None:
@@ -95,6 +107,17 @@ class SoleWriter:
             self.problem = (f'{len(candidates)} publishers belong to nodes named {self.writer} '
                             f'(GIDs {", ".join(gid.hex() for gid in candidates)}): none is obeyed '
                             f'while it cannot be told which is the graph\'s')
+
+    def second_look_due(self, now_s: float) -> bool:
+        """After learning what the node's own graph says: whether it is time to ask another
+        participant's — no writer pinned, and the graph has shown publishers of the topic
+        without their node for `unnamed_grace_s`."""
+        if self.pinned is not None or not self.unnamed:
+            self.unnamed_since = None
+            return False
+        if self.unnamed_since is None:
+            self.unnamed_since = now_s
+        return now_s - self.unnamed_since >= self.unnamed_grace_s
 
     def describe(self, gid: bytes) -> str:
         """Who publisher `gid` is, as far as the graph has told."""

@@ -21,7 +21,7 @@ from . import local_bus
 from .handshake import StartHandshake, parse_matches
 from .parameters import DeclaredParameters
 from .publishers import GuardedPublisher
-from .subscriptions import SoleWriterSubscription
+from .subscriptions import GraphProbe, SoleWriterSubscription
 
 
 class CdprNode(DeclaredParameters, StartHandshake, Node):
@@ -45,6 +45,7 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
         super().__init__(name, namespace=contract.DEFAULT_NAMESPACE)
         self.sole_writers: list[SoleWriterSubscription] = []
         self.required_writers: list[SoleWriterSubscription] = []
+        self.graph_probe = GraphProbe(self)
         self.clock_mode = self.parameter('clock_mode', 'lockstep',
                                          'lockstep: each tick waits for its command, repeatable; '
                                          'realtime: on the wall clock, as hardware')
@@ -193,6 +194,7 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
         """Called after every spin: periodic work that needs no timer."""
         self.diagnostics.maybe_publish()
         self.try_start()
+        self.graph_probe.idle()
 
     def write_last_diagnostics(self, path: Path) -> None:
         """The status just published, as JSON into `path` (written whole or not at all)."""
@@ -214,6 +216,7 @@ class CdprNode(DeclaredParameters, StartHandshake, Node):
 
     def close(self) -> None:
         """Called once on the way out."""
+        self.graph_probe.close()
         self.diagnostics.publish()
         if self.last_diagnostics_path:
             self.write_last_diagnostics(Path(self.last_diagnostics_path))
