@@ -120,19 +120,6 @@ def cross_rows(first: np.ndarray, second: np.ndarray) -> np.ndarray:
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
 
 
-def skew(vector) -> np.ndarray:
-    """[v]× (3 × 3, or a stack): [v]× w = v × w."""
-    vector = np.asarray(vector, dtype=float)
-    if vector.ndim == 1:
-        x, y, z = vector.tolist()
-        return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    x, y, z = np.moveaxis(vector, -1, 0)
-    zero = np.zeros_like(x)
-    return np.stack([np.stack([zero, -z, y], axis=-1),
-                     np.stack([z, zero, -x], axis=-1),
-                     np.stack([-y, x, zero], axis=-1)], axis=-2)
-
-
 def tilt_rad(quaternion) -> float | np.ndarray:
     """The angle (rad) between the platform's z axis and the world's."""
     return np.arccos(np.clip(rotation_matrix(quaternion)[..., 2, 2], -1.0, 1.0))
