@@ -93,3 +93,45 @@ def test_a_campaign_whose_runs_are_refused_says_why_once_in_one_line(tmp_path, c
     assert len(said) == 1 and 'no shipped calibration was made on this robot' in said[0], lines
     assert 'pass --calibration FILE' in said[0]
     assert campaign.parse_args(['--out', 'x', '--calibration', 'mine.yaml']).calibration == 'mine.yaml'
+
+
+def refused_robot(tmp_path):
+    """The paper robot asked for more tension than its motors pull (3.9 N·m on a 36 mm drum)."""
+    robot = tmp_path / 'strong.yaml'
+    text = PAPER_ROBOT.read_text()
+    assert 'tension_max_n: 100.0' in text
+    robot.write_text(text.replace('tension_max_n: 100.0', 'tension_max_n: 1000.0'))
+    return robot
+
+
+@pytest.mark.parametrize('tool', ['cdpr-calibrate', 'cdpr-campaign', 'cdpr-bench fdi', 'cdpr-bench roc',
+                                  'cdpr-bench sweep'])
+def test_a_tool_that_runs_workers_refuses_a_robot_in_one_line(tool, tmp_path, capsys):
+    """Said before any worker starts: the key, the file and the bound, no traceback."""
+    from cdpr_bringup.bench import main as bench
+    from cdpr_bringup.campaigns import calibrate, campaign
+    robot = refused_robot(tmp_path)
+    mains = {'cdpr-calibrate': calibrate.main, 'cdpr-campaign': campaign.main}
+    name, *suite = tool.split()
+    main = bench.main if suite else mains[name]
+    code = main(suite + ['--config', str(robot), '--jobs', '2', '--out', str(tmp_path / 'out')])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err == f"{name}: {robot}: 'robot.cables.tension_max_n' must be at most 108.333, got 1000.0\n", err
+
+
+def _refuse(path):
+    from cdpr_control.config import ConfigError
+    raise ConfigError(path, 'robot.mass_kg', 'must be positive, got -1')
+
+
+def test_an_error_raised_in_a_worker_is_re_raised_as_itself(tmp_path):
+    """A ConfigError crosses the process boundary whole (pickle would otherwise rebuild it
+    from its message alone and break the pool)."""
+    from concurrent.futures import ProcessPoolExecutor
+    from cdpr_control.config import ConfigError
+    with ProcessPoolExecutor(1) as pool:
+        with pytest.raises(ConfigError) as raised:
+            list(pool.map(_refuse, [str(tmp_path / 'robot.yaml')]))
+    assert raised.value.key == 'robot.mass_kg'
+    assert str(raised.value) == f"{tmp_path / 'robot.yaml'}: 'robot.mass_kg' must be positive, got -1"

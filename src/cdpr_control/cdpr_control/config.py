@@ -27,7 +27,13 @@ class ConfigError(ValueError):
     def __init__(self, path: str | Path, key: str, problem: str):
         self.path = str(path)
         self.key = key
+        self.problem = problem
         super().__init__(f"{self.path}: '{key}' {problem}")
+
+    def __reduce__(self):
+        # rebuilt from its parts when it crosses from a worker process: pickle's default
+        # would call __init__ with the message alone, which breaks the pool
+        return type(self), (self.path, self.key, self.problem)
 
 
 def load_yaml(path: str | Path) -> dict:

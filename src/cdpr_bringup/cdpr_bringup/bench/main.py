@@ -182,6 +182,8 @@ def main(argv=None):
                         help='campaign: Dask worker counts, comma-separated (default 1,2)')
     parser.add_argument('--jobs', type=int, default=None, help='fdi, roc, sweep: parallel runs (default: cores)')
     args = parser.parse_args(argv)
+    # a refused robot is said here, in one line, before any suite starts its workers
+    load_robot(config_file(args.config))
     out = args.out or f'runs/bench-{args.suite}'
     if args.suite == 'soak':
         from .soak import bench_soak, targets

@@ -42,13 +42,16 @@ def parse_args(argv=None):
     return parser.parse_args(argv)
 
 
-def failure_free_run(job) -> FailureFreeRun:
+def scenario_of(job):
+    """The failure-free scenario of a job (UsageError or ConfigError where it is refused)."""
     config, motions, motion, reverse, fidelity, seed = job
     # no supervisor runs, so no thresholds are needed: a new robot calibrates from nothing
-    scenario = build_scenario(ScenarioOptions(config=config, motions=motions, motion=motion,
-                                              reverse=reverse, fidelity=fidelity, seed=seed,
-                                              calibration=NO_CALIBRATION))
-    recording = run_inprocess(scenario, supervised=False)
+    return build_scenario(ScenarioOptions(config=config, motions=motions, motion=motion, reverse=reverse,
+                                          fidelity=fidelity, seed=seed, calibration=NO_CALIBRATION))
+
+
+def failure_free_run(job) -> FailureFreeRun:
+    recording = run_inprocess(scenario_of(job), supervised=False)
     return FailureFreeRun(recording.command_nm - recording.twin_torque_nm,
                           recording.twin_angular_velocity_rad_s)
 
@@ -60,10 +63,13 @@ def main(argv=None):
     seeds = [int(seed) for seed in args.seeds.split(',')]
     jobs = [(str(config), str(motions), motion, reverse, args.fidelity, seed)
             for motion in motion_names(motions) for reverse in (False, True) for seed in seeds]
+    # settled here first, so that a refused robot or motion is said before a worker starts
+    robot = load_robot(config)
+    for job in jobs:
+        scenario_of(job)
     print(f'cdpr-calibrate: {len(jobs)} failure-free runs on the {args.fidelity} plant', flush=True)
     with ProcessPoolExecutor(max(args.jobs, 1)) as pool:
         runs = list(pool.map(failure_free_run, jobs))
-    robot = load_robot(config)
     control = load_section(config, 'control')
     drift = (args.drift if args.drift is not None
              else load_section(config, 'fdi').section('cusum').number('drift', non_negative=True))
