@@ -32,6 +32,7 @@ setup(
             'cdpr-graph = cdpr_bringup.graph.launcher:main',
             'cdpr-scenario = cdpr_bringup.scenario.command:main',
             'cdpr-calibrate = cdpr_bringup.campaigns.calibrate:main',
+            'cdpr-identify = cdpr_bringup.reports.identify:main',
             'cdpr-fdi-offline = cdpr_bringup.reports.fdi_offline:main',
             'cdpr-campaign = cdpr_bringup.campaigns.campaign:main',
             'cdpr-report = cdpr_bringup.reports.report:main',

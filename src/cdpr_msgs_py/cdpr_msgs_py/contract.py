@@ -58,10 +58,10 @@ SETTINGS_OF = {
     TRAJECTORY_GENERATOR: ('control', 'motion'),
     CONTROLLER: ('control',),
     DIGITAL_TWIN: ('control', 'twin'),
-    SUPERVISOR: ('control', 'fdi', 'recovery'),
+    SUPERVISOR: ('control', 'fdi', 'recovery', 'twin'),
     PLANT_SIMULATOR: ('control', 'plant', 'run', 'motion'),
     BAG_RECORDER: ('control',),
-    MARKERS_NODE: ('control', 'fdi', 'recovery', 'markers'),
+    MARKERS_NODE: ('control', 'fdi', 'recovery', 'markers', 'twin'),
     ROS2_CONTROL_BRIDGE: ('control', 'plant'),
 }
 SETTINGS_OF_EVERY_NODE = ('streams', 'health')

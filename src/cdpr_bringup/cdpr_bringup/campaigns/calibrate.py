@@ -65,8 +65,8 @@ def main(argv=None):
             for motion in motion_names(motions) for reverse in (False, True) for seed in seeds]
     # settled here first, so that a refused robot or motion is said before a worker starts
     robot = load_robot(config)
-    for job in jobs:
-        scenario_of(job)
+    friction = [scenario_of(job).twin_friction for job in jobs][0]
+    twin_friction_nm = 0.0 if friction is None else friction.coulomb_nm
     print(f'cdpr-calibrate: {len(jobs)} failure-free runs on the {args.fidelity} plant', flush=True)
     with ProcessPoolExecutor(max(args.jobs, 1)) as pool:
         runs = list(pool.map(failure_free_run, jobs))
@@ -75,7 +75,7 @@ def main(argv=None):
              else load_section(config, 'fdi').section('cusum').number('drift', non_negative=True))
     result = calibrate(runs, control.number('period_s', positive=True),
                        control.number('coulomb_smoothing_rad_s', positive=True), drift,
-                       args.false_alarms_per_hour)
+                       args.false_alarms_per_hour, twin_friction_nm)
     document = {
         'fdi': {
             'coulomb_friction_nm': round(result.coulomb_friction_nm, 5),
@@ -101,7 +101,8 @@ def main(argv=None):
     out.write_text('# Written by cdpr-calibrate; load with cdpr-scenario --calibration.\n'
                    + yaml.safe_dump(document, sort_keys=False))
     print(f'  {result.hours * 60:.1f} min of failure-free motion in {result.runs} runs')
-    print(f'  Coulomb friction seen in the residual: {result.coulomb_friction_nm:.4f} N·m')
+    print(f'  the motors\' Coulomb friction: {result.coulomb_friction_nm:.4f} N·m (the twin models '
+          f'{twin_friction_nm:.4f}, the residual shows the rest)')
     print(f'  threshold ε = {result.epsilon_nm:.4f} N·m (largest |r| seen {result.largest_residual_nm:.4f})')
     print(f'  CUSUM: σ = {", ".join(f"{s:.4f}" for s in result.cusum_sigma_nm)} N·m, '
           f'ν = {result.cusum_drift:.2f}, h = {result.cusum_threshold:.2f} (largest sum seen '

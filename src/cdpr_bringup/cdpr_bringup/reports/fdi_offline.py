@@ -15,6 +15,7 @@ from pathlib import Path
 
 from cdpr_control.config import load_section
 from cdpr_control.control.controller import JointReference, PdGains
+from cdpr_control.model.friction import FrictionModel
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.tension_distribution import configured_tension_distribution
 from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config
@@ -72,8 +73,9 @@ def main(argv=None):
     fdi = load_fdi_config(config, robot, config_file(args.calibration) if args.calibration else None)
     fdi = fdi.with_overrides(args.detector, args.epsilon, args.coulomb_friction)
     stamps, ticks = recorded_ticks(bag, args.namespace)
-    verdict = replay(ticks, robot, PdGains.from_section(robot, control),
-                     load_section(config, 'twin').integer('substeps', minimum=1), fdi,
+    twin = load_section(config, 'twin')
+    verdict = replay(ticks, robot, PdGains.from_section(robot, control), twin.integer('substeps', minimum=1),
+                     FrictionModel.of_twin(twin, control), fdi,
                      load_recovery_config(config, robot),
                      configured_tension_distribution(control, robot), period)
     recording = recording_from_bag(bag, args.namespace)

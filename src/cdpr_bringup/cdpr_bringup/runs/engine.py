@@ -52,7 +52,8 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     start = scenario.reference.position_m[0]
     plant = PlantSimulator(robot, scenario.plant, start, scenario.failures, scenario.pushes,
                            scenario.start_orientation)
-    twin = DigitalTwin(robot, scenario.gains, start, scenario.twin_substeps, scenario.start_orientation)
+    twin = DigitalTwin(robot, scenario.gains, start, scenario.twin_substeps, scenario.start_orientation,
+                       scenario.twin_friction)
     controller = JointController(robot, scenario.gains, scenario.fdi.friction,
                                  command_lead_periods(scenario.fdi.drive_delay_s, scenario.period_s))
     setpoints = Setpoints(controller, exact=True)

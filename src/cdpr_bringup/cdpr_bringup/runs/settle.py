@@ -13,6 +13,7 @@ from pathlib import Path
 from cdpr_control.config import Section, load_config, load_yaml
 from cdpr_control.control.controller import PdGains
 from cdpr_control.geometry.motions import Motion, settled_motion
+from cdpr_control.model.friction import FrictionModel
 from cdpr_control.model.reference_table import ReferenceTable, tabulate_reference
 from cdpr_control.model.robot import Robot
 from cdpr_control.setup.robot_file import robot_from_section
@@ -72,6 +73,7 @@ class Scenario:
     period_s: float
     gains: PdGains
     twin_substeps: int
+    twin_friction: FrictionModel | None
     motion: Motion
     reference: ReferenceTable
     plant: PlantConfig
@@ -190,8 +192,11 @@ def settle(options: ScenarioOptions) -> SettledRun:
     for fidelity in FIDELITIES:
         fdi.pop(calibration_file_key(fidelity), None)
     friction = fdi.pop('coulomb_friction_nm', robot.motor.static_friction_nm)
-    # The rigid plant is the twin's model, without Coulomb friction: the stack must know.
+    # The rigid plant is the twin's model, without Coulomb friction: the stack must know,
+    # and a twin that models friction has none there.
     document['control']['coulomb_friction_nm'] = 0.0 if plant.fidelity == 'rigid' else friction
+    if plant.fidelity == 'rigid':
+        document['twin']['coulomb_friction_nm'] = 0.0
     document['control']['drive_delay_s'] = fdi['drive_delay_s']
     if options.detector is not None:
         fdi['detector'] = options.detector
@@ -237,6 +242,7 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         period_s=period,
         gains=gains,
         twin_substeps=settings.section('twin').integer('substeps', minimum=1),
+        twin_friction=FrictionModel.of_twin(settings.section('twin'), control),
         motion=settled.motion,
         reference=motion_reference(robot, distribution, settled.motion, period),
         plant=settled.plant,

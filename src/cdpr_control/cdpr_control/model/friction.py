@@ -1,4 +1,4 @@
-"""The motors' Coulomb friction as the control stack models it (the twin has none)."""
+"""The motors' Coulomb friction as the control stack models it."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -25,6 +25,12 @@ class FrictionModel:
             coulomb_nm = control.number('coulomb_friction_nm', robot.motor.static_friction_nm,
                                         non_negative=True)
         return cls(float(coulomb_nm), control.number('coulomb_smoothing_rad_s', positive=True))
+
+    @classmethod
+    def of_twin(cls, twin: Section, control: Section) -> 'FrictionModel | None':
+        """The friction the twin models (`twin.coulomb_friction_nm`); None for none."""
+        coulomb_nm = twin.number('coulomb_friction_nm', non_negative=True)
+        return cls(coulomb_nm, control.number('coulomb_smoothing_rad_s', positive=True)) if coulomb_nm else None
 
     def torque_nm(self, angular_velocity_rad_s: np.ndarray) -> np.ndarray:
         """The torque friction takes from a motor turning at `angular_velocity_rad_s`."""

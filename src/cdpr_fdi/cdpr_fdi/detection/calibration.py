@@ -74,7 +74,7 @@ class Calibration:
 
 
 def calibrate(runs: list[FailureFreeRun], period_s: float, smoothing_rad_s: float,
-              cusum_drift: float, false_alarms_per_hour: float) -> Calibration:
+              cusum_drift: float, false_alarms_per_hour: float, twin_friction_nm: float = 0.0) -> Calibration:
     """Thresholds for the threshold and CUSUM detectors from failure-free runs.
 
     CUSUM: σ_i is the spread of the friction-compensated residual; with the drift ν
@@ -85,6 +85,8 @@ def calibrate(runs: list[FailureFreeRun], period_s: float, smoothing_rad_s: floa
     """
     coulomb = fit_coulomb_friction(runs, smoothing_rad_s)
     friction = FrictionModel(coulomb, smoothing_rad_s)
+    # the motors' friction: what the residual shows beyond what the twin models itself
+    coulomb += twin_friction_nm
     compensated = [run.residual_nm - friction.torque_nm(run.twin_angular_velocity_rad_s) for run in runs]
     sigma = np.std(np.vstack(compensated), axis=0)
     ticks = sum(run.residual_nm.shape[0] for run in runs)

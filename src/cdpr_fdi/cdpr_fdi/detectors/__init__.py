@@ -17,7 +17,7 @@ def make_detector(config) -> Detector:
         return ThresholdDetector(config.epsilon_nm)
     if config.detector == 'cusum':
         return CusumDetector(config.cusum_sigma_nm, config.cusum_drift, config.cusum_threshold,
-                             config.cusum_limit, config.cusum_epsilon_nm, config.friction)
+                             config.cusum_limit, config.cusum_epsilon_nm, config.residual_friction)
     raise ValueError(f'unknown detector {config.detector!r}; one of {", ".join(DETECTORS)}')
 
 

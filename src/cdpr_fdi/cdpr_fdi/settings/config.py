@@ -48,9 +48,18 @@ class FdiConfig:
     disturbance_settle_cycles: int
     identification_stretch_m: float
     drive_delay_s: float
+    # the part of `friction` (the motors' Coulomb friction) the twin models itself
+    # (twin.coulomb_friction_nm): the residual shows only the rest
+    twin_friction_nm: float = 0.0
+
+    @property
+    def residual_friction(self) -> FrictionModel:
+        """The Coulomb friction the residual shows: the motors' beyond the twin's."""
+        return dataclasses.replace(self.friction, coulomb_nm=max(self.friction.coulomb_nm - self.twin_friction_nm, 0.0))
 
     @classmethod
-    def from_section(cls, fdi: Section, robot: Robot, friction: FrictionModel) -> 'FdiConfig':
+    def from_section(cls, fdi: Section, robot: Robot, friction: FrictionModel,
+                     twin_friction_nm: float = 0.0) -> 'FdiConfig':
         cable_count = robot.cable_count
         cusum = fdi.section('cusum')
         sigma = ([cusum.number('sigma_nm', positive=True)] * cable_count
@@ -87,6 +96,7 @@ class FdiConfig:
             disturbance_settle_cycles=fdi.integer('disturbance_settle_cycles', minimum=0),
             identification_stretch_m=fdi.number('identification_stretch_m', positive=True),
             drive_delay_s=fdi.number('drive_delay_s', non_negative=True),
+            twin_friction_nm=twin_friction_nm,
         )
 
     def with_overrides(self, detector: str | None = None, epsilon_nm: float | None = None,
@@ -132,7 +142,7 @@ def load_fdi_config(config_path: str | Path, robot: Robot,
     friction = FrictionModel.of_robot(robot, config.section('control'))
     calibration = None if not calibration_path else Section(load_yaml(calibration_path), calibration_path)
     return FdiConfig.from_section(calibrated_fdi(config.section('fdi'), robot, calibration),
-                                  robot, friction)
+                                  robot, friction, config.section('twin').number('coulomb_friction_nm', non_negative=True))
 
 
 def check_calibration_robot(calibration: Section, robot: Robot, config_path: str | Path) -> None:
@@ -284,5 +294,6 @@ def settled_fdi(settings, robot: Robot) -> tuple[FdiConfig, RecoveryConfig]:
     `section(name)` as cdpr_control.config.Section's): its `fdi` and `recovery` sections,
     the friction its `control` section settled."""
     friction = FrictionModel.of_robot(robot, settings.section('control'))
-    return (FdiConfig.from_section(settings.section('fdi'), robot, friction),
+    return (FdiConfig.from_section(settings.section('fdi'), robot, friction,
+                                   settings.section('twin').number('coulomb_friction_nm', non_negative=True)),
             RecoveryConfig.from_section(settings.section('recovery'), robot))

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cdpr_control.control.controller import JointReference, PdGains
-from cdpr_control.point_mass.kinematics import forward_kinematics
+from cdpr_control.model.friction import FrictionModel
 from cdpr_control.model.robot import Robot
 from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_twin.models.twin import DigitalTwin
@@ -42,11 +42,12 @@ class OfflineVerdict:
 
 
 def replay(ticks: list[RecordedTick], robot: Robot, gains: PdGains, twin_substeps: int,
-           fdi: FdiConfig, recovery: RecoveryConfig, distribution: TensionDistribution,
-           period_s: float) -> OfflineVerdict:
-    """Run the twin and the supervisor over the recorded ticks until a cable is named."""
-    twin = DigitalTwin(robot, gains, forward_kinematics(robot, ticks[0].reference.angle_rad),
-                       twin_substeps)
+           twin_friction: FrictionModel | None, fdi: FdiConfig, recovery: RecoveryConfig,
+           distribution: TensionDistribution, period_s: float) -> OfflineVerdict:
+    """Run the twin (with the Coulomb friction it models, if any) and the supervisor over
+    the recorded ticks until a cable is named."""
+    start, orientation = robot.body.pose_of_angles(robot, ticks[0].reference.angle_rad)
+    twin = DigitalTwin(robot, gains, start, twin_substeps, orientation, twin_friction)
     supervisor = Supervisor(robot, fdi, recovery, distribution, period_s)
     monitor = Monitor(twin, supervisor, period_s)
     for k, tick in enumerate(ticks):

@@ -7,6 +7,7 @@ import numpy as np
 
 from cdpr_control.control import tracking
 from cdpr_control.control.controller import JointController, JointReference, PdGains
+from cdpr_control.model.friction import FrictionModel
 from cdpr_control.model.robot import Robot
 
 from cdpr_twin.models.rigid_model import RigidModel
@@ -27,11 +28,15 @@ class TwinOutput:
 class DigitalTwin:
     """Fed the same reference as the robot; never sees the robot's measurements. Its
     model is the rigid one, a platform's starting at `start_orientation` (its home
-    orientation when None)."""
+    orientation when None). With `friction` its motors feel that Coulomb friction, taken
+    at the speed each period starts with (as the rigid model's one sub-step takes the
+    viscous friction)."""
 
-    def __init__(self, robot: Robot, gains: PdGains, start_position_m, substeps: int, start_orientation=None):
+    def __init__(self, robot: Robot, gains: PdGains, start_position_m, substeps: int, start_orientation=None,
+                 friction: FrictionModel | None = None):
         self.model = RigidModel(robot, start_position_m, start_orientation, substeps)
         self.controller = JointController(robot, gains)
+        self.friction = friction
 
     @staticmethod
     def load_kernels(robot: Robot) -> None:
@@ -48,5 +53,5 @@ class DigitalTwin:
         angle, speed, position = model.angle_rad, model.angular_velocity_rad_s, model.position_m
         torque = self.controller.command(angle, speed, reference)
         orientation = model.orientation
-        model.step(torque, period_s)
+        model.step(torque if self.friction is None else torque - self.friction.torque_nm(speed), period_s)
         return TwinOutput(angle, speed, torque, position, orientation)

@@ -7,6 +7,7 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 
 from cdpr_control.control.controller import JointReference, PdGains
+from cdpr_control.model.friction import FrictionModel
 from cdpr_control.setup.settings import node_settings
 from cdpr_msgs_py import contract, qos
 from cdpr_msgs_py.conversions import joint_state_bytes, pose_stamped
@@ -26,6 +27,7 @@ class DigitalTwinNode(CdprNode):
         self.stale_cycles = control.integer('stale_cycles', minimum=1)
         self.gains = PdGains.from_section(self.robot, control)
         self.substeps = settings.section('twin').integer('substeps', minimum=1)
+        self.friction = FrictionModel.of_twin(settings.section('twin'), control)
         self.names = contract.joint_names(self.robot.cable_count)
         self.twin: DigitalTwin | None = None   # built at the first reference, where it starts
         DigitalTwin.load_kernels(self.robot)
@@ -59,7 +61,7 @@ class DigitalTwinNode(CdprNode):
             # The twin starts where the reference starts, at rest.
             try:
                 start, orientation = self.robot.body.pose_of_angles(self.robot, joints.position)
-                self.twin = DigitalTwin(self.robot, self.gains, start, self.substeps, orientation)
+                self.twin = DigitalTwin(self.robot, self.gains, start, self.substeps, orientation, self.friction)
             except (ValueError, np.linalg.LinAlgError) as err:
                 self.diagnostics.reject(contract.REFERENCE, f'no pose to start the twin from: {err}')
                 return

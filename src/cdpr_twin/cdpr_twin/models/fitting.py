@@ -1,0 +1,175 @@
+"""The twin fitted to the robot it watches: each motor's inertia J_i, viscous friction b_i
+and Coulomb friction f_i, and the end-effector's mass m, from failure-free recordings of
+the motor angles θ, speeds θ̇ and commanded torques c alone (docs/twin-fitting.md).
+
+The tensions τ are not measured; each motor's equation gives them,
+
+    ρ τ_i = J_i θ̈_i + b_i θ̇_i + f_i tanh(θ̇_i / v) − c_i,
+
+and the end-effector's wrench balance, W τ = w(m) (the wrench its motion asks of the
+cables: m (p̈ − g) for a point mass, affine in m for a platform, body.motion_terms), then
+reads, per tick and degree of freedom,
+
+    w(m) − Σ_i W_i (J_i θ̈_i + b_i θ̇_i + f_i tanh(θ̇_i / v)) / ρ = −Σ_i W_i c_i / ρ,
+
+linear in (m, J_1…J_n, b_1…b_n, f_1…f_n): least squares over every tick of every
+recording. The pose comes from the measured angles (forward kinematics), its twist and
+twist rate from their differences; angles, speeds and commands are first smoothed by one
+Gaussian window (the equation is linear, so it holds for the smoothed signals as the
+structure matrix varies slowly), and the command is taken where the drives apply it
+(`drive_delay_s`, then the half period a held command acts on average).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from cdpr_control.geometry.rotation import conjugate, product
+from cdpr_control.model.robot import Robot
+
+# The parameters fitted per motor, as the robot file's motor names them.
+MOTOR_PARAMETERS = ('inertia_kg_m2', 'viscous_friction_nm_s_rad', 'static_friction_nm')
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """How the recordings are read: the Gaussian window's σ (s), the rows kept (one tick
+    in `decimation`; by default two σ apart, so that the rows' errors are nearly
+    independent and the least squares' uncertainties mean what they say), the speed (rad/s) over which Coulomb friction reaches its value, the
+    drives' delay (s), and the largest relative standard uncertainty a fitted value may
+    have (above it the motions did not excite that parameter)."""
+
+    smoothing_s: float = 0.02
+    decimation: int | None = None
+    coulomb_smoothing_rad_s: float = 0.1
+    drive_delay_s: float = 0.0
+    largest_relative_uncertainty: float = 0.1
+
+
+@dataclass(frozen=True)
+class TwinFit:
+    """The fitted values and their standard uncertainties: `mass_kg`, and per motor
+    (arrays of the cable count) each of MOTOR_PARAMETERS; the fit's residual (rms, N) and
+    its number of equations."""
+
+    mass_kg: float
+    mass_uncertainty_kg: float
+    motors: dict[str, np.ndarray]
+    uncertainties: dict[str, np.ndarray]
+    residual_rms_n: float
+    equations: int
+
+    def common(self, name: str) -> tuple[float, float]:
+        """One value for every motor (the twin's model has one motor type): the mean of
+        the motors' weighted by their uncertainties, and its uncertainty."""
+        weights = 1.0 / self.uncertainties[name] ** 2
+        return (float(np.sum(weights * self.motors[name]) / np.sum(weights)),
+                float(1.0 / np.sqrt(np.sum(weights))))
+
+
+class NotExcited(ValueError):
+    """The motions do not excite a parameter enough to fit it; the message names it."""
+
+
+def smoothed(signal: np.ndarray, sigma_ticks: float) -> np.ndarray:
+    """`signal` (rows per tick) convolved with a unit Gaussian of σ `sigma_ticks`, each end
+    padded with its first or last row (a recording starts and ends at rest)."""
+    half = int(np.ceil(4.0 * sigma_ticks))
+    window = np.exp(-0.5 * (np.arange(-half, half + 1) / sigma_ticks) ** 2)
+    window /= window.sum()
+    padded = np.concatenate([np.repeat(signal[:1], half, axis=0), signal, np.repeat(signal[-1:], half, axis=0)])
+    return np.apply_along_axis(lambda column: np.convolve(column, window, mode='valid'), 0, padded)
+
+
+def applied(command_nm: np.ndarray, period_s: float, drive_delay_s: float) -> np.ndarray:
+    """The torque the drives apply at each tick's instant, of commands held one period each
+    from `drive_delay_s` after their tick: on average the command of (delay + T/2) earlier,
+    interpolated between ticks."""
+    lag = (drive_delay_s + 0.5 * period_s) / period_s
+    ticks = np.arange(len(command_nm)) - lag
+    return np.stack([np.interp(ticks, np.arange(len(command_nm)), column) for column in command_nm.T], axis=1)
+
+
+def twist_of(poses: np.ndarray, period_s: float) -> np.ndarray:
+    """The twist (v, and ω in the world frame for an orientation) of each row of a stack of
+    poses, by central differences (ω = 2 q̇ q* of the unit quaternion q)."""
+    rate = np.gradient(poses, period_s, axis=0)
+    if poses.shape[1] == 3:
+        return rate
+    omega = 2.0 * product(rate[:, 3:], conjugate(poses[:, 3:]))[:, 1:]
+    return np.concatenate([rate[:, :3], omega], axis=1)
+
+
+def regression(robot: Robot, angle_rad, speed_rad_s, command_nm, period_s: float, options: FitOptions):
+    """The rows (A, y) of the module docstring's equation for one recording: A's columns
+    m, J_1…J_n, b_1…b_n, f_1…f_n. Each term is formed tick by tick from the measurements,
+    then smoothed (a product smoothed is not the product of the smoothed factors); the
+    wrench, whose differences of the pose need it, from the smoothed pose."""
+    sigma = options.smoothing_s / period_s
+    radius = robot.motor.drum_radius_m
+    positions, orientations = robot.body.poses_of_angles(robot, angle_rad)
+    poses = positions if orientations is None else np.concatenate([positions, orientations], axis=1)
+    rest = np.zeros((len(poses), robot.body.degrees_of_freedom))
+    structure = robot.body.motion_terms(robot, poses, rest, rest).structure / radius    # n × dof × m, over ρ
+    smooth_poses = smoothed(poses, sigma)
+    if orientations is not None:
+        smooth_poses[:, 3:] /= np.linalg.norm(smooth_poses[:, 3:], axis=1, keepdims=True)
+    twists = twist_of(smooth_poses, period_s)
+    rates = np.gradient(twists, period_s, axis=0)
+    torque = applied(np.clip(command_nm, -robot.motor.torque_limit_nm, robot.motor.torque_limit_nm),
+                     period_s, options.drive_delay_s)
+    motor_terms = (np.gradient(speed_rad_s, period_s, axis=0), speed_rad_s,
+                   np.tanh(speed_rad_s / options.coulomb_smoothing_rad_s))
+    ticks, dof, m = structure.shape
+
+    def smoothed_product(figure):
+        return smoothed((structure * figure[:, None, :]).reshape(ticks, -1), sigma).reshape(ticks, dof, m)
+
+    # the wrench is affine in the mass: w(m) = w(0) + m (w(1) − w(0))
+    weightless = robot.body.motion_terms(dataclasses.replace(robot, mass_kg=0.0), smooth_poses, twists, rates)
+    per_kg = robot.body.motion_terms(dataclasses.replace(robot, mass_kg=1.0), smooth_poses, twists, rates).wrench_n
+    columns = [(per_kg - weightless.wrench_n)[..., None]] + [-smoothed_product(figure) for figure in motor_terms]
+    design = np.concatenate(columns, axis=2)
+    target = -smoothed_product(torque).sum(axis=2) - weightless.wrench_n
+    # the ends, where differences are one-sided and the padding shows
+    keep = slice(int(4 * sigma) + 2, ticks - int(4 * sigma) - 2, options.decimation or max(1, round(2.0 * sigma)))
+    return design[keep].reshape(-1, design.shape[2]), target[keep].ravel()
+
+
+def fit_twin(robot: Robot, recordings, period_s: float, options: FitOptions = FitOptions()) -> TwinFit:
+    """Least squares of the module docstring over every `recordings` (each (θ, θ̇, c) of a
+    failure-free run, rows per tick); NotExcited, naming the parameter, where the motions
+    do not excite one (its relative standard uncertainty above the option's)."""
+    rows = [regression(robot, *recording, period_s, options) for recording in recordings]
+    design = np.concatenate([a for a, _ in rows])
+    target = np.concatenate([y for _, y in rows])
+    scale = np.linalg.norm(design, axis=0)
+    m = robot.cable_count
+    names = ['the end-effector\'s mass'] + [f'motor {i + 1}\'s {label}' for label in
+                                             ('inertia', 'viscous friction', 'Coulomb friction')
+                                             for i in range(m)]
+    idle = np.flatnonzero(scale == 0.0)
+    if idle.size:
+        raise NotExcited(f'the motions do not excite {names[idle[0]]}: record motions that move every motor')
+    solution, _, rank, _ = np.linalg.lstsq(design / scale, target, rcond=None)
+    values = solution / scale
+    residual = target - design @ values
+    dof = max(len(target) - len(values), 1)
+    covariance = np.linalg.pinv((design / scale).T @ (design / scale)) * (residual @ residual / dof)
+    sigma = np.sqrt(np.diag(covariance)) / scale
+    relative = sigma / np.maximum(np.abs(values), np.finfo(float).tiny)
+    # Coulomb friction may truly be nil: it is judged on its uncertainty against the
+    # torque it would take to show, not on its own size
+    judged = relative.copy()
+    judged[1 + 2 * m:] = sigma[1 + 2 * m:] / max(float(np.max(np.abs(values[1 + 2 * m:]))), 1e-3)
+    worst = int(np.argmax(judged))
+    if rank < len(values) or judged[worst] > options.largest_relative_uncertainty:
+        raise NotExcited(f'the motions do not excite {names[worst]} enough to fit it (relative uncertainty '
+                         f'{judged[worst]:.0%}, at most {options.largest_relative_uncertainty:.0%}): record '
+                         'motions that accelerate, and move both ways, every motor')
+    motors = {name: values[1 + k * m:1 + (k + 1) * m] for k, name in enumerate(MOTOR_PARAMETERS)}
+    uncertainties = {name: sigma[1 + k * m:1 + (k + 1) * m] for k, name in enumerate(MOTOR_PARAMETERS)}
+    return TwinFit(float(values[0]), float(sigma[0]), motors, uncertainties,
+                   float(np.sqrt(residual @ residual / len(target))), len(target))
