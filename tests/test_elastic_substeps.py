@@ -43,8 +43,11 @@ def test_a_field_run_with_a_failure_and_a_push_is_the_same_with_both_kernels():
 
 def test_locked_drums_hold_the_same_with_both_kernels():
     robot = load_robot(PAPER_ROBOT)
-    models = [ElasticCableRobot(robot, robot.home_position_m + np.array([0.05, -0.02, 0.03]),
-                                8, 3e5, 400.0, 0.1, 0.1, kernel=name) for name in KERNELS]
+    motors = np.array([np.full(robot.cable_count, robot.motor.inertia_kg_m2),
+                       np.full(robot.cable_count, robot.motor.viscous_friction_nm_s_rad),
+                       np.full(robot.cable_count, 0.1)])
+    models = [ElasticCableRobot(robot, motors, robot.home_position_m + np.array([0.05, -0.02, 0.03]),
+                                8, 3e5, 400.0, 0.1, kernel=name) for name in KERNELS]
     for model in models:
         model.break_cables([1])
         model.drums_locked = True

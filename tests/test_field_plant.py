@@ -100,7 +100,7 @@ def test_a_field_value_out_of_its_range_is_refused_naming_its_key(key, value):
     plant = copy.deepcopy(load_config(config_file(DEFAULT_ROBOT)).data['plant'])
     plant['field'][key] = value
     with pytest.raises(ConfigError, match=f"plant.field.{key}"):
-        PlantConfig.from_section(Section({'plant': plant}, 'set-up.yaml').section('plant'), 'field')
+        PlantConfig.from_section(Section({'plant': plant}, 'set-up.yaml').section('plant'), 4, 'field')
 
 
 def test_the_electromagnet_must_be_on_a_cable_of_the_robot():

@@ -705,7 +705,7 @@ LOADERS = {
     'control': controller_core,
     'fdi': lambda path, robot: load_fdi_config(path, robot),
     'recovery': lambda path, robot: load_recovery_config(path, robot),
-    'plant': lambda path, robot: PlantConfig.from_section(load_section(path, 'plant')),
+    'plant': lambda path, robot: PlantConfig.from_section(load_section(path, 'plant'), robot.cable_count),
     'markers': lambda path, robot: MarkerStyle.from_section(load_section(path, 'markers')),
     'scheduling': lambda path, robot: realtime_scheduling(load_section(path, 'scheduling')),
     # as CdprNode.configure reads them

@@ -103,7 +103,7 @@ def test_the_plant_simulator_and_the_twin_take_a_platform_and_a_break_shows_on_i
     motor first, as the paper's on a point mass."""
     robot, settings, _, reference = setup('climb-tilt')
     gains = PdGains.from_section(robot, settings.section('control'))
-    config = PlantConfig.from_section(settings.section('plant'), fidelity='rigid')
+    config = PlantConfig.from_section(settings.section('plant'), robot.cable_count, fidelity='rigid')
     period = reference.period_s
     failure_s = 600 * period + 0.0007
     plant = PlantSimulator(robot, config, reference.position_m[0], failures=[(failure_s, 2)],
@@ -129,7 +129,7 @@ def test_the_plant_simulator_and_the_twin_take_a_platform_and_a_break_shows_on_i
 
 def test_the_field_plant_is_refused_for_a_platform_naming_why():
     robot, settings, _, reference = setup('along')
-    config = PlantConfig.from_section(settings.section('plant'), fidelity='field')
+    config = PlantConfig.from_section(settings.section('plant'), robot.cable_count, fidelity='field')
     with pytest.raises(ValueError, match='field plant models the paper.s rig, a point mass'):
         PlantSimulator(robot, config, reference.position_m[0])
 
@@ -204,7 +204,7 @@ def test_a_push_moves_the_platform_its_way_and_only_a_push(fidelity):
     plant). Its speed and its way stay within what that force gives a free body,
     F t / m and F t² / 2 m (a spring holding it only slows it)."""
     robot, settings, _, reference = setup('along')
-    config = PlantConfig.from_section(settings.section('plant'), fidelity=fidelity)
+    config = PlantConfig.from_section(settings.section('plant'), robot.cable_count, fidelity=fidelity)
     still, pushed = (PlantSimulator(robot, config, reference.position_m[0]).model for _ in range(2))
     holding = PlantSimulator(robot, config, reference.position_m[0]).holding_torque_nm()
     start = still.position_m.copy()

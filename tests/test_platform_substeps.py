@@ -15,7 +15,7 @@ from cdpr_control.config import load_config
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_control.geometry.rotation import from_axis_angle
 from cdpr_twin.models.elastic_platform import ElasticPlatform
-from cdpr_twin.models.plant import PlantConfig
+from cdpr_twin.models.plant import PlantConfig, true_motors
 from cdpr_twin.models.rigid_model import RigidModel
 
 from conftest import CONFIG_DIR
@@ -53,13 +53,13 @@ def drive(model, robot, holding):
 def test_both_kernels_give_the_same_numbers_on_every_path(robot, model_name):
     position = robot.home_position_m + np.array([0.1, -0.05, 0.1])
     orientation = from_axis_angle([1.0, 0.5, 0.0], 0.1)
-    config = PlantConfig.from_section(load_config(ROBOT).section('plant'), fidelity='elastic')
+    config = PlantConfig.from_section(load_config(ROBOT).section('plant'), robot.cable_count, fidelity='elastic')
     holding = -robot.motor.drum_radius_m * np.full(robot.cable_count, robot.mass_kg * 9.81 / 6)
 
     def model(kernel):
         if model_name == 'rigid':
             return RigidModel(robot, position, orientation, 2, kernel)
-        return ElasticPlatform(robot, position, orientation, config, kernel)
+        return ElasticPlatform(robot, true_motors(robot, config), position, orientation, config, kernel)
 
     python, compiled = drive(model('python'), robot, holding), drive(model('compiled'), robot, holding)
     # each path ran: the broken cable carries nothing, the push slackened a cable, the

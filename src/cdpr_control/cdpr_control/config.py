@@ -134,10 +134,22 @@ class Section:
     def number(self, name: str, default: Any = ..., *, positive: bool = False,
                non_negative: bool = False, minimum: float | None = None,
                maximum: float | None = None) -> float:
+        bounds = dict(positive=positive, non_negative=non_negative, minimum=minimum, maximum=maximum)
+        self._keep_bounds(name, **bounds)
+        return self._checked_number(name, self.raw(name, default), **bounds)
+
+    def _keep_bounds(self, name: str, *, positive: bool = False, non_negative: bool = False,
+                    minimum: float | None = None, maximum: float | None = None) -> None:
+        """Remember the bounds a number read as `name` is checked against (`bounds`)."""
         if positive or non_negative or minimum is not None or maximum is not None:
             low = minimum if minimum is not None else 0.0 if positive or non_negative else None
             self.bounds[self.key(name)] = Bounds(low, maximum, low_excluded=positive and minimum is None)
-        value = self.raw(name, default)
+
+    def _checked_number(self, name: str, value: Any, *, positive: bool = False,
+                       non_negative: bool = False, minimum: float | None = None,
+                       maximum: float | None = None) -> float:
+        """`value`, read as `name`, as a float if it is a finite number within the bounds;
+        else a ConfigError naming `name`."""
         if not _is_number(value):
             raise self.error(name, f'must be a number, got {value!r}')
         if not _is_finite(value):
@@ -178,6 +190,20 @@ class Section:
         if choices and value not in choices:
             raise self.error(name, f'must be one of {", ".join(choices)}, got {value!r}')
         return value
+
+    def per_cable(self, name: str, cable_count: int, *, positive: bool = False,
+                  non_negative: bool = False) -> np.ndarray:
+        """One number per cable (or its motor): a number, the same for each of the
+        `cable_count`, or a list of one per cable; each bounded as number() bounds it."""
+        bounds = dict(positive=positive, non_negative=non_negative)
+        self._keep_bounds(name, **bounds)
+        value = self.raw(name)
+        if not isinstance(value, (list, tuple)):
+            return np.full(cable_count, self._checked_number(name, value, **bounds))
+        if len(value) != cable_count:
+            raise self.error(name, f'must be a number or a list of {cable_count} numbers, one per cable, '
+                             f'got {value!r}')
+        return np.array([self._checked_number(f'{name}[{i}]', entry, **bounds) for i, entry in enumerate(value)])
 
     def vector(self, name: str, length: int, default: Any = ...) -> np.ndarray:
         return self._array(self.key(name), self.raw(name, default), (length,))

@@ -64,6 +64,11 @@ def settled_value(document: dict, key: str):
     return value
 
 
+def scaled(value, factor: float):
+    """A plant value times `factor`: a list of one per motor, motor by motor."""
+    return [entry * factor for entry in value] if isinstance(value, list) else value * factor
+
+
 def cell_setup(config: Path, changes: dict[str, float]) -> dict:
     """The set-up at `config` (a robot file or a set-up) with `changes` (dotted key → value),
     its robot file named by absolute path, so the cell can live in another folder."""
@@ -82,7 +87,7 @@ def cells(config: Path, out: Path, fidelity: str) -> dict[str, Path]:
     folder.mkdir(parents=True, exist_ok=True)
     made = {}
     for label, changes in [('nominal', {})] + [
-            (f'{axis.name} ×{factor:g}', {key: settled_value(settled, key) * factor
+            (f'{axis.name} ×{factor:g}', {key: scaled(settled_value(settled, key), factor)
                                           for key in axis.keys[fidelity]})
             for axis in AXES if fidelity in axis.keys for factor in axis.factors]:
         path = folder / f'{len(made):02d}.yaml'

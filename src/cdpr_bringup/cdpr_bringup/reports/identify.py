@@ -24,6 +24,7 @@ import yaml
 from cdpr_control.config import load_config, load_yaml
 from cdpr_control.setup.robot_file import robot_from_section
 from cdpr_twin.models.fitting import MOTOR_PARAMETERS, FitOptions, NotExcited, fit_twin
+from cdpr_twin.models.plant import PlantConfig
 
 from ..bags.bag_io import recording_from_bag
 from ..cli import UsageError, command
@@ -83,17 +84,20 @@ def fitted_document(document: dict, settled, robot, fit) -> dict:
         del fitted['robot_file']
         fitted['robot'] = copy.deepcopy(settled.section('robot').data)
     section, motor = fitted['robot'], fitted['robot']['motor']
-    mismatch = settled.section('plant').section('elastic').section('mismatch')
-    factors = {'mass': mismatch.number('mass') * robot.mass_kg / fit.mass_kg}
+    plant_config = PlantConfig.from_section(settled.section('plant'), robot.cable_count)
+    factors = {'mass': round(plant_config.mass_factor * robot.mass_kg / fit.mass_kg, 6)}
     section['end_effector']['mass_kg'] = round(fit.mass_kg, 6)
     for name, factor in FITTED.items():
-        value, _ = fit.common(name)
-        factors[factor] = mismatch.number(factor) * getattr(robot.motor, name) / value if value else 0.0
-        motor[name] = float(f'{value:.6g}')
+        value = float(f'{fit.common(name)[0]:.6g}')
+        motor[name] = value
+        # each motor's own factor (PlantConfig's, one per motor), restated
+        restated = [round(old * getattr(robot.motor, name) / value, 6) if value else 0.0
+                    for old in getattr(plant_config, f'{factor}_factors')]
+        factors[factor] = restated[0] if len(set(restated)) == 1 else restated
     # the twin feels the motors' Coulomb friction too (its default is none)
     fitted.setdefault('twin', {})['coulomb_friction_nm'] = motor['static_friction_nm']
     plant = fitted.setdefault('plant', {}).setdefault('elastic', {})
-    plant['mismatch'] = {**plant.get('mismatch', {}), **{key: round(value, 6) for key, value in factors.items()}}
+    plant['mismatch'] = {**plant.get('mismatch', {}), **factors}
     return fitted
 
 

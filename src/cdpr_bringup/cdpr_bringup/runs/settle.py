@@ -185,7 +185,7 @@ def settle(options: ScenarioOptions) -> SettledRun:
         document['plant']['fidelity'] = options.fidelity
     if options.seed is not None:
         document['plant']['seed'] = options.seed
-    plant = PlantConfig.from_section(settings.section('plant'))
+    plant = PlantConfig.from_section(settings.section('plant'), robot.cable_count)
     fdi_section = settings.section('fdi')
     calibration = calibration_for(config_path, fdi_section, robot, plant.fidelity, options.calibration)
     fdi = dict(calibrated_fdi(fdi_section, robot, calibration).data)

@@ -28,8 +28,10 @@ from cdpr_control.geometry.rotation import SMALL_ANGLE_RAD
 
 # the slots of `constants`
 MASS, CENTRE, INERTIA, GRAVITY = 0, 1, 4, 13
-MOTOR_INERTIA, VISCOUS, RADIUS, COULOMB, SMOOTHING, STIFFNESS, DAMPING, RETAUT = range(16, 24)
-CONSTANT_COUNT = 24
+MOTOR_INERTIA, VISCOUS, RADIUS, SMOOTHING, STIFFNESS, DAMPING, RETAUT = range(16, 23)
+CONSTANT_COUNT = 23
+# the rows of the elastic model's `motors`, a column per motor
+MOTOR_ROW_INERTIA, MOTOR_ROW_VISCOUS, MOTOR_ROW_COULOMB = range(3)
 # Forward kinematics' Levenberg–Marquardt damping where W Wᵀ is singular, a share of its
 # largest diagonal entry.
 LEVENBERG_DAMPING = 1e-6
@@ -48,13 +50,13 @@ ACTIVE_SET_STEPS_PER_CABLE = 8
 ROW_POSE, ROW_TWIST, ROW_RATE, ROW_WIDTH = 0, 7, 13, 19
 
 
-def constants_of(robot, coulomb_friction_nm: float = 0.0, coulomb_velocity_rad_s: float = 1.0,
-                 axial_stiffness_n: float = 0.0, damping_n_s_m: float = 0.0,
-                 retaut_tolerance_m: float = 0.0) -> np.ndarray:
+def constants_of(robot, coulomb_velocity_rad_s: float = 1.0, axial_stiffness_n: float = 0.0,
+                 damping_n_s_m: float = 0.0, retaut_tolerance_m: float = 0.0) -> np.ndarray:
     """The numbers a kernel needs of a platform robot: mass m (kg), centre of mass c (m),
-    inertia I_c (platform frame), gravity g (m/s²), the motors' J, b and ρ,
-    and for the elastic cables the Coulomb friction (N·m) and its smoothing speed (rad/s),
-    EA (N) and damping (N·s/m); for the rigid ones the re-tautening tolerance (m)."""
+    inertia I_c (platform frame), gravity g (m/s²), the motors' J, b (the rigid model's,
+    one for all: the elastic model takes each motor's in its `motors`) and ρ, and for the
+    elastic cables the Coulomb friction's smoothing speed (rad/s), EA (N) and damping
+    (N·s/m); for the rigid ones the re-tautening tolerance (m)."""
     platform, motor = robot.body, robot.motor
     constants = np.empty(CONSTANT_COUNT)
     constants[MASS] = robot.mass_kg
@@ -62,8 +64,8 @@ def constants_of(robot, coulomb_friction_nm: float = 0.0, coulomb_velocity_rad_s
     constants[INERTIA:INERTIA + 9] = platform.inertia_kg_m2.ravel()
     constants[GRAVITY:GRAVITY + 3] = robot.gravity_m_s2
     constants[MOTOR_INERTIA:RETAUT + 1] = (motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad,
-                                           motor.drum_radius_m, coulomb_friction_nm, coulomb_velocity_rad_s,
-                                           axial_stiffness_n, damping_n_s_m, retaut_tolerance_m)
+                                           motor.drum_radius_m, coulomb_velocity_rad_s, axial_stiffness_n,
+                                           damping_n_s_m, retaut_tolerance_m)
     return constants
 
 
@@ -596,15 +598,16 @@ def spring_tensions(constants, exits, attachments, offsets, attached, pose, twis
             wrench[k] += columns[i, k] * tension[i]
 
 
-def elastic_substeps(substeps, h, constants, exits, attachments, offsets, attached, torque, external_wrench,
-                     drums_locked, pose, twist, angle, speed, tension) -> None:
+def elastic_substeps(substeps, h, constants, exits, attachments, offsets, motors, attached, torque,
+                     external_wrench, drums_locked, pose, twist, angle, speed, tension) -> None:
     """`substeps` sub-steps of `h` s of the elastic model (cdpr_twin.models.elastic_platform), the
     state updated in place: the twist with the tensions of the sub-step's start, then the
     pose and the motors with the new speeds, then the tensions of the end. Motors carry
-    viscous and Coulomb friction (smoothed by tanh); locked drums neither pay out nor wind."""
+    viscous and Coulomb friction (smoothed by tanh), each its own (`motors`, a column per
+    motor: J_i in kg·m², b_i in N·m·s/rad, f_c,i in N·m), as real drives differ; locked
+    drums neither pay out nor wind."""
     m = exits.shape[0]
-    inertia, viscous, radius = constants[MOTOR_INERTIA], constants[VISCOUS], constants[RADIUS]
-    coulomb, smoothing = constants[COULOMB], constants[SMOOTHING]
+    radius, smoothing = constants[RADIUS], constants[SMOOTHING]
     rotation, mass_matrix = np.empty((3, 3)), np.empty((6, 6))
     wrench, free, acceleration = np.empty(6), np.empty(6), np.empty(6)
     spring_tensions(constants, exits, attachments, offsets, attached, pose, twist, angle, speed, tension, wrench)
@@ -619,8 +622,9 @@ def elastic_substeps(substeps, h, constants, exits, attachments, offsets, attach
             if drums_locked:
                 speed[i] = 0.0
             else:
-                friction = viscous * speed[i] + coulomb * tanh(speed[i] / smoothing)
-                speed[i] += h * (torque[i] - friction + radius * tension[i]) / inertia
+                friction = (motors[MOTOR_ROW_VISCOUS, i] * speed[i]
+                            + motors[MOTOR_ROW_COULOMB, i] * tanh(speed[i] / smoothing))
+                speed[i] += h * (torque[i] - friction + radius * tension[i]) / motors[MOTOR_ROW_INERTIA, i]
                 angle[i] += h * speed[i]
         spring_tensions(constants, exits, attachments, offsets, attached, pose, twist, angle, speed, tension,
                         wrench)
@@ -645,7 +649,7 @@ def signatures(types) -> dict:
             direct_dynamics: types.void(row, rows, rows, *(row,) * 10),
             motion_rows: types.void(row, rows, rows, rows, rows, rows, stack, rows, rows, rows, rows),
             rigid_substeps: types.void(count, types.float64, *geometry, *(row,) * 9),
-            elastic_substeps: types.void(count, types.float64, *geometry, row, row, row, flag, *(row,) * 5),
+            elastic_substeps: types.void(count, types.float64, *geometry, rows, row, row, row, flag, *(row,) * 5),
             move: types.void(row, row, row, types.float64),
             nearest_wrench: count(rows, row, row, types.float64, types.float64, row),
             steered_rows: count(row, rows, rows, row, row, row, row, types.float64, count, row, row, rows)}

@@ -60,13 +60,8 @@ class FdiConfig:
     @classmethod
     def from_section(cls, fdi: Section, robot: Robot, friction: FrictionModel,
                      twin_friction_nm: float = 0.0) -> 'FdiConfig':
-        cable_count = robot.cable_count
         cusum = fdi.section('cusum')
-        sigma = ([cusum.number('sigma_nm', positive=True)] * cable_count
-                 if isinstance(cusum.data.get('sigma_nm'), (int, float))
-                 else list(cusum.vector('sigma_nm', cable_count)))
-        if min(sigma) <= 0.0:
-            raise cusum.error('sigma_nm', f'must be positive for every motor, got {sigma!r}')
+        sigma = cusum.per_cable('sigma_nm', robot.cable_count, positive=True)
         return cls(
             detector=fdi.string('detector', choices=DETECTORS),
             epsilon_nm=fdi.number('epsilon_nm', positive=True),
@@ -75,7 +70,7 @@ class FdiConfig:
             friction=(FrictionModel(fdi.number('coulomb_friction_nm', non_negative=True),
                                     friction.smoothing_rad_s)
                       if fdi.has('coulomb_friction_nm') else friction),
-            cusum_sigma_nm=tuple(float(s) for s in sigma),
+            cusum_sigma_nm=tuple(sigma.tolist()),
             cusum_drift=cusum.number('drift', non_negative=True),
             cusum_threshold=cusum.number('threshold', positive=True),
             cusum_limit=cusum.number('limit', positive=True),

@@ -72,17 +72,18 @@ class ElasticCableRobot:
     # a point mass has no orientation to tell: the identity, as a platform's model has one
     orientation = IDENTITY
 
-    def __init__(self, robot: Robot, position_m, substeps: int, axial_stiffness_n: float,
-                 damping_n_s_m: float, coulomb_friction_nm: float,
-                 coulomb_velocity_rad_s: float, drive: DriveTrain = DriveTrain(),
+    def __init__(self, robot: Robot, motor_values, position_m, substeps: int, axial_stiffness_n: float,
+                 damping_n_s_m: float, coulomb_velocity_rad_s: float, drive: DriveTrain = DriveTrain(),
                  kernel: str = 'compiled'):
+        """`robot` as the plant carries it, its motors `motor_values`: rows of each one's
+        inertia J_i (kg·m²), viscous friction b_i (N·m·s/rad) and Coulomb friction f_c,i
+        (N·m) (plant.true_motors); robot.motor gives the drums' radius."""
         self.robot = robot
         self.kernel = substep_kernel(kernel).load_all()
         self.drive = drive
         self.substeps = int(substeps)
         self.axial_stiffness_n = axial_stiffness_n
         self.damping_n_s_m = damping_n_s_m
-        self.coulomb_friction_nm = coulomb_friction_nm
         self.coulomb_velocity_rad_s = coulomb_velocity_rad_s
         self.position_m = np.array(position_m, dtype=float)
         self.velocity_m_s = np.zeros(3)
@@ -109,9 +110,10 @@ class ElasticCableRobot:
         # The pulleys lengthen each cable by their wrap; the cable lengths were homed at
         # the start, so only the change since then is felt (m, per control period).
         self.start_pulley_excess_m = self.pulley_excess_m()
-        # Per cable: exit point A_i and length offset l_i0 (m), as the kernel takes them.
-        self.cables = self.kernel.view(np.array([*robot.exit_points_m.T,
-                                                 robot.cable_length_offset_m]))
+        # Per cable, as the kernel takes them: exit point A_i and length offset l_i0 (m),
+        # its motor's J_i, b_i and f_c,i.
+        self.cables = self.kernel.view(np.array([*robot.exit_points_m.T, robot.cable_length_offset_m,
+                                                 *np.asarray(motor_values, dtype=float)]))
         # The net force Σ τ_i u_i (N) of the tensions on the end-effector.
         self.cable_force_n = (0.0, 0.0, 0.0)
         # the kernel's constants, and what they were made for (substep_constants)
@@ -176,14 +178,13 @@ class ElasticCableRobot:
 
     def substep_constants(self, h: float, external_force_n: tuple[float, float, float]) -> tuple:
         """The kernel's `constants` for sub-steps of `h` s under `external_force_n` (N)."""
-        motor, drive, mass = self.robot.motor, self.drive, self.robot.mass_kg
+        drive, mass = self.drive, self.robot.mass_kg
         # First-order lags discretised exactly over a sub-step (gain 1: no lag).
         torque_gain = 1.0 - exp(-h / drive.torque_lag_s) if drive.torque_lag_s else 1.0
         speed_gain = 1.0 - exp(-h / drive.speed_filter_s) if drive.speed_filter_s else 1.0
         # gravity and the external force, as accelerations of the end-effector
         gx, gy, gz = (g + f / mass for g, f in zip(self.robot.gravity_m_s2.tolist(), external_force_n))
-        return (motor.drum_radius_m, motor.inertia_kg_m2, motor.viscous_friction_nm_s_rad,
-                self.coulomb_friction_nm, self.coulomb_velocity_rad_s, drive.breakaway_friction_nm,
+        return (self.robot.motor.drum_radius_m, self.coulomb_velocity_rad_s, drive.breakaway_friction_nm,
                 drive.stribeck_speed_rad_s, torque_gain, speed_gain, self.axial_stiffness_n, self.damping_n_s_m,
                 mass, gx, gy, gz, self.drums_locked)
 

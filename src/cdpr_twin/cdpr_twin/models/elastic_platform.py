@@ -31,17 +31,20 @@ class ElasticPlatform:
     the state arrays rather than writing into them.
     """
 
-    def __init__(self, robot: Robot, position_m, orientation, config, kernel: str = 'compiled'):
-        """At the pose (p, `orientation`: the platform's home one when None). `config`: the
-        plant's PlantConfig (sub-steps, the cables' EA and damping, the Coulomb friction's
-        smoothing); the Coulomb friction is the robot's motors' static friction."""
+    def __init__(self, robot: Robot, motor_values, position_m, orientation, config, kernel: str = 'compiled'):
+        """At the pose (p, `orientation`: the platform's home one when None). `motor_values`:
+        rows of each motor's inertia J_i (kg·m²), viscous friction b_i (N·m·s/rad) and
+        Coulomb friction f_c,i (N·m) (plant.true_motors); robot.motor gives the drums'
+        radius. `config`: the plant's PlantConfig (sub-steps, the cables' EA and damping,
+        the Coulomb friction's smoothing)."""
         self.robot = robot
         self.config = config
         self.kernel = platform_substeps.kernel(kernel).load_all()
         self.exits, self.attachments, self.offsets = platform_substeps.geometry_of(robot)
+        # a writable C-contiguous copy, as the compiled kernels take arrays
+        self.motors = np.array(motor_values, dtype=float, order='C')
         self.constants = platform_substeps.constants_of(
-            robot, robot.motor.static_friction_nm, config.coulomb_velocity_rad_s, config.axial_stiffness_n,
-            config.damping_n_s_m)
+            robot, config.coulomb_velocity_rad_s, config.axial_stiffness_n, config.damping_n_s_m)
         self.position_m = np.array(position_m, dtype=float)
         self.orientation = normalised(robot.body.home_orientation if orientation is None else orientation)
         self.velocity_m_s = np.zeros(3)
@@ -73,7 +76,7 @@ class ElasticPlatform:
         angle, speed = self.angle_rad.copy(), self.angular_velocity_rad_s.copy()
         tension = np.empty(robot.cable_count)
         self.kernel.elastic_substeps(substeps, period_s / substeps, self.constants, self.exits,
-                                     self.attachments, self.offsets,
+                                     self.attachments, self.offsets, self.motors,
                                      self.attached.astype(float), np.array(torque_nm, dtype=float),
                                      wrench_at_origin(external_force_n), self.drums_locked,
                                      pose, twist, angle, speed, tension)

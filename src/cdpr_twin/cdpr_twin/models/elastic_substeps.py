@@ -20,13 +20,14 @@ from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
 def integrate(substeps, h, constants, cables, inputs, motors, state):
     """`substeps` semi-implicit Euler sub-steps of `h` s; returns the new state.
 
-    `constants`: drum radius ρ (m), motor inertia J (kg·m²), viscous friction b (N·m·s/rad),
-    Coulomb friction f_c (N·m), its smoothing speed ω_c (rad/s), the breakaway excess
-    (N·m) and its Stribeck speed (rad/s), the gains of the drive's torque loop and speed
-    estimate over a sub-step, the cables' EA (N) and damping (N·s/m), the end-effector's
-    mass (kg), the accelerations of gravity plus the external force (m/s²), whether the
-    drums are locked. Rows per cable: `cables` its exit point A_i and length offset l_i0
-    (m); `inputs` the commanded torque (N·m), 1 if attached else 0, the mass hanging on
+    `constants`: drum radius ρ (m), the Coulomb friction's smoothing speed ω_c (rad/s),
+    the breakaway excess (N·m) and its Stribeck speed (rad/s), the gains of the drive's
+    torque loop and speed estimate over a sub-step, the cables' EA (N) and damping
+    (N·s/m), the end-effector's mass (kg), the accelerations of gravity plus the external
+    force (m/s²), whether the drums are locked. Rows per cable: `cables` its exit point
+    A_i and length offset l_i0 (m), and its motor's inertia J_i (kg·m²), viscous friction
+    b_i (N·m·s/rad) and Coulomb friction f_c,i (N·m), each motor its own as real drives
+    are; `inputs` the commanded torque (N·m), 1 if attached else 0, the mass hanging on
     its drum (kg), the pulleys' length change (m); `motors` θ (rad), θ̇ (rad/s), τ (N),
     the drive's speed estimate (rad/s) and applied torque (N·m), updated in place.
     `state` and the result: p (m), ṗ (m/s) and the net cable force Σ τ_i u_i (N), nine
@@ -36,9 +37,10 @@ def integrate(substeps, h, constants, cables, inputs, motors, state):
     tensions of its end, which the next sub-step starts from. With h = 0 the state stays
     as it is and only its tensions are evaluated.
     """
-    (radius, inertia, viscous, coulomb, smoothing, breakaway, stribeck, torque_gain,
-     speed_gain, stiffness, damping, mass, gx, gy, gz, drums_locked) = constants
+    (radius, smoothing, breakaway, stribeck, torque_gain, speed_gain, stiffness, damping,
+     mass, gx, gy, gz, drums_locked) = constants
     exit_x, exit_y, exit_z, offset = cables[0], cables[1], cables[2], cables[3]
+    inertia, viscous, coulomb = cables[4], cables[5], cables[6]
     torque, attached, hanging, pulley = inputs[0], inputs[1], inputs[2], inputs[3]
     angle, speed, tension, estimate, applied = motors[0], motors[1], motors[2], motors[3], motors[4]
     px, py, pz, vx, vy, vz, fx, fy, fz = state
@@ -56,13 +58,13 @@ def integrate(substeps, h, constants, cables, inputs, motors, state):
                 # Motor: J θ̈ = c − (b θ̇ + f_c tanh(θ̇ / ω_c)) + ρ τ, with f_c raised by
                 # the breakaway excess near standstill, and a broken cable's hanging
                 # mass m_h on the drum: (J + m_h ρ²) θ̈ = … + ρ m_h g.
-                friction = coulomb
+                friction = coulomb[i]
                 if breakaway:
                     ratio = w / stribeck
                     friction += breakaway * exp(-ratio * ratio)
-                w += h * ((c_applied - (viscous * w + friction * tanh(w / smoothing))
+                w += h * ((c_applied - (viscous[i] * w + friction * tanh(w / smoothing))
                            + radius * (tension[i] - hanging[i] * gz))
-                          / (inertia + hanging[i] * radius * radius))
+                          / (inertia[i] + hanging[i] * radius * radius))
                 theta += h * w
             estimate[i] += speed_gain * (w - estimate[i])
             speed[i], angle[i], applied[i] = w, theta, c_applied
@@ -98,7 +100,7 @@ PYTHON = python_kernel(integrate, view=np.ndarray.tolist)
 def signatures(types) -> dict:
     floats, rows = types.float64, types.float64[:, :]
     state = types.UniTuple(floats, 9)
-    return {integrate: state(types.intp, floats, types.Tuple((floats,) * 15 + (types.boolean,)), rows, rows,
+    return {integrate: state(types.intp, floats, types.Tuple((floats,) * 12 + (types.boolean,)), rows, rows,
                              rows, state)}
 
 

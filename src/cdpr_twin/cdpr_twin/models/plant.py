@@ -65,9 +65,10 @@ class PlantConfig:
     damping_n_s_m: float
     coulomb_velocity_rad_s: float
     mass_factor: float
-    inertia_factor: float
-    viscous_friction_factor: float
-    static_friction_factor: float
+    # per motor: a real drive's values differ from one motor to the next
+    inertia_factors: tuple[float, ...]
+    viscous_friction_factors: tuple[float, ...]
+    static_friction_factors: tuple[float, ...]
     angle_noise_rad: float
     velocity_noise_rad_s: float
     counts_per_revolution: int
@@ -85,8 +86,10 @@ class PlantConfig:
     electromagnet_spring_force_n: float = 0.0
 
     @classmethod
-    def from_section(cls, plant: Section, fidelity: str | None = None,
+    def from_section(cls, plant: Section, cable_count: int, fidelity: str | None = None,
                      seed: int | None = None) -> 'PlantConfig':
+        """The `plant` section of a robot with `cable_count` cables (and motors), at
+        `fidelity` and `seed` (default: the section's)."""
         elastic = plant.section('elastic')
         mismatch = elastic.section('mismatch')
         resolver = elastic.section('resolver')
@@ -129,9 +132,11 @@ class PlantConfig:
             damping_n_s_m=damping[cables],
             coulomb_velocity_rad_s=elastic.number('coulomb_smoothing_rad_s', positive=True),
             mass_factor=mismatch.number('mass', positive=True),
-            inertia_factor=mismatch.number('inertia', positive=True),
-            viscous_friction_factor=mismatch.number('viscous_friction', non_negative=True),
-            static_friction_factor=mismatch.number('static_friction', non_negative=True),
+            inertia_factors=tuple(mismatch.per_cable('inertia', cable_count, positive=True).tolist()),
+            viscous_friction_factors=tuple(
+                mismatch.per_cable('viscous_friction', cable_count, non_negative=True).tolist()),
+            static_friction_factors=tuple(
+                mismatch.per_cable('static_friction', cable_count, non_negative=True).tolist()),
             angle_noise_rad=resolver.number('angle_noise_rad', non_negative=True),
             velocity_noise_rad_s=resolver.number('velocity_noise_rad_s', non_negative=True),
             counts_per_revolution=resolver.integer('counts_per_revolution', minimum=1),
@@ -142,15 +147,21 @@ class PlantConfig:
 
 
 def mismatched_robot(robot: Robot, config: PlantConfig) -> Robot:
-    """The robot as the plant really is: the controller's model off by the factors, the
-    electromagnet (on its cable next to the end-effector) carried with the end-effector."""
-    motor = dataclasses.replace(
-        robot.motor,
-        inertia_kg_m2=robot.motor.inertia_kg_m2 * config.inertia_factor,
-        viscous_friction_nm_s_rad=robot.motor.viscous_friction_nm_s_rad * config.viscous_friction_factor,
-        static_friction_nm=robot.motor.static_friction_nm * config.static_friction_factor)
+    """The robot as the plant carries it: the end-effector's mass off by its factor, the
+    electromagnet (on its cable next to the end-effector) carried with it. Its `motor` is
+    the model's, one for all; the true motors, each its own, come from `true_motors`."""
     return dataclasses.replace(robot, mass_kg=robot.mass_kg * config.mass_factor
-                               + config.electromagnet_mass_kg, motor=motor)
+                               + config.electromagnet_mass_kg)
+
+
+def true_motors(robot: Robot, config: PlantConfig) -> np.ndarray:
+    """The plant's motors as the elastic models take them, a column per motor: rows of
+    the inertia J_i (kg·m²), the viscous friction b_i (N·m·s/rad) and the Coulomb
+    friction f_c,i (N·m), the model's values times that motor's factors."""
+    motor = robot.motor
+    return np.array([motor.inertia_kg_m2 * np.array(config.inertia_factors),
+                     motor.viscous_friction_nm_s_rad * np.array(config.viscous_friction_factors),
+                     motor.static_friction_nm * np.array(config.static_friction_factors)])
 
 
 def drive_train(robot: Robot, config: PlantConfig) -> DriveTrain:
@@ -168,17 +179,17 @@ def drive_train(robot: Robot, config: PlantConfig) -> DriveTrain:
 
 def point_mass_elastic_model(robot: Robot, config: PlantConfig, position_m, orientation):
     """A point-mass robot's elastic model, with the field fidelity's drive train."""
-    true_robot = mismatched_robot(robot, config)
     return ElasticCableRobot(
-        true_robot, position_m, config.substeps, config.axial_stiffness_n,
-        config.damping_n_s_m, true_robot.motor.static_friction_nm,
-        config.coulomb_velocity_rad_s, drive_train(robot, config), config.kernel)
+        mismatched_robot(robot, config), true_motors(robot, config), position_m, config.substeps,
+        config.axial_stiffness_n, config.damping_n_s_m, config.coulomb_velocity_rad_s,
+        drive_train(robot, config), config.kernel)
 
 
 def platform_elastic_model(robot: Robot, config: PlantConfig, position_m, orientation):
     """A platform robot's elastic model (docs/platform.md); it has no field fidelity."""
     if config.fidelity == 'elastic':
-        return ElasticPlatform(mismatched_robot(robot, config), position_m, orientation, config)
+        return ElasticPlatform(mismatched_robot(robot, config), true_motors(robot, config), position_m,
+                               orientation, config)
     raise ValueError(f'plant.fidelity {config.fidelity}: the field plant models the paper\'s rig, a point '
                      'mass; a platform runs on the rigid or the elastic plant')
 

@@ -58,7 +58,7 @@ class PlantSimulatorNode(CdprNode):
         # Started alone, without a settled run: from the robot's home, until stopped.
         run = settings.section('run', {})
         failures = zip(run.raw('failure_times_s', []), run.raw('failure_cable_indices', []))
-        self.plant = PlantSimulator(self.robot, PlantConfig.from_section(plant_section),
+        self.plant = PlantSimulator(self.robot, PlantConfig.from_section(plant_section, self.robot.cable_count),
                                     run.vector('start_position_m', 3, self.robot.home_position_m.tolist()),
                                     failures, settled_pushes(run),
                                     self.robot.body.orientation_from(run, 'start_orientation'))
