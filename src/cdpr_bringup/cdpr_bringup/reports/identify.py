@@ -24,15 +24,16 @@ import yaml
 from cdpr_control.config import load_config, load_yaml
 from cdpr_control.setup.robot_file import robot_from_section
 from cdpr_twin.models.fitting import MOTOR_PARAMETERS, FitOptions, NotExcited, fit_twin
-from cdpr_twin.models.plant import PlantConfig
+from cdpr_twin.models.plant import FIDELITIES, PlantConfig
 
 from ..bags.bag_io import recording_from_bag
 from ..cli import UsageError, command
 from ..paths import DEFAULT_ROBOT, config_file
+from ..runs.settle import calibration_file_key
 
 # The fit's uncertainties are stated expanded by this coverage factor (k = 3: ~99.7 % for a
 # normal error), from the least-squares standard uncertainties.
-COVERAGE = 3.0
+COVERAGE = FitOptions().coverage
 # The robot file's values the fit replaces, and the plant's mismatch factor of each.
 FITTED = {'inertia_kg_m2': 'inertia', 'viscous_friction_nm_s_rad': 'viscous_friction',
           'static_friction_nm': 'static_friction'}
@@ -94,6 +95,10 @@ def fitted_document(document: dict, settled, robot, fit) -> dict:
         restated = [round(old * getattr(robot.motor, name) / value, 6) if value else 0.0
                     for old in getattr(plant_config, f'{factor}_factors')]
         factors[factor] = restated[0] if len(set(restated)) == 1 else restated
+    # thresholds calibrated on the robot as it was modelled are not the fitted twin's
+    # (their fingerprint says so): the fitted file is calibrated anew (cdpr-calibrate)
+    for fidelity in FIDELITIES:
+        fitted.get('fdi', {}).pop(calibration_file_key(fidelity), None)
     # the twin feels the motors' Coulomb friction too (its default is none)
     fitted.setdefault('twin', {})['coulomb_friction_nm'] = motor['static_friction_nm']
     plant = fitted.setdefault('plant', {}).setdefault('elastic', {})
@@ -127,7 +132,7 @@ def main(argv=None):
     options = FitOptions(smoothing_s=args.smoothing, coulomb_smoothing_rad_s=control.number(
                              'coulomb_smoothing_rad_s', positive=True),
                          drive_delay_s=fdi.number('drive_delay_s', non_negative=True),
-                         largest_relative_uncertainty=args.largest_uncertainty / COVERAGE)
+                         largest_relative_uncertainty=args.largest_uncertainty)
     bags = [bag_of(bag) for bag in args.bags]
     try:
         fit = fit_twin(robot, [measurements(bag) for bag in bags], period_s, options)

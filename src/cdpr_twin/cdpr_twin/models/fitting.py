@@ -37,15 +37,18 @@ MOTOR_PARAMETERS = ('inertia_kg_m2', 'viscous_friction_nm_s_rad', 'static_fricti
 class FitOptions:
     """How the recordings are read: the Gaussian window's σ (s), the rows kept (one tick
     in `decimation`; by default two σ apart, so that the rows' errors are nearly
-    independent and the least squares' uncertainties mean what they say), the speed (rad/s) over which Coulomb friction reaches its value, the
-    drives' delay (s), and the largest relative standard uncertainty a fitted value may
-    have (above it the motions did not excite that parameter)."""
+    independent and the least squares' uncertainties mean what they say), the speed
+    (rad/s) over which Coulomb friction reaches its value, the drives' delay (s); the
+    coverage factor k the uncertainties are stated expanded by, and the largest expanded
+    relative uncertainty a fitted value may have (above it the motions did not excite
+    that parameter)."""
 
     smoothing_s: float = 0.02
     decimation: int | None = None
     coulomb_smoothing_rad_s: float = 0.1
     drive_delay_s: float = 0.0
-    largest_relative_uncertainty: float = 0.1
+    coverage: float = 3.0
+    largest_relative_uncertainty: float = 0.3
 
 
 @dataclass(frozen=True)
@@ -159,16 +162,16 @@ def fit_twin(robot: Robot, recordings, period_s: float, options: FitOptions = Fi
     dof = max(len(target) - len(values), 1)
     covariance = np.linalg.pinv((design / scale).T @ (design / scale)) * (residual @ residual / dof)
     sigma = np.sqrt(np.diag(covariance)) / scale
-    relative = sigma / np.maximum(np.abs(values), np.finfo(float).tiny)
+    relative = options.coverage * sigma / np.maximum(np.abs(values), np.finfo(float).tiny)
     # Coulomb friction may truly be nil: it is judged on its uncertainty against the
     # torque it would take to show, not on its own size
     judged = relative.copy()
-    judged[1 + 2 * m:] = sigma[1 + 2 * m:] / max(float(np.max(np.abs(values[1 + 2 * m:]))), 1e-3)
+    judged[1 + 2 * m:] = options.coverage * sigma[1 + 2 * m:] / max(float(np.max(np.abs(values[1 + 2 * m:]))), 1e-3)
     worst = int(np.argmax(judged))
     if rank < len(values) or judged[worst] > options.largest_relative_uncertainty:
-        raise NotExcited(f'the motions do not excite {names[worst]} enough to fit it (relative uncertainty '
-                         f'{judged[worst]:.0%}, at most {options.largest_relative_uncertainty:.0%}): record '
-                         'motions that accelerate, and move both ways, every motor')
+        raise NotExcited(f'the motions do not excite {names[worst]} enough to fit it (expanded relative '
+                         f'uncertainty {judged[worst]:.0%}, at most {options.largest_relative_uncertainty:.0%}): '
+                         'record motions that accelerate, and move both ways, every motor')
     motors = {name: values[1 + k * m:1 + (k + 1) * m] for k, name in enumerate(MOTOR_PARAMETERS)}
     uncertainties = {name: sigma[1 + k * m:1 + (k + 1) * m] for k, name in enumerate(MOTOR_PARAMETERS)}
     return TwinFit(float(values[0]), float(sigma[0]), motors, uncertainties,
