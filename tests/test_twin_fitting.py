@@ -37,9 +37,9 @@ def drawn_plant(tmp_path, rng) -> str:
     return str(setup)
 
 
-def scenario(config: str, motion: str, reverse: bool, motions=MOTIONS):
+def scenario(config: str, motion: str, reverse: bool, motions=MOTIONS, fidelity: str = 'elastic'):
     return build_scenario(ScenarioOptions(config=config, motions=str(motions), motion=motion, reverse=reverse,
-                                          fidelity='elastic', seed=0, calibration=NO_CALIBRATION))
+                                          fidelity=fidelity, seed=0, calibration=NO_CALIBRATION))
 
 
 def measured(run):
@@ -63,10 +63,30 @@ def test_a_drawn_plant_is_recovered_within_the_stated_uncertainty(tmp_path):
                                      err_msg=name)
         # and nearer the truth than the robot file by far
         assert np.all(np.abs(fit.motors[name] - expected) < 0.2 * np.abs(getattr(runs[0].robot.motor, name) - expected))
+    assert fit.stribeck_speed_rad_s is None    # the elastic plant has no break-away friction: none is fitted
     # the mass: its statistical uncertainty is a few grams in 3 kg; what the model leaves
     # out (the cables' stretch in the pose the angles give) is ~0.02 %
     assert fit.mass_kg == pytest.approx(truth.mass_kg, rel=1e-3)
     assert abs(runs[0].robot.mass_kg - truth.mass_kg) > 0.01 * truth.mass_kg
+
+
+def test_the_field_plants_break_away_friction_is_fitted_where_it_is():
+    """The field plant's drives: break-away friction near standstill beyond Coulomb's, a
+    command delay, a filtered speed estimate, an electromagnet carried. The fit finds the
+    break-away excess at its Stribeck speed, and the viscous friction it would otherwise
+    bend; the mass with the magnet's."""
+    runs = [scenario(str(PAPER_ROBOT), motion, reverse, fidelity='field') for motion in FITTING_MOTIONS
+            for reverse in (False, True)]
+    plant, control = runs[0].plant, runs[0].settings.section('control')
+    motors = dict(zip(MOTOR_PARAMETERS, true_motors(runs[0].robot, plant)))
+    fit = fit_twin(runs[0].robot, [measured(run) for run in runs], runs[0].period_s,
+                   FitOptions(coulomb_smoothing_rad_s=control.number('coulomb_smoothing_rad_s'),
+                              drive_delay_s=plant.command_delay_s))
+    assert fit.stribeck_speed_rad_s == plant.drive.stribeck_speed_rad_s
+    np.testing.assert_allclose(fit.motors['breakaway_friction_nm'], plant.drive.breakaway_friction_nm, rtol=0.05)
+    np.testing.assert_allclose(fit.motors['viscous_friction_nm_s_rad'], motors['viscous_friction_nm_s_rad'], rtol=0.05)
+    np.testing.assert_allclose(fit.motors['static_friction_nm'], motors['static_friction_nm'], rtol=0.02)
+    assert fit.mass_kg == pytest.approx(mismatched_robot(runs[0].robot, plant).mass_kg, rel=2e-3)
 
 
 def test_motions_that_do_not_accelerate_the_motors_are_refused_naming_what(tmp_path):

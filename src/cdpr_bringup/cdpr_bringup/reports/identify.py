@@ -23,7 +23,7 @@ import yaml
 
 from cdpr_control.config import load_config, load_yaml
 from cdpr_control.setup.robot_file import robot_from_section
-from cdpr_twin.models.fitting import MOTOR_PARAMETERS, FitOptions, NotExcited, fit_twin
+from cdpr_twin.models.fitting import BREAKAWAY, MOTOR_PARAMETERS, FitOptions, NotExcited, fit_twin
 from cdpr_twin.models.plant import FIDELITIES, PlantConfig
 
 from ..bags.bag_io import recording_from_bag
@@ -99,8 +99,13 @@ def fitted_document(document: dict, settled, robot, fit) -> dict:
     # (their fingerprint says so): the fitted file is calibrated anew (cdpr-calibrate)
     for fidelity in FIDELITIES:
         fitted.get('fdi', {}).pop(calibration_file_key(fidelity), None)
-    # the twin feels the motors' Coulomb friction too (its default is none)
-    fitted.setdefault('twin', {})['coulomb_friction_nm'] = motor['static_friction_nm']
+    # the twin feels the motors' Coulomb friction too (its default is none), and the
+    # break-away excess where the data showed one
+    twin = fitted.setdefault('twin', {})
+    twin['coulomb_friction_nm'] = motor['static_friction_nm']
+    if fit.stribeck_speed_rad_s is not None:
+        twin['breakaway_friction_nm'] = float(f'{fit.common(BREAKAWAY)[0]:.6g}')
+        twin['stribeck_speed_rad_s'] = fit.stribeck_speed_rad_s
     plant = fitted.setdefault('plant', {}).setdefault('elastic', {})
     plant['mismatch'] = {**plant.get('mismatch', {}), **factors}
     return fitted
@@ -109,12 +114,13 @@ def fitted_document(document: dict, settled, robot, fit) -> dict:
 def report(robot, fit) -> list[str]:
     lines = [f'end-effector mass {fit.mass_kg:.5f} ± {COVERAGE * fit.mass_uncertainty_kg:.5f} kg '
              f'(robot file {robot.mass_kg:g})']
-    for name in MOTOR_PARAMETERS:
+    for name in fit.motors:
         common, sigma = fit.common(name)
         per_motor = ', '.join(f'{value:.4g} ± {COVERAGE * error:.2g}'
                               for value, error in zip(fit.motors[name], fit.uncertainties[name]))
-        lines.append(f'{name}: {common:.5g} ± {COVERAGE * sigma:.2g} (robot file {getattr(robot.motor, name):g}); '
-                     f'per motor {per_motor}')
+        known = (f'robot file {getattr(robot.motor, name):g}' if name in MOTOR_PARAMETERS
+                 else f'Stribeck speed {fit.stribeck_speed_rad_s:g} rad/s')
+        lines.append(f'{name}: {common:.5g} ± {COVERAGE * sigma:.2g} ({known}); per motor {per_motor}')
     lines.append(f'residual of the wrench balance {fit.residual_rms_n:.4f} N rms over {fit.equations} equations')
     return lines
 

@@ -11,10 +11,13 @@ from cdpr_control.model.robot import Robot
 
 @dataclass(frozen=True)
 class FrictionModel:
-    """Coulomb friction torque (N·m), reached smoothly over `smoothing_rad_s`."""
+    """Coulomb friction torque (N·m), reached smoothly over `smoothing_rad_s`, raised near
+    standstill by a break-away excess (N·m) fading over the Stribeck speed (rad/s)."""
 
     coulomb_nm: float
     smoothing_rad_s: float
+    breakaway_nm: float = 0.0
+    stribeck_speed_rad_s: float = 1.0
 
     @classmethod
     def of_robot(cls, robot: Robot, control: Section, coulomb_nm: float | None = None) -> 'FrictionModel':
@@ -28,12 +31,20 @@ class FrictionModel:
 
     @classmethod
     def of_twin(cls, twin: Section, control: Section) -> 'FrictionModel | None':
-        """The friction the twin models (`twin.coulomb_friction_nm`); None for none."""
+        """The friction the twin models (`twin.coulomb_friction_nm`, and its break-away
+        `twin.breakaway_friction_nm` over `twin.stribeck_speed_rad_s`); None for none."""
         coulomb_nm = twin.number('coulomb_friction_nm', non_negative=True)
-        return cls(coulomb_nm, control.number('coulomb_smoothing_rad_s', positive=True)) if coulomb_nm else None
+        breakaway_nm = twin.number('breakaway_friction_nm', non_negative=True)
+        stribeck = twin.number('stribeck_speed_rad_s', positive=True)
+        if not (coulomb_nm or breakaway_nm):
+            return None
+        return cls(coulomb_nm, control.number('coulomb_smoothing_rad_s', positive=True), breakaway_nm, stribeck)
 
     def torque_nm(self, angular_velocity_rad_s: np.ndarray) -> np.ndarray:
         """The torque friction takes from a motor turning at `angular_velocity_rad_s`."""
+        if self.breakaway_nm:
+            level = self.coulomb_nm + self.breakaway_nm * np.exp(-(angular_velocity_rad_s / self.stribeck_speed_rad_s) ** 2)
+            return level * np.tanh(angular_velocity_rad_s / self.smoothing_rad_s)
         if self.coulomb_nm == 0.0:
             return np.zeros_like(angular_velocity_rad_s)
         return self.coulomb_nm * np.tanh(angular_velocity_rad_s / self.smoothing_rad_s)

@@ -4,7 +4,7 @@ the motor angles θ, speeds θ̇ and commanded torques c alone (docs/twin-fittin
 
 The tensions τ are not measured; each motor's equation gives them,
 
-    ρ τ_i = J_i θ̈_i + b_i θ̇_i + f_i tanh(θ̇_i / v) − c_i,
+    ρ τ_i = J_i θ̈_i + b_i θ̇_i + (f_i + g_i exp(−(θ̇_i / v_s)²)) tanh(θ̇_i / v) − c_i,
 
 and the end-effector's wrench balance, W τ = w(m) (the wrench its motion asks of the
 cables: m (p̈ − g) for a point mass, affine in m for a platform, body.motion_terms), then
@@ -12,8 +12,10 @@ reads, per tick and degree of freedom,
 
     w(m) − Σ_i W_i (J_i θ̈_i + b_i θ̇_i + f_i tanh(θ̇_i / v)) / ρ = −Σ_i W_i c_i / ρ,
 
-linear in (m, J_1…J_n, b_1…b_n, f_1…f_n): least squares over every tick of every
-recording. The pose comes from the measured angles (forward kinematics), its twist and
+linear in (m, J_1…J_n, b_1…b_n, f_1…f_n, g_1…g_n): least squares over every tick of
+every recording. The break-away excess g near standstill, fading over the Stribeck speed
+v_s, is kept where the data supports it: at the candidate v_s that explains the most, if
+it leaves a tenth less unexplained than none and every g is told apart. The pose comes from the measured angles (forward kinematics), its twist and
 twist rate from their differences; angles, speeds and commands are first smoothed by one
 Gaussian window (the equation is linear, so it holds for the smoothed signals as the
 structure matrix varies slowly), and the command is taken where the drives apply it
@@ -29,8 +31,14 @@ import numpy as np
 from cdpr_control.geometry.rotation import conjugate, product
 from cdpr_control.model.robot import Robot
 
-# The parameters fitted per motor, as the robot file's motor names them.
+# The parameters fitted per motor, as the robot file's motor names them, and the
+# break-away friction, fitted where the data supports it.
 MOTOR_PARAMETERS = ('inertia_kg_m2', 'viscous_friction_nm_s_rad', 'static_friction_nm')
+BREAKAWAY = 'breakaway_friction_nm'
+LABELS = {'inertia_kg_m2': 'inertia', 'viscous_friction_nm_s_rad': 'viscous friction',
+          'static_friction_nm': 'Coulomb friction', BREAKAWAY: 'break-away friction'}
+# A break-away term is kept if it leaves at most this share of the residual without it.
+BREAKAWAY_GAIN = 0.9
 
 
 @dataclass(frozen=True)
@@ -38,7 +46,7 @@ class FitOptions:
     """How the recordings are read: the Gaussian window's σ (s), the rows kept (one tick
     in `decimation`; by default two σ apart, so that the rows' errors are nearly
     independent and the least squares' uncertainties mean what they say), the speed
-    (rad/s) over which Coulomb friction reaches its value, the drives' delay (s); the
+    (rad/s) over which Coulomb friction reaches its value, the drives' delay (s), the Stribeck speeds (rad/s) a break-away term is tried at; the
     coverage factor k the uncertainties are stated expanded by, and the largest expanded
     relative uncertainty a fitted value may have (above it the motions did not excite
     that parameter)."""
@@ -49,13 +57,15 @@ class FitOptions:
     drive_delay_s: float = 0.0
     coverage: float = 3.0
     largest_relative_uncertainty: float = 0.3
+    stribeck_speeds_rad_s: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0)
 
 
 @dataclass(frozen=True)
 class TwinFit:
     """The fitted values and their standard uncertainties: `mass_kg`, and per motor
-    (arrays of the cable count) each of MOTOR_PARAMETERS; the fit's residual (rms, N) and
-    its number of equations."""
+    (arrays of the cable count) each of MOTOR_PARAMETERS, and BREAKAWAY where it was kept
+    (with its Stribeck speed, rad/s; None without); the fit's residual (rms, N) and its
+    number of equations."""
 
     mass_kg: float
     mass_uncertainty_kg: float
@@ -63,6 +73,7 @@ class TwinFit:
     uncertainties: dict[str, np.ndarray]
     residual_rms_n: float
     equations: int
+    stribeck_speed_rad_s: float | None = None
 
     def common(self, name: str) -> tuple[float, float]:
         """One value for every motor (the twin's model has one motor type): the mean of
@@ -105,9 +116,10 @@ def twist_of(poses: np.ndarray, period_s: float) -> np.ndarray:
     return np.concatenate([rate[:, :3], omega], axis=1)
 
 
-def regression(robot: Robot, angle_rad, speed_rad_s, command_nm, period_s: float, options: FitOptions):
+def regression(robot: Robot, angle_rad, speed_rad_s, command_nm, period_s: float, options: FitOptions,
+               stribeck_speed_rad_s: float | None = None):
     """The rows (A, y) of the module docstring's equation for one recording: A's columns
-    m, J_1…J_n, b_1…b_n, f_1…f_n. Each term is formed tick by tick from the measurements,
+    m, J_1…J_n, b_1…b_n, f_1…f_n, and g_1…g_n at `stribeck_speed_rad_s` (none when None). Each term is formed tick by tick from the measurements,
     then smoothed (a product smoothed is not the product of the smoothed factors); the
     wrench, whose differences of the pose need it, from the smoothed pose."""
     sigma = options.smoothing_s / period_s
@@ -123,8 +135,10 @@ def regression(robot: Robot, angle_rad, speed_rad_s, command_nm, period_s: float
     rates = np.gradient(twists, period_s, axis=0)
     torque = applied(np.clip(command_nm, -robot.motor.torque_limit_nm, robot.motor.torque_limit_nm),
                      period_s, options.drive_delay_s)
-    motor_terms = (np.gradient(speed_rad_s, period_s, axis=0), speed_rad_s,
-                   np.tanh(speed_rad_s / options.coulomb_smoothing_rad_s))
+    coulomb = np.tanh(speed_rad_s / options.coulomb_smoothing_rad_s)
+    motor_terms = (np.gradient(speed_rad_s, period_s, axis=0), speed_rad_s, coulomb)
+    if stribeck_speed_rad_s is not None:
+        motor_terms += (coulomb * np.exp(-(speed_rad_s / stribeck_speed_rad_s) ** 2),)
     ticks, dof, m = structure.shape
 
     def smoothed_product(figure):
@@ -141,38 +155,56 @@ def regression(robot: Robot, angle_rad, speed_rad_s, command_nm, period_s: float
     return design[keep].reshape(-1, design.shape[2]), target[keep].ravel()
 
 
-def fit_twin(robot: Robot, recordings, period_s: float, options: FitOptions = FitOptions()) -> TwinFit:
-    """Least squares of the module docstring over every `recordings` (each (θ, θ̇, c) of a
-    failure-free run, rows per tick); NotExcited, naming the parameter, where the motions
-    do not excite one (its relative standard uncertainty above the option's)."""
-    rows = [regression(robot, *recording, period_s, options) for recording in recordings]
-    design = np.concatenate([a for a, _ in rows])
-    target = np.concatenate([y for _, y in rows])
+def least_squares(design: np.ndarray, target: np.ndarray):
+    """The solution, its standard uncertainties, the residual's rms and the rank."""
     scale = np.linalg.norm(design, axis=0)
-    m = robot.cable_count
-    names = ['the end-effector\'s mass'] + [f'motor {i + 1}\'s {label}' for label in
-                                             ('inertia', 'viscous friction', 'Coulomb friction')
-                                             for i in range(m)]
-    idle = np.flatnonzero(scale == 0.0)
-    if idle.size:
-        raise NotExcited(f'the motions do not excite {names[idle[0]]}: record motions that move every motor')
     solution, _, rank, _ = np.linalg.lstsq(design / scale, target, rcond=None)
     values = solution / scale
     residual = target - design @ values
     dof = max(len(target) - len(values), 1)
     covariance = np.linalg.pinv((design / scale).T @ (design / scale)) * (residual @ residual / dof)
-    sigma = np.sqrt(np.diag(covariance)) / scale
-    relative = options.coverage * sigma / np.maximum(np.abs(values), np.finfo(float).tiny)
-    # Coulomb friction may truly be nil: it is judged on its uncertainty against the
-    # torque it would take to show, not on its own size
-    judged = relative.copy()
-    judged[1 + 2 * m:] = options.coverage * sigma[1 + 2 * m:] / max(float(np.max(np.abs(values[1 + 2 * m:]))), 1e-3)
+    return values, np.sqrt(np.diag(covariance)) / scale, float(np.sqrt(residual @ residual / len(target))), rank
+
+
+def stacked(robot: Robot, recordings, period_s: float, options: FitOptions, stribeck_speed_rad_s=None):
+    rows = [regression(robot, *recording, period_s, options, stribeck_speed_rad_s) for recording in recordings]
+    return np.concatenate([a for a, _ in rows]), np.concatenate([y for _, y in rows])
+
+
+def fit_twin(robot: Robot, recordings, period_s: float, options: FitOptions = FitOptions()) -> TwinFit:
+    """Least squares of the module docstring over every `recordings` (each (θ, θ̇, c) of a
+    failure-free run, rows per tick), with the break-away term where the data supports
+    it; NotExcited, naming the parameter, where the motions do not excite one (its
+    expanded relative uncertainty above the option's)."""
+    m = robot.cable_count
+    design, target = stacked(robot, recordings, period_s, options)
+    idle = np.flatnonzero(np.linalg.norm(design, axis=0) == 0.0)
+    if idle.size:
+        names = ['the end-effector\'s mass'] + [f'motor {i + 1}\'s {LABELS[name]}' for name in MOTOR_PARAMETERS
+                                                 for i in range(m)]
+        raise NotExcited(f'the motions do not excite {names[idle[0]]}: record motions that move every motor')
+    fit = least_squares(design, target)
+    parameters, stribeck, plain_rms = MOTOR_PARAMETERS, None, fit[2]
+    breakaway = slice(1 + 3 * m, 1 + 4 * m)
+    for speed in options.stribeck_speeds_rad_s:
+        candidate = least_squares(*stacked(robot, recordings, period_s, options, speed))
+        told = np.all(options.coverage * candidate[1][breakaway]
+                      < options.largest_relative_uncertainty * np.abs(candidate[0][breakaway]))
+        if told and candidate[2] < min(BREAKAWAY_GAIN * plain_rms, fit[2]):
+            fit, parameters, stribeck = candidate, MOTOR_PARAMETERS + (BREAKAWAY,), speed
+    values, sigma, residual_rms, rank = fit
+    names = ['the end-effector\'s mass'] + [f'motor {i + 1}\'s {LABELS[name]}' for name in parameters
+                                             for i in range(m)]
+    judged = options.coverage * sigma / np.maximum(np.abs(values), np.finfo(float).tiny)
+    # friction may truly be nil: judged on its uncertainty against the largest motor's
+    for k in range(2, len(parameters)):
+        part = slice(1 + k * m, 1 + (k + 1) * m)
+        judged[part] = options.coverage * sigma[part] / max(float(np.max(np.abs(values[part]))), 1e-3)
     worst = int(np.argmax(judged))
     if rank < len(values) or judged[worst] > options.largest_relative_uncertainty:
         raise NotExcited(f'the motions do not excite {names[worst]} enough to fit it (expanded relative '
                          f'uncertainty {judged[worst]:.0%}, at most {options.largest_relative_uncertainty:.0%}): '
                          'record motions that accelerate, and move both ways, every motor')
-    motors = {name: values[1 + k * m:1 + (k + 1) * m] for k, name in enumerate(MOTOR_PARAMETERS)}
-    uncertainties = {name: sigma[1 + k * m:1 + (k + 1) * m] for k, name in enumerate(MOTOR_PARAMETERS)}
-    return TwinFit(float(values[0]), float(sigma[0]), motors, uncertainties,
-                   float(np.sqrt(residual @ residual / len(target))), len(target))
+    motors = {name: values[1 + k * m:1 + (k + 1) * m] for k, name in enumerate(parameters)}
+    uncertainties = {name: sigma[1 + k * m:1 + (k + 1) * m] for k, name in enumerate(parameters)}
+    return TwinFit(float(values[0]), float(sigma[0]), motors, uncertainties, residual_rms, len(target), stribeck)
