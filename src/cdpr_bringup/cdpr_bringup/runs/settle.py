@@ -233,7 +233,8 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         settings.data['control']['pd_natural_frequency_hz'] = frequency_hz
     run = settings.section('run')
     failures = list(zip(run.raw('failure_times_s'), run.raw('failure_cable_indices')))
-    fdi, recovery = settled_fdi(settings, robot)
+    twin = settings.section('twin')
+    fdi, recovery = settled_fdi(settings, robot, twin)
     scenario = Scenario(
         options=options,
         settings=settings,
@@ -241,8 +242,8 @@ def build_scenario(options: ScenarioOptions) -> Scenario:
         robot=robot,
         period_s=period,
         gains=gains,
-        twin_substeps=settings.section('twin').integer('substeps', minimum=1),
-        twin_friction=FrictionModel.of_twin(settings.section('twin'), control),
+        twin_substeps=twin.integer('substeps', minimum=1),
+        twin_friction=fdi.twin_friction,
         motion=settled.motion,
         reference=motion_reference(robot, distribution, settled.motion, period),
         plant=settled.plant,

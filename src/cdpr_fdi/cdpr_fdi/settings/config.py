@@ -48,18 +48,19 @@ class FdiConfig:
     disturbance_settle_cycles: int
     identification_stretch_m: float
     drive_delay_s: float
-    # the part of `friction` (the motors' Coulomb friction) the twin models itself
-    # (twin.coulomb_friction_nm): the residual shows only the rest
-    twin_friction_nm: float = 0.0
+    # the friction the twin models itself (FrictionModel.of_twin; None for none): of the
+    # motors' Coulomb friction (`friction`) the residual shows only the rest
+    twin_friction: FrictionModel | None = None
 
     @property
     def residual_friction(self) -> FrictionModel:
         """The Coulomb friction the residual shows: the motors' beyond the twin's."""
-        return dataclasses.replace(self.friction, coulomb_nm=max(self.friction.coulomb_nm - self.twin_friction_nm, 0.0))
+        modelled = 0.0 if self.twin_friction is None else self.twin_friction.coulomb_nm
+        return dataclasses.replace(self.friction, coulomb_nm=max(self.friction.coulomb_nm - modelled, 0.0))
 
     @classmethod
     def from_section(cls, fdi: Section, robot: Robot, friction: FrictionModel,
-                     twin_friction_nm: float = 0.0) -> 'FdiConfig':
+                     twin_friction: FrictionModel | None = None) -> 'FdiConfig':
         cusum = fdi.section('cusum')
         sigma = cusum.per_cable('sigma_nm', robot.cable_count, positive=True)
         return cls(
@@ -91,7 +92,7 @@ class FdiConfig:
             disturbance_settle_cycles=fdi.integer('disturbance_settle_cycles', minimum=0),
             identification_stretch_m=fdi.number('identification_stretch_m', positive=True),
             drive_delay_s=fdi.number('drive_delay_s', non_negative=True),
-            twin_friction_nm=twin_friction_nm,
+            twin_friction=twin_friction,
         )
 
     def with_overrides(self, detector: str | None = None, epsilon_nm: float | None = None,
@@ -137,7 +138,7 @@ def load_fdi_config(config_path: str | Path, robot: Robot,
     friction = FrictionModel.of_robot(robot, config.section('control'))
     calibration = None if not calibration_path else Section(load_yaml(calibration_path), calibration_path)
     return FdiConfig.from_section(calibrated_fdi(config.section('fdi'), robot, calibration),
-                                  robot, friction, config.section('twin').number('coulomb_friction_nm', non_negative=True))
+                                  robot, friction, FrictionModel.of_twin(config.section('twin'), config.section('control')))
 
 
 def check_calibration_robot(calibration: Section, robot: Robot, config_path: str | Path) -> None:
@@ -284,11 +285,12 @@ def load_recovery_config(config_path: str | Path, robot: Robot) -> RecoveryConfi
     return RecoveryConfig.from_section(load_section(config_path, 'recovery'), robot)
 
 
-def settled_fdi(settings, robot: Robot) -> tuple[FdiConfig, RecoveryConfig]:
+def settled_fdi(settings, robot: Robot, twin: Section | None = None) -> tuple[FdiConfig, RecoveryConfig]:
     """The FDI and recovery settings of a settled run (`settings`: its document, with a
     `section(name)` as cdpr_control.config.Section's): its `fdi` and `recovery` sections,
-    the friction its `control` section settled."""
+    the friction its `control` section settled, and the friction the twin models (its
+    `twin` section, as the caller read it where given)."""
     friction = FrictionModel.of_robot(robot, settings.section('control'))
     return (FdiConfig.from_section(settings.section('fdi'), robot, friction,
-                                   settings.section('twin').number('coulomb_friction_nm', non_negative=True)),
+                                   FrictionModel.of_twin(twin or settings.section('twin'), settings.section('control'))),
             RecoveryConfig.from_section(settings.section('recovery'), robot))
