@@ -228,8 +228,8 @@ def plot_far(points: dict, path: Path) -> None:
     plants = sorted({plant for plant, _ in points})
     figure, axes = plt.subplots(1, len(plants), figsize=(6 * len(plants), 4.5), squeeze=False)
     for axis, plant in zip(axes[0], plants):
-        for (of, detector), curve in points.items():
-            shown = [p for p in curve if of == plant and p['delay_p95_ms'] is not None]
+        for detector in sorted(detector for of, detector in points if of == plant):
+            shown = [p for p in points[(plant, detector)] if p['delay_p95_ms'] is not None]
             # every point at its ARL₀'s 95 % lower bound: defined with no false alarm too
             axis.plot([p['arl0_lower_h'] for p in shown], [p['delay_p95_ms'] for p in shown], 'o-',
                       label=f'{detector}, p95')

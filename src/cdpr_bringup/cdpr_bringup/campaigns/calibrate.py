@@ -87,7 +87,7 @@ def from_far(path: str, fidelity: str, target_per_hour: float, out: Path) -> int
             print(f'cdpr-calibrate: --from-far {path}: no swept threshold of the {detector} detector '
                   f'on the {fidelity} plant has its 95 % upper bound below {target_per_hour:g} false '
                   f'alarms per hour (lowest {lowest:.3g} /h in '
-                  f'{curve[0]["failure_free_hours"]:.2f} h; none in {needed_h:.0f} h would do)',
+                  f'{curve[0]["failure_free_hours"]:.2f} h; that takes none in {needed_h:.0f} h)',
                   file=sys.stderr)
             return 1
         chosen[detector] = next(row for row in rows if row['detector'] == detector
