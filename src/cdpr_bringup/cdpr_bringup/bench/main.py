@@ -3,7 +3,9 @@
 model: median µs per call of the model functions. graph: the node graph's and the
 in-process engine's speed against their targets (cdpr_bringup.bench.graph). fdi: each
 detector's figures on a campaign (cdpr_bringup.bench.fdi). roc: detection delay against
-false alarms per hour (cdpr_bringup.bench.roc). sweep: the detectors on plants that differ
+false alarms per hour (cdpr_bringup.bench.roc). far: each detector's false alarms per hour
+(95 % upper bound) and ARL₀ on pushed failure-free runs of --hours per plant, against its
+delay on the failure matrix, per sensitivity (cdpr_bringup.bench.far). sweep: the detectors on plants that differ
 from the one they were calibrated on (cdpr_bringup.bench.sweep). soak: a long realtime run.
 campaign: simulated hours per wall hour of a campaign on a local Dask scheduler with 1, 2
 workers (cdpr_bringup.bench.campaign). run: one whole cdpr-scenario run, and its stages
@@ -38,6 +40,7 @@ from cdpr_fdi.settings.config import load_recovery_config
 
 from cdpr_twin.models.plant import FIDELITIES
 
+from .roc import FACTORS
 from ..cli import command
 from ..paths import DEFAULT_ROBOT, config_file
 
@@ -144,6 +147,20 @@ def machine() -> str:
     return f'{platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}'
 
 
+def _factors(text: str) -> tuple[float, ...]:
+    factors = tuple(sorted(float(item) for item in text.split(',') if item.strip()))
+    if not factors or min(factors) <= 0.0:
+        raise argparse.ArgumentTypeError('factors are positive numbers, e.g. 0.7,1,1.5')
+    return factors
+
+
+def _plants(text: str) -> list[str]:
+    plants = [item.strip() for item in text.split(',') if item.strip()]
+    if not plants or not set(plants) <= set(FIDELITIES):
+        raise argparse.ArgumentTypeError(f'plants are some of {", ".join(FIDELITIES)}, comma-separated')
+    return plants
+
+
 def _counts(text: str) -> list[int]:
     counts = [int(item) for item in text.split(',') if item.strip()]
     if not counts or min(counts) < 1:
@@ -157,6 +174,9 @@ SUITES = {
             '{fidelity} plant; campaigns in {out} (summary.md)'),
     'roc': (lambda a, out: (a.config, out, a.fidelity, a.jobs),
             '{fidelity} plant; {out}/roc.csv, {out}/roc.png'),
+    'far': (lambda a, out: (a.config, out, a.plants or [a.fidelity], a.hours, a.jobs, a.scheduler,
+                            a.factors),
+            '{plants} plant; {hours:g} h failure-free per plant; {out}/far.csv, {out}/far.png'),
     'sweep': (lambda a, out: (a.config, out, a.fidelity, a.jobs),
               '{fidelity} plant; {out}/sweep.csv, {out}/sweep.png'),
     'campaign': (lambda a, out: (a.config, out, a.fidelity, a.workers),
@@ -175,12 +195,22 @@ def main(argv=None):
     parser.add_argument('--minutes', type=float, default=10.0, help='soak: how long')
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--json', action='store_true', help='print one JSON object last')
-    parser.add_argument('--out', help='fdi, roc, sweep, campaign, run: output folder (default runs/bench-SUITE)')
+    parser.add_argument('--out', help='fdi, roc, sweep, far, campaign, run: output folder (default runs/bench-SUITE)')
     parser.add_argument('--fidelity', choices=FIDELITIES, default='elastic',
-                        help='fdi, roc, sweep, campaign: the plant')
+                        help='fdi, roc, sweep, campaign, far: the plant')
     parser.add_argument('--workers', type=_counts, default=[1, 2],
                         help='campaign: Dask worker counts, comma-separated (default 1,2)')
-    parser.add_argument('--jobs', type=int, default=None, help='fdi, roc, sweep: parallel runs (default: cores)')
+    parser.add_argument('--jobs', type=int, default=None, help='fdi, roc, sweep, far: parallel runs (default: cores)')
+    parser.add_argument('--hours', type=float, default=1.0,
+                        help='far: simulated hours of failure-free motion per plant (default 1)')
+    parser.add_argument('--plants', type=_plants,
+                        help='far: the plants, comma-separated (default: --fidelity)')
+    parser.add_argument('--factors', type=_factors, default=FACTORS,
+                        help='far: the sensitivities, factors on the calibrated thresholds, comma-separated '
+                             f'(default {",".join(f"{f:g}" for f in FACTORS)})')
+    parser.add_argument('--scheduler', metavar='ADDRESS',
+                        help='far: run on the workers of this Dask scheduler (tcp://HOST:PORT) '
+                             'instead of local processes')
     args = parser.parse_args(argv)
     # a refused robot is said here, in one line, before any suite starts its workers
     load_robot(config_file(args.config))
@@ -199,7 +229,8 @@ def main(argv=None):
         module = importlib.import_module(f'.{args.suite}', __package__)
         figures = getattr(module, f'bench_{args.suite}')(*arguments(args, out))
         print(f'cdpr-bench {args.suite} on {machine()}, ' + heading.format(
-            fidelity=args.fidelity, out=out, domain=os.environ.get('ROS_DOMAIN_ID', '0')))
+            fidelity=args.fidelity, out=out, domain=os.environ.get('ROS_DOMAIN_ID', '0'),
+            plants=','.join(args.plants or [args.fidelity]), hours=args.hours))
         print('\n'.join(module.table(figures)))
     else:
         figures = bench_model(args.config)

@@ -13,7 +13,8 @@ does in a run, up to the tick it names a cable:
   was not measured on): every naming is a false alarm (it would stop the robot), after
   which the supervisor starts afresh; false alarms per hour of judged motion, and the
   share of that motion the detector alarmed on, named or not (an alarm naming no cable
-  only warns).
+  only warns); and, for cdpr-bench far, the alarm episodes counted once, the pushes the
+  supervisor named left out (episode_counts).
 A sensitivity is a factor on the detector's thresholds as settled for the plant (the
 calibration's): ε for `threshold`; the sum's level h, the per-tick limit's excess over
 the drift ν, and ε for `cusum` (ν stays). Factor 1 is what a run uses.
@@ -48,6 +49,9 @@ FAMILIES = ('along', 'orthogonal', 'circle')
 # failure not named by then is missed. The paper's slowest detection took 290 ms.
 JUDGED_AFTER_FAILURE_S = 2.0
 SECONDS_PER_HOUR = 3600.0
+# Alarm ticks less than this apart are one alarm episode: one event to whoever answers it
+# (a residual hovering about ε flickers; a naming's fresh supervisor alarms again at once).
+EPISODE_GAP_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -63,6 +67,9 @@ class RocRun:
     cable: int | None
     seed: int
     factors: tuple[float, ...] = FACTORS
+    # where on its move the cable breaks (None: the paper's point); pushes as ScenarioOptions'
+    fail_at_fraction: float | None = None
+    pushes: tuple[tuple[float, float, float, float, float], ...] = ()
 
     @property
     def family(self) -> str:
@@ -82,33 +89,78 @@ def sensitivity(fdi: FdiConfig, factor: float) -> FdiConfig:
 @dataclass
 class Judgement:
     """A supervisor's judgement of recorded ticks: the verdicts naming a cable, (tick,
-    1-based cables), and how many ticks the detector alarmed on, named or not (an alarm
-    without a naming commands nothing: the supervisor only warns)."""
+    1-based cables), whether the detector alarmed on each tick, named or not (an alarm
+    without a naming commands nothing: the supervisor only warns), and the tick each
+    disturbance the supervisor reported began on (its wrench balance's push, not a
+    failure)."""
 
     namings: list[tuple[int, list[int]]]
-    alarm_ticks: int
+    alarmed: np.ndarray
+    disturbance_starts: list[int]
+
+    @property
+    def alarm_ticks(self) -> int:
+        return int(np.count_nonzero(self.alarmed))
 
 
 def judge(scenario: Scenario, recording, fdi: FdiConfig, first_only: bool) -> Judgement:
     """The recorded ticks judged by a supervisor with `fdi`, as in a run; after a naming a
     fresh one judges from the next tick (`first_only`: the first naming ends it)."""
     applied = np.vstack([np.zeros_like(recording.command_nm[:1]), recording.command_nm[:-1]])
-    found, alarm_ticks = [], 0
+    found, disturbance_starts = [], []
+    alarmed = np.zeros(len(recording.time_s), dtype=bool)
     supervisor = None
     for k in range(len(recording.time_s)):
         if supervisor is None:
             supervisor = Supervisor(scenario.robot, fdi, scenario.recovery, scenario.distribution,
                                     scenario.period_s)
+        disturbances = supervisor.disturbances
         verdict = supervisor.update(k, recording.angle_rad[k], recording.angular_velocity_rad_s[k],
                                     applied[k], recording.command_nm[k], recording.twin_torque_nm[k],
                                     recording.twin_angular_velocity_rad_s[k], reference_at(scenario, k))
-        alarm_ticks += verdict.alarm
+        alarmed[k] = verdict.alarm
+        if supervisor.disturbances > disturbances:
+            disturbance_starts.append(supervisor.disturbed_since)
         if verdict.broken_cables:
             found.append((k, list(verdict.broken_cables)))
             supervisor = None
             if first_only:
                 break
-    return Judgement(found, alarm_ticks)
+    return Judgement(found, alarmed, disturbance_starts)
+
+
+def alarm_episodes(alarmed: np.ndarray, gap_ticks: int) -> list[tuple[int, int]]:
+    """(first, last) tick of each alarm episode: alarm ticks fewer than `gap_ticks` apart
+    joined."""
+    ticks = np.flatnonzero(alarmed)
+    if not ticks.size:
+        return []
+    breaks = np.flatnonzero(np.diff(ticks) >= gap_ticks)
+    firsts = np.concatenate([ticks[:1], ticks[breaks + 1]])
+    lasts = np.concatenate([ticks[breaks], ticks[-1:]])
+    return list(zip(firsts.tolist(), lasts.tolist()))
+
+
+def episode_counts(judgement: Judgement, gap_ticks: int) -> dict:
+    """The failure-free judgement's alarm episodes (alarm_episodes), each counted once.
+    An episode that began with a disturbance the supervisor reported (at most `gap_ticks`
+    before it: the balance weighs a push a window after the residual jumps) and named no
+    cable is the push's, however long the detector alarms after it (a CUSUM's sum outlasts
+    the swing): left out, as the real system does, a push is not a failure. Every other
+    episode is a false alarm (`false_alarm_episodes`): an episode already alarming before
+    the push, and one naming a cable (it would stop the robot), push or not;
+    `naming_episodes` of them named one. `pushes_named`: the disturbances reported."""
+    named = [tick for tick, _ in judgement.namings]
+    alarmed = judgement.alarmed.copy()
+    alarmed[named] = True
+    false_alarms = naming_episodes = 0
+    for first, last in alarm_episodes(alarmed, gap_ticks):
+        naming = any(first <= tick <= last for tick in named)
+        push = any(start - gap_ticks <= first <= start <= last for start in judgement.disturbance_starts)
+        false_alarms += naming or not push
+        naming_episodes += naming
+    return dict(false_alarm_episodes=false_alarms, naming_episodes=naming_episodes,
+                pushes_named=len(judgement.disturbance_starts))
 
 
 def judged_run(run: RocRun) -> list[dict]:
@@ -116,27 +168,37 @@ def judged_run(run: RocRun) -> list[dict]:
     scenario = build_scenario(ScenarioOptions(
         config=run.config, motions=run.motions_file, motion=run.motion, reverse=run.reverse,
         fail_cables=[] if run.cable is None else [run.cable],
-        fail_at_fraction=PAPER_FAILURE_FRACTION.get(run.motion, MIDPOINT),
-        fidelity=run.fidelity, seed=run.seed, recovery_budget_s=JUDGED_AFTER_FAILURE_S))
+        fail_at_fraction=(PAPER_FAILURE_FRACTION.get(run.motion, MIDPOINT)
+                          if run.fail_at_fraction is None else run.fail_at_fraction),
+        fidelity=run.fidelity, seed=run.seed, recovery_budget_s=JUDGED_AFTER_FAILURE_S,
+        pushes=list(run.pushes)))
     recording = run_inprocess(scenario, supervised=False)
     failure_s = scenario.failure_time_s
+    gap_ticks = int(round(EPISODE_GAP_S / scenario.period_s))
     rows = []
     for detector in DETECTORS:
         settled = scenario.fdi.with_overrides(detector=detector)
         for factor in run.factors:
-            judgement = judge(scenario, recording, sensitivity(settled, factor), run.cable is not None)
+            fdi = sensitivity(settled, factor)
+            judgement = judge(scenario, recording, fdi, run.cable is not None)
+            # the thresholds judged, the calibration they were scaled from
             row = dict(config=run.config, motion=run.motion, family=run.family,
                        direction='reverse' if run.reverse else 'forward', cable=run.cable,
-                       seed=run.seed, detector=detector, factor=factor,
+                       seed=run.seed, detector=detector, factor=factor, fidelity=run.fidelity,
+                       epsilon_nm=fdi.epsilon_nm, cusum_threshold=fdi.cusum_threshold,
+                       cusum_limit=fdi.cusum_limit, cusum_epsilon_nm=fdi.cusum_epsilon_nm,
+                       calibration=scenario.calibration_path and str(scenario.calibration_path),
                        hours=len(recording.time_s) * scenario.period_s / SECONDS_PER_HOUR)
             if run.cable is None:
-                row.update(false_alarms=len(judgement.namings),
-                           alarm_time_pct=100.0 * judgement.alarm_ticks / len(recording.time_s))
+                row.update(false_alarms=len(judgement.namings), pushes_applied=len(run.pushes),
+                           alarm_time_pct=100.0 * judgement.alarm_ticks / len(recording.time_s),
+                           **episode_counts(judgement, gap_ticks))
             else:
                 tick, cables = judgement.namings[0] if judgement.namings else (None, [])
                 detection_s = None if tick is None else recording.time_s[tick]
                 early = detection_s is not None and detection_s < failure_s
-                row.update(false_alarms=int(early),
+                row.update(false_alarms=int(early), failure_time_s=failure_s,
+                           detection_time_s=detection_s,
                            delay_ms=None if detection_s is None or early
                            else (detection_s - failure_s) * 1000.0,
                            identified=not early and cables == [run.cable])

@@ -4,11 +4,17 @@ Runs every named motion (both directions, each seed) without a failure on the ch
 plant fidelity, in-process and in parallel; fits the motors' Coulomb friction and the
 nominal residual spread; and writes the thresholds of both detectors into a YAML file
 the supervisor loads (`cdpr-scenario --calibration FILE`, ROS parameter calibration_file).
+
+--from-far FAR_CSV runs nothing: from a `cdpr-bench far` run's false alarms it takes, for
+each detector on the plant, the most sensitive swept thresholds whose 95 % upper bound
+on false alarms per hour is below the target (cdpr_bringup.bench.far.choose), and writes
+the calibration they were scaled from with those thresholds.
 """
 from __future__ import annotations
 
 import argparse
 import datetime
+import math
 import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
@@ -38,6 +44,9 @@ def parse_args(argv=None):
                         help='target rate (default 0.1: one per 10 hours)')
     parser.add_argument('--drift', type=float, help='CUSUM drift ν in σ (default: the config\'s)')
     parser.add_argument('--jobs', type=int, default=os.cpu_count())
+    parser.add_argument('--from-far', metavar='FAR_CSV',
+                        help='run nothing: choose ε and the CUSUM\'s h for --false-alarms-per-hour on '
+                             '--fidelity from a cdpr-bench far run (its far.csv)')
     parser.add_argument('--out', required=True, help='calibration YAML to write')
     return parser.parse_args(argv)
 
@@ -56,9 +65,65 @@ def failure_free_run(job) -> FailureFreeRun:
                           recording.twin_angular_velocity_rad_s)
 
 
+def write_calibration(out: Path, document: dict) -> None:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text('# Written by cdpr-calibrate; load with cdpr-scenario --calibration.\n'
+                   + yaml.safe_dump(document, sort_keys=False))
+
+
+def from_far(path: str, fidelity: str, target_per_hour: float, out: Path) -> int:
+    """The calibration a cdpr-bench far run was judged with, its thresholds those chosen for
+    `target_per_hour`; 1 with one line where no swept sensitivity meets it."""
+    from ..bench.far import CONFIDENCE, choose, far_points, read_rows
+    rows = [row for row in read_rows(path) if row['fidelity'] == fidelity]
+    chosen = {}
+    for (_, detector), curve in far_points(rows).items():
+        point = choose(curve, target_per_hour)
+        if point is None:
+            # zero false alarms bound the rate below the target only after this many hours
+            needed_h = -math.log(1.0 - CONFIDENCE) / target_per_hour
+            lowest = min((p['upper_per_hour'] for p in curve if p['upper_per_hour'] is not None),
+                         default=math.inf)
+            print(f'cdpr-calibrate: --from-far {path}: no swept threshold of the {detector} detector '
+                  f'on the {fidelity} plant has its 95 % upper bound below {target_per_hour:g} false '
+                  f'alarms per hour (lowest {lowest:.3g} /h in '
+                  f'{curve[0]["failure_free_hours"]:.2f} h; that takes none in {needed_h:.0f} h)',
+                  file=sys.stderr)
+            return 1
+        chosen[detector] = next(row for row in rows if row['detector'] == detector
+                                and row['factor'] == point['factor']), point
+    if set(chosen) != {'threshold', 'cusum'} or not rows[0]['calibration']:
+        print(f'cdpr-calibrate: --from-far {path}: needs both detectors judged on the {fidelity} '
+              'plant with a calibration (the rigid plant has none)', file=sys.stderr)
+        return 1
+    (threshold, threshold_point), (cusum, cusum_point) = chosen['threshold'], chosen['cusum']
+    document = yaml.safe_load(Path(rows[0]['calibration']).read_text())
+    document['fdi']['epsilon_nm'] = round(threshold['epsilon_nm'], 5)
+    document['fdi']['cusum'].update(threshold=round(cusum['cusum_threshold'], 3),
+                                    limit=round(cusum['cusum_limit'], 3),
+                                    epsilon_nm=round(cusum['cusum_epsilon_nm'], 5))
+    document['calibration'].update(
+        date=datetime.date.today().isoformat(), target_false_alarms_per_hour=target_per_hour,
+        from_far=str(path), far_hours=round(threshold_point['failure_free_hours'], 4),
+        far_calibration=rows[0]['calibration'],
+        threshold_factor=threshold_point['factor'], cusum_factor=cusum_point['factor'],
+        threshold_upper_per_hour=round(threshold_point['upper_per_hour'], 4),
+        cusum_upper_per_hour=round(cusum_point['upper_per_hour'], 4))
+    write_calibration(out, document)
+    for name, point in (('threshold', threshold_point), ('cusum', cusum_point)):
+        h = '' if point['cusum_h'] is None else f', h = {point["cusum_h"]:.3f}'
+        print(f'  {name}: ×{point["factor"]:g} of {rows[0]["calibration"]}: ε = {point["epsilon_nm"]:.4f} N·m'
+              f'{h}; {point["false_alarms"]} false alarms in {point["failure_free_hours"]:.2f} h, '
+              f'< {point["upper_per_hour"]:.3g} /h (95 %)')
+    print(f'written: {out}')
+    return 0
+
+
 @command('cdpr-calibrate')
 def main(argv=None):
     args = parse_args(argv)
+    if args.from_far:
+        return from_far(args.from_far, args.fidelity, args.false_alarms_per_hour, Path(args.out))
     config, motions = config_file(args.config), config_file(args.motions)
     seeds = [int(seed) for seed in args.seeds.split(',')]
     jobs = [(str(config), str(motions), motion, reverse, args.fidelity, seed)
@@ -97,9 +162,7 @@ def main(argv=None):
         },
     }
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text('# Written by cdpr-calibrate; load with cdpr-scenario --calibration.\n'
-                   + yaml.safe_dump(document, sort_keys=False))
+    write_calibration(out, document)
     print(f'  {result.hours * 60:.1f} min of failure-free motion in {result.runs} runs')
     print(f'  the motors\' Coulomb friction: {result.coulomb_friction_nm:.4f} N·m (the twin models '
           f'{twin_friction_nm:.4f}, the residual shows the rest)')

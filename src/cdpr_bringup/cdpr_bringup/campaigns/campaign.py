@@ -159,17 +159,28 @@ def user_errors(rows: list[dict]) -> list[str]:
 
 
 @contextlib.contextmanager
-def local_pool(jobs: int | None):
-    """(submit, as_completed) of `jobs` local processes (default: all cores)."""
+def local_pool(jobs: int | None, task=run_scenario):
+    """(submit, as_completed) of `jobs` local processes (default: all cores), submit(*args)
+    running task(*args) on one."""
     # spawn, not fork: the workers may start rclpy (graph engine), which must not
     # inherit a forked copy of this process's threads.
     context = multiprocessing.get_context('spawn')
     pool = ProcessPoolExecutor(max_workers=jobs or os.cpu_count(), mp_context=context)
     try:
-        yield (lambda run, run_dir: pool.submit(run_scenario, run, run_dir)), as_completed
+        yield (lambda *args: pool.submit(task, *args)), as_completed
     finally:
         # on Ctrl-C the runs not yet started are dropped, not run before the pool ends
         pool.shutdown(cancel_futures=True)
+
+
+def worker_pool(jobs: int | None, scheduler: str | None = None, task=None):
+    """(submit, as_completed) of the workers of the Dask `scheduler` (an address), else of
+    `jobs` local processes; submit(*args) runs task(*args), by default a campaign's run
+    (run_scenario: submit(run, run_dir)). SchedulerUnreachable where no scheduler answers."""
+    if scheduler:
+        from .dask_cluster import dask_scheduler  # the local pool does not pay for Dask
+        return dask_scheduler(scheduler, task)
+    return local_pool(jobs, task or run_scenario)
 
 
 def completed(run_dir: Path) -> bool:
@@ -207,12 +218,7 @@ def run_campaign(runs: list[Run], out_dir: str | Path, jobs: int | None = None,
     if not pending:
         show(None)
     else:
-        if scheduler:
-            from .dask_cluster import dask_scheduler  # the local pool does not pay for Dask
-            workers = dask_scheduler(scheduler)
-        else:
-            workers = local_pool(jobs)
-        with workers as (submit, as_they_complete):
+        with worker_pool(jobs, scheduler) as (submit, as_they_complete):
             show(None)  # once connected: a scheduler that is not there is one line
             futures = {submit(run, runs_dir / run.id): run for run in pending}
             for fresh_done, future in enumerate(as_they_complete(futures), start=1):

@@ -30,8 +30,9 @@ def run_on_dask_worker(run: Run, run_dir: Path) -> dict:
 
 
 @contextlib.contextmanager
-def dask_scheduler(address: str):
-    """(submit, as_completed) of the workers of the Dask scheduler at `address`."""
+def dask_scheduler(address: str, task=None):
+    """(submit, as_completed) of the workers of the Dask scheduler at `address`, submit(*args)
+    running task(*args) on one (default: a campaign's run, run_on_dask_worker)."""
     try:
         client = Client(address, timeout=SCHEDULER_CONNECT_TIMEOUT_S)
     except Exception as err:  # noqa: BLE001 - a timeout (OSError), a malformed address
@@ -44,7 +45,7 @@ def dask_scheduler(address: str):
     # end on their workers and write their metrics.json.
     with client:
         # pure=False: a run is an experiment, never a cached result
-        yield (lambda run, run_dir: client.submit(run_on_dask_worker, run, run_dir, pure=False)), \
+        yield (lambda *args: client.submit(task or run_on_dask_worker, *args, pure=False)), \
             as_completed
 
 
