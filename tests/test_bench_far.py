@@ -8,8 +8,8 @@ import pytest
 import yaml
 from scipy.stats import chi2
 
-from cdpr_bringup.bench.far import (bench_far, choose, far_points, rate_upper_per_hour,
-                                    read_rows, table)
+from cdpr_bringup.bench.far import bench_far, table
+from cdpr_bringup.campaigns.operating_point import choose, far_points, rate_upper_per_hour, read_rows
 from cdpr_bringup.bench.roc import Judgement, episode_counts, write_rows
 from cdpr_bringup.campaigns import calibrate
 from cdpr_bringup.campaigns.campaign import random_fraction

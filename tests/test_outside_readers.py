@@ -5,7 +5,7 @@ Before the per-cycle writers were keep-last (qos.stream_writer), such a reliable
 filled a keep-all writer's history (5000 samples, 10 s at 500 Hz); every publish then
 blocked 100 ms and failed, and the plant died ('Failed to publish: cannot publish
 data'). Here the reader is a separate process of plain rclpy
-(cdpr_bringup/bench/outside_reader.py), run as a user's tool would be, suspended (SIGSTOP) for
+(cdpr_bringup/graph/outside_reader.py), run as a user's tool would be, suspended (SIGSTOP) for
 well over the writers' history and the lag limit, both set to HISTORY_S for the run (the shipped 10 s of each would
 make every run last half a minute; that the writers keep the configured history and
 never keep all is tests/test_health.py's and test_topics.py's subject).
@@ -51,7 +51,7 @@ RUN_LIMIT_S = START_TIMEOUT_S + 3 * STALL_S
 
 def start_outside_reader(namespace: str, topics: list[str]) -> subprocess.Popen:
     """The reader, in its own process group (so SIGSTOP reaches it through any wrapper)."""
-    command = [sys.executable, '-m', 'cdpr_bringup.bench.outside_reader', namespace, '600', *topics]
+    command = [sys.executable, '-m', 'cdpr_bringup.graph.outside_reader', namespace, '600', *topics]
     if private_shm_allowed():
         command, environment = in_private_shm(command, stale=()), user_environment()
     else:

@@ -4,7 +4,7 @@ read, or stop reading?
 RUNS realtime runs of the paper's circle (RUN_S each, the graph with its recorder and the
 control loop scheduled as `scheduling` says), in each of two conditions, alternated:
 
-- frozen: one outside reader (cdpr_bringup.bench.outside_reader: plain rclpy, reliable,
+- frozen: one outside reader (cdpr_bringup.graph.outside_reader: plain rclpy, reliable,
   keep-all) of every loop topic, suspended (SIGSTOP) FREEZE_AFTER_S after it first
   has every topic, for the rest of the run — a user's `ros2 topic echo` stopped by Ctrl-Z;
 - two readers: two such readers of every loop topic, reading all along.
@@ -47,7 +47,7 @@ class OutsideReader:
 
     def __init__(self, freeze_after_s: float | None):
         self.process = subprocess.Popen(
-            [sys.executable, '-m', 'cdpr_bringup.bench.outside_reader', NAMESPACE, str(READER_LIFETIME_S), *TOPICS],
+            [sys.executable, '-m', 'cdpr_bringup.graph.outside_reader', NAMESPACE, str(READER_LIFETIME_S), *TOPICS],
             stdout=subprocess.PIPE, text=True, env=node_environment(), start_new_session=True)
         self.frozen = False
         self.thread = threading.Thread(target=self.watch, args=(freeze_after_s,), daemon=True)

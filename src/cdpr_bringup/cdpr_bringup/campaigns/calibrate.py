@@ -74,7 +74,7 @@ def write_calibration(out: Path, document: dict) -> None:
 def from_far(path: str, fidelity: str, target_per_hour: float, out: Path) -> int:
     """The calibration a cdpr-bench far run was judged with, its thresholds those chosen for
     `target_per_hour`; 1 with one line where no swept sensitivity meets it."""
-    from ..bench.far import CONFIDENCE, choose, far_points, read_rows
+    from .operating_point import CONFIDENCE, choose, far_points, read_rows
     rows = [row for row in read_rows(path) if row['fidelity'] == fidelity]
     chosen = {}
     for (_, detector), curve in far_points(rows).items():

@@ -1,7 +1,7 @@
 """A ROS user's own reader of the per-cycle topics: plain rclpy and message packages,
 nothing else of this project (for the tests and `cdpr-bench recorder`).
 
-Usage: python -m cdpr_bringup.bench.outside_reader NAMESPACE TIMEOUT_S TOPIC… (relative to
+Usage: python -m cdpr_bringup.graph.outside_reader NAMESPACE TIMEOUT_S TOPIC… (relative to
 NAMESPACE unless absolute). Subscribes to each TOPIC reliable and keep-all, as a recorder
 of one's own would; prints one line `receiving` once every TOPIC has brought a message (so
 each writer has matched it), then reads until the timeout; `heard TOPIC` goes to stderr
