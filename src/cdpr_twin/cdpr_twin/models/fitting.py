@@ -116,43 +116,52 @@ def twist_of(poses: np.ndarray, period_s: float) -> np.ndarray:
     return np.concatenate([rate[:, :3], omega], axis=1)
 
 
-def regression(robot: Robot, angle_rad, speed_rad_s, command_nm, period_s: float, options: FitOptions,
-               stribeck_speed_rad_s: float | None = None):
-    """The rows (A, y) of the module docstring's equation for one recording: A's columns
-    m, J_1…J_n, b_1…b_n, f_1…f_n, and g_1…g_n at `stribeck_speed_rad_s` (none when None). Each term is formed tick by tick from the measurements,
-    then smoothed (a product smoothed is not the product of the smoothed factors); the
-    wrench, whose differences of the pose need it, from the smoothed pose."""
-    sigma = options.smoothing_s / period_s
-    radius = robot.motor.drum_radius_m
-    positions, orientations = robot.body.poses_of_angles(robot, angle_rad)
-    poses = positions if orientations is None else np.concatenate([positions, orientations], axis=1)
-    rest = np.zeros((len(poses), robot.body.degrees_of_freedom))
-    structure = robot.body.motion_terms(robot, poses, rest, rest).structure / radius    # n × dof × m, over ρ
-    smooth_poses = smoothed(poses, sigma)
-    if orientations is not None:
-        smooth_poses[:, 3:] /= np.linalg.norm(smooth_poses[:, 3:], axis=1, keepdims=True)
-    twists = twist_of(smooth_poses, period_s)
-    rates = np.gradient(twists, period_s, axis=0)
-    torque = applied(np.clip(command_nm, -robot.motor.torque_limit_nm, robot.motor.torque_limit_nm),
-                     period_s, options.drive_delay_s)
-    coulomb = np.tanh(speed_rad_s / options.coulomb_smoothing_rad_s)
-    motor_terms = (np.gradient(speed_rad_s, period_s, axis=0), speed_rad_s, coulomb)
-    if stribeck_speed_rad_s is not None:
-        motor_terms += (coulomb * np.exp(-(speed_rad_s / stribeck_speed_rad_s) ** 2),)
-    ticks, dof, m = structure.shape
+class Regression:
+    """The rows (A, y) of the module docstring's equation for one recording, A's columns m,
+    J_1…J_n, b_1…b_n, f_1…f_n (`design`, `target`), and the break-away columns g_1…g_n at
+    a Stribeck speed (`breakaway`), formed from the same poses. Each term is formed tick by
+    tick from the measurements, then smoothed (a product smoothed is not the product of
+    the smoothed factors); the wrench, whose differences of the pose need it, from the
+    smoothed pose."""
 
-    def smoothed_product(figure):
-        return smoothed((structure * figure[:, None, :]).reshape(ticks, -1), sigma).reshape(ticks, dof, m)
+    def __init__(self, robot: Robot, angle_rad, speed_rad_s, command_nm, period_s: float, options: FitOptions):
+        self.sigma = options.smoothing_s / period_s
+        radius = robot.motor.drum_radius_m
+        positions, orientations = robot.body.poses_of_angles(robot, angle_rad)
+        poses = positions if orientations is None else np.concatenate([positions, orientations], axis=1)
+        rest = np.zeros((len(poses), robot.body.degrees_of_freedom))
+        self.structure = robot.body.motion_terms(robot, poses, rest, rest).structure / radius   # n × dof × m, over ρ
+        smooth_poses = smoothed(poses, self.sigma)
+        if orientations is not None:
+            smooth_poses[:, 3:] /= np.linalg.norm(smooth_poses[:, 3:], axis=1, keepdims=True)
+        twists = twist_of(smooth_poses, period_s)
+        rates = np.gradient(twists, period_s, axis=0)
+        torque = applied(np.clip(command_nm, -robot.motor.torque_limit_nm, robot.motor.torque_limit_nm),
+                         period_s, options.drive_delay_s)
+        self.speed_rad_s = speed_rad_s
+        self.coulomb = np.tanh(speed_rad_s / options.coulomb_smoothing_rad_s)
+        motor_terms = (np.gradient(speed_rad_s, period_s, axis=0), speed_rad_s, self.coulomb)
+        ticks = self.structure.shape[0]
+        # the ends, where differences are one-sided and the padding shows
+        self.keep = slice(int(4 * self.sigma) + 2, ticks - int(4 * self.sigma) - 2,
+                          options.decimation or max(1, round(2.0 * self.sigma)))
+        # the wrench is affine in the mass: w(m) = w(0) + m (w(1) − w(0))
+        weightless = robot.body.motion_terms(dataclasses.replace(robot, mass_kg=0.0), smooth_poses, twists, rates)
+        per_kg = robot.body.motion_terms(dataclasses.replace(robot, mass_kg=1.0), smooth_poses, twists, rates).wrench_n
+        columns = [(per_kg - weightless.wrench_n)[..., None]] + [-self.smoothed_product(figure) for figure in motor_terms]
+        design = np.concatenate(columns, axis=2)
+        self.design = design[self.keep].reshape(-1, design.shape[2])
+        self.target = (-self.smoothed_product(torque).sum(axis=2) - weightless.wrench_n)[self.keep].ravel()
 
-    # the wrench is affine in the mass: w(m) = w(0) + m (w(1) − w(0))
-    weightless = robot.body.motion_terms(dataclasses.replace(robot, mass_kg=0.0), smooth_poses, twists, rates)
-    per_kg = robot.body.motion_terms(dataclasses.replace(robot, mass_kg=1.0), smooth_poses, twists, rates).wrench_n
-    columns = [(per_kg - weightless.wrench_n)[..., None]] + [-smoothed_product(figure) for figure in motor_terms]
-    design = np.concatenate(columns, axis=2)
-    target = -smoothed_product(torque).sum(axis=2) - weightless.wrench_n
-    # the ends, where differences are one-sided and the padding shows
-    keep = slice(int(4 * sigma) + 2, ticks - int(4 * sigma) - 2, options.decimation or max(1, round(2.0 * sigma)))
-    return design[keep].reshape(-1, design.shape[2]), target[keep].ravel()
+    def smoothed_product(self, figure: np.ndarray) -> np.ndarray:
+        """S_i (over ρ) times a per-motor figure, tick by tick, then smoothed (ticks × dof × m)."""
+        ticks, dof, m = self.structure.shape
+        return smoothed((self.structure * figure[:, None, :]).reshape(ticks, -1), self.sigma).reshape(ticks, dof, m)
+
+    def breakaway(self, stribeck_speed_rad_s: float) -> np.ndarray:
+        """The columns g_1…g_n at that Stribeck speed (rad/s), rows as `design`'s."""
+        excess = self.coulomb * np.exp(-(self.speed_rad_s / stribeck_speed_rad_s) ** 2)
+        return -self.smoothed_product(excess)[self.keep].reshape(-1, self.structure.shape[2])
 
 
 def least_squares(design: np.ndarray, target: np.ndarray):
@@ -166,18 +175,16 @@ def least_squares(design: np.ndarray, target: np.ndarray):
     return values, np.sqrt(np.diag(covariance)) / scale, float(np.sqrt(residual @ residual / len(target))), rank
 
 
-def stacked(robot: Robot, recordings, period_s: float, options: FitOptions, stribeck_speed_rad_s=None):
-    rows = [regression(robot, *recording, period_s, options, stribeck_speed_rad_s) for recording in recordings]
-    return np.concatenate([a for a, _ in rows]), np.concatenate([y for _, y in rows])
-
-
 def fit_twin(robot: Robot, recordings, period_s: float, options: FitOptions = FitOptions()) -> TwinFit:
     """Least squares of the module docstring over every `recordings` (each (θ, θ̇, c) of a
     failure-free run, rows per tick), with the break-away term where the data supports
     it; NotExcited, naming the parameter, where the motions do not excite one (its
     expanded relative uncertainty above the option's)."""
     m = robot.cable_count
-    design, target = stacked(robot, recordings, period_s, options)
+    # the poses and terms of each recording, formed once for every candidate below
+    regressions = [Regression(robot, *recording, period_s, options) for recording in recordings]
+    design = np.concatenate([regression.design for regression in regressions])
+    target = np.concatenate([regression.target for regression in regressions])
     idle = np.flatnonzero(np.linalg.norm(design, axis=0) == 0.0)
     if idle.size:
         names = ['the end-effector\'s mass'] + [f'motor {i + 1}\'s {LABELS[name]}' for name in MOTOR_PARAMETERS
@@ -187,7 +194,9 @@ def fit_twin(robot: Robot, recordings, period_s: float, options: FitOptions = Fi
     parameters, stribeck, plain_rms = MOTOR_PARAMETERS, None, fit[2]
     breakaway = slice(1 + 3 * m, 1 + 4 * m)
     for speed in options.stribeck_speeds_rad_s:
-        candidate = least_squares(*stacked(robot, recordings, period_s, options, speed))
+        candidate = least_squares(np.concatenate([design, np.concatenate([regression.breakaway(speed)
+                                                                          for regression in regressions])], axis=1),
+                                  target)
         told = np.all(options.coverage * candidate[1][breakaway]
                       < options.largest_relative_uncertainty * np.abs(candidate[0][breakaway]))
         if told and candidate[2] < min(BREAKAWAY_GAIN * plain_rms, fit[2]):
