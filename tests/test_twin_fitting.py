@@ -129,3 +129,14 @@ def test_a_run_folder_without_every_tick_is_refused_in_one_line(tmp_path, capsys
     assert identify.main([str(tmp_path / 'nothing'), '--out', str(tmp_path / 'x.yaml')]) == 2
     err = capsys.readouterr().err
     assert err.startswith('cdpr-identify: ') and err.count('\n') == 1, err
+
+
+def test_on_the_rigid_plant_the_twin_models_no_friction(tmp_path):
+    """The rigid plant is the twin's own friction-free model: a twin that models the motors'
+    friction (Coulomb and break-away) does so on the elastic plant only."""
+    setup = tmp_path / 'setup.yaml'
+    setup.write_text(yaml.safe_dump({'robot_file': str(PAPER_ROBOT), 'twin': {
+        'coulomb_friction_nm': 0.1, 'breakaway_friction_nm': 0.03, 'stribeck_speed_rad_s': 0.5}}))
+    elastic = scenario(str(setup), 'along-1', False).twin_friction
+    assert (elastic.coulomb_nm, elastic.breakaway_nm, elastic.stribeck_speed_rad_s) == (0.1, 0.03, 0.5)
+    assert scenario(str(setup), 'along-1', False, fidelity='rigid').twin_friction is None

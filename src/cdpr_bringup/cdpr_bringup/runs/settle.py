@@ -196,7 +196,7 @@ def settle(options: ScenarioOptions) -> SettledRun:
     # and a twin that models friction has none there.
     document['control']['coulomb_friction_nm'] = 0.0 if plant.fidelity == 'rigid' else friction
     if plant.fidelity == 'rigid':
-        document['twin']['coulomb_friction_nm'] = 0.0
+        document['twin'].update(coulomb_friction_nm=0.0, breakaway_friction_nm=0.0)
     document['control']['drive_delay_s'] = fdi['drive_delay_s']
     if options.detector is not None:
         fdi['detector'] = options.detector
