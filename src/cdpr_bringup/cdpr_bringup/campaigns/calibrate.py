@@ -7,7 +7,7 @@ the supervisor loads (`cdpr-scenario --calibration FILE`, ROS parameter calibrat
 
 --from-far FAR_CSV runs nothing: from a `cdpr-bench far` run's false alarms it takes, for
 each detector on the plant, the most sensitive swept thresholds whose 95 % upper bound
-on false alarms per hour is below the target (cdpr_bringup.bench.far.choose), and writes
+on false alarms per hour is below the target (campaigns.operating_point.choose), and writes
 the calibration they were scaled from with those thresholds.
 """
 from __future__ import annotations
@@ -130,7 +130,7 @@ def main(argv=None):
             for motion in motion_names(motions) for reverse in (False, True) for seed in seeds]
     # settled here first, so that a refused robot or motion is said before a worker starts
     robot = load_robot(config)
-    friction = [scenario_of(job).twin_friction for job in jobs][0]
+    friction = [scenario_of(job) for job in jobs][0].twin_friction
     twin_friction_nm = 0.0 if friction is None else friction.coulomb_nm
     print(f'cdpr-calibrate: {len(jobs)} failure-free runs on the {args.fidelity} plant', flush=True)
     with ProcessPoolExecutor(max(args.jobs, 1)) as pool:

@@ -43,8 +43,8 @@ class FrictionModel:
     def torque_nm(self, angular_velocity_rad_s: np.ndarray) -> np.ndarray:
         """The torque friction takes from a motor turning at `angular_velocity_rad_s`."""
         if self.breakaway_nm:
-            level = self.coulomb_nm + self.breakaway_nm * np.exp(-(angular_velocity_rad_s / self.stribeck_speed_rad_s) ** 2)
-            return level * np.tanh(angular_velocity_rad_s / self.smoothing_rad_s)
+            standstill = np.exp(-(angular_velocity_rad_s / self.stribeck_speed_rad_s) ** 2)
+            return (self.coulomb_nm + self.breakaway_nm * standstill) * np.tanh(angular_velocity_rad_s / self.smoothing_rad_s)
         if self.coulomb_nm == 0.0:
             return np.zeros_like(angular_velocity_rad_s)
         return self.coulomb_nm * np.tanh(angular_velocity_rad_s / self.smoothing_rad_s)
