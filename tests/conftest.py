@@ -322,3 +322,32 @@ def cable_masks(robot):
     yield 'all', np.ones(robot.cable_count, dtype=bool)
     for broken in range(robot.cable_count):
         yield f'cable {broken + 1} broken', robot.cable_mask([broken])
+
+
+# A light end-effector under long cables (0.8 kg, a 0.8 × 0.8 m frame 4 m high, τ_min
+# 1 N), none of the shipped robots: its cables carry 1.3–2.8 N on its motions, and once
+# one parts the three left hold it with little more than τ_min wherever phase 1 leaves
+# it (robot file alone: every other setting the paper's or derived).
+LIGHT_TALL_ROBOT = {'robot': {
+    'name': 'light_tall_robot', 'gravity_m_s2': [0.0, 0.0, -9.81],
+    'end_effector': {'mass_kg': 0.8, 'radius_m': 0.04},
+    'exit_points_m': [[0.0, 0.0, 4.0], [0.0, 0.8, 4.0], [0.8, 0.8, 4.0], [0.8, 0.0, 4.0]],
+    'workspace_m': {'min': [0.0, 0.0, 0.0], 'max': [0.8, 0.8, 3.6]},
+    'home_position_m': [0.4, 0.4, 2.0],
+    'motor': {'inertia_kg_m2': 2.0e-4, 'drum_radius_m': 0.030, 'viscous_friction_nm_s_rad': 0.001,
+              'static_friction_nm': 0.1, 'nominal_torque_nm': 0.64, 'nominal_speed_rpm': 3000,
+              'torque_limit_nm': 1.9},
+    'cables': {'tension_min_n': 1.0, 'tension_max_n': 50.0}}}
+LIGHT_TALL_MOTIONS = {
+    'motion_defaults': {'peak_speed_m_s': 0.4, 'rest_before_s': 1.0, 'rest_after_s': 1.5},
+    'motions': {'line-x': {'type': 'line', 'start': [0.25, 0.4, 2.0], 'goal': [0.55, 0.4, 2.0]}}}
+
+
+@pytest.fixture
+def light_tall_robot_files(tmp_path):
+    """(robot file, motions file) of LIGHT_TALL_ROBOT, written to the test's folder."""
+    import yaml
+    robot, motions = tmp_path / 'light_tall_robot.yaml', tmp_path / 'light_tall_motions.yaml'
+    robot.write_text(yaml.safe_dump(LIGHT_TALL_ROBOT))
+    motions.write_text(yaml.safe_dump(LIGHT_TALL_MOTIONS))
+    return robot, motions

@@ -271,18 +271,24 @@ def test_phase_one_aims_at_the_nearest_point_where_the_cables_hold_it_taut(paper
 
 def test_recovery_budget_grows_with_the_distance_to_sp_and_the_re_plans(recovery_config):
     at_rest = np.array([0.844, 0.965, 1.2])
-    budgets = [recovery_config.budget_s(at_rest, np.zeros(3), at_rest + [distance, 0.0, 0.0])
+    # a workspace of the one point: the move goes from where the end-effector is
+    point = (at_rest, at_rest)
+    budgets = [recovery_config.budget_s(at_rest, np.zeros(3), at_rest + [distance, 0.0, 0.0], point)
                for distance in (0.2, 0.5, 1.0)]
     assert len(budgets) == 3 and np.all(np.diff(budgets) > 0.0)
     one_more = dataclasses.replace(recovery_config, replan_attempts=recovery_config.replan_attempts + 1)
-    assert (one_more.budget_s(at_rest, np.zeros(3), at_rest + [0.5, 0.0, 0.0])
-            > recovery_config.budget_s(at_rest, np.zeros(3), at_rest + [0.5, 0.0, 0.0]))
+    assert (one_more.budget_s(at_rest, np.zeros(3), at_rest + [0.5, 0.0, 0.0], point)
+            > recovery_config.budget_s(at_rest, np.zeros(3), at_rest + [0.5, 0.0, 0.0], point))
+    # phase 1 may leave the end-effector anywhere in the workspace: a corner 1 m from SP
+    # budgets the move of 1 m even where the failure happens 0.2 m from it
+    sp = at_rest + [0.2, 0.0, 0.0]
+    assert recovery_config.budget_s(at_rest, np.zeros(3), sp, (sp - [1.0, 0.0, 0.0], sp)) == pytest.approx(budgets[2])
     # a steered approach's limit counts where the strategy may steer only: the paper's
     # budget stays what its phases take
     patient = dataclasses.replace(recovery_config, approach_limit_s=100.0)
-    assert patient.budget_s(at_rest, np.zeros(3), at_rest + [0.2, 0.0, 0.0]) == budgets[0] < 100.0
+    assert patient.budget_s(at_rest, np.zeros(3), at_rest + [0.2, 0.0, 0.0], point) == budgets[0] < 100.0
     steered = dataclasses.replace(patient, strategy='steered')
-    assert (steered.budget_s(at_rest, np.zeros(3), at_rest + [0.2, 0.0, 0.0])
+    assert (steered.budget_s(at_rest, np.zeros(3), at_rest + [0.2, 0.0, 0.0], point)
             == 100.0 + recovery_config.hold_after_s)
 
 

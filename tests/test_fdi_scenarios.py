@@ -438,3 +438,16 @@ def test_no_worst_case_recovery_outlasts_its_budget(tmp_path):
     assert len(judged) == len(WORST_CASE_RECOVERIES) == 4
     assert any(re_plans > 0 for re_plans, _ in judged)
     assert any(re_plans == attempts for re_plans, attempts in judged), judged
+
+
+def test_a_light_end_effector_held_near_tau_min_after_phase_1_is_still_moved_to_sp(light_tall_robot_files):
+    """The light tall robot (conftest), robot file alone: cable 1 parts mid line-x. Phase 1
+    holds the end-effector by tension and leaves it where the three cables left hold it
+    with 1.4 N at the least, under τ_min + the plan's margin (2 N): no move keeps that
+    margin, and the recovery was re-planned every tick (100 ms each) until FAULT. The move
+    is planned with the margin each pose allows, never under τ_min, and the end-effector
+    is brought to SP."""
+    robot, motions = light_tall_robot_files
+    scenario, _, metrics = run('line-x', [1], config=robot, motions=motions, fail_at_fraction=0.484)
+    assert metrics['identified_cables'] == [1] and not metrics['false_alarm']
+    assert_recovered(scenario, metrics)

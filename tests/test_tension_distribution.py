@@ -7,9 +7,9 @@ from scipy.optimize import linprog, lsq_linear, minimize
 
 from cdpr_control.model.dynamics import inverse_dynamics
 from cdpr_control.point_mass.kinematics import structure_matrix
-from cdpr_control.tension_distribution import (FlooredLeastSquares, InfeasibleTensionError,
+from cdpr_control.tension_distribution import (BoundedMinimumNorm, FlooredLeastSquares, InfeasibleTensionError,
                                                make_tension_distribution, minimum_norm)
-from conftest import random_positions, random_unit_vectors
+from conftest import load_robot, random_positions, random_unit_vectors
 
 
 def _cases(robot, rng, count, max_acceleration):
@@ -389,3 +389,15 @@ def test_the_nearest_wrench_within_the_bounds_is_scipys_bounded_least_squares(rn
             assert misfit(tension) < 1e-9 * scale
     # both kinds drawn
     assert 0 < exact < (300 if kernel == 'compiled' else 30)
+
+
+def test_an_infeasible_wrench_names_the_robots_cable_not_the_column_of_the_cables_left(light_tall_robot_files):
+    """With cable 1 broken the columns of S_R are cables 2, 3, 4: at this pose cable 3 holds
+    1.39 N statically, under a floor of 2 N, and the error names cable 3 (its column is
+    the second)."""
+    robot = load_robot(light_tall_robot_files[0])
+    attached = robot.cable_mask([0])
+    still = np.zeros(3)
+    with pytest.raises(InfeasibleTensionError, match=r'cable 3 cannot be brought to 2\.0 N'):
+        inverse_dynamics(robot, BoundedMinimumNorm(2.0, robot.tension_max_n), np.array([0.467, 0.468, 2.49]),
+                         still, still, attached=attached)

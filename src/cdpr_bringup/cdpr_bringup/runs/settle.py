@@ -126,7 +126,8 @@ class Scenario:
             safe_point = safe_point_for(self.robot, self.recovery, attached)
         except RecoveryInfeasible:
             safe_point = position
-        return self.recovery.budget_s(position, self.reference.velocity_m_s[row], safe_point)
+        return self.recovery.budget_s(position, self.reference.velocity_m_s[row], safe_point,
+                                      (self.robot.workspace_min_m, self.robot.workspace_max_m))
 
     @property
     def duration_s(self) -> float:

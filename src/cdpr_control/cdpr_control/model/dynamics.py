@@ -87,6 +87,7 @@ def inverse_dynamics(robot, distribution: TensionDistribution, pose, twist, twis
             tension[:, attached] = distribute(terms.structure[:, :, attached], wrench)
     except InfeasibleTensionError as err:
         where = poses[err.row]
+        err = err if attached is None else err.of_cables(np.flatnonzero(attached))
         raise err.at(where[:3], where[3:] if where.size > 3 else None) from None
     if attached is not None:
         for figure in (angle, theta_dot, theta_ddot):

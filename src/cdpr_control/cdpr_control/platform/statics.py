@@ -28,7 +28,7 @@ def holding_tensions(robot: Robot, distribution: TensionDistribution, position_m
     try:
         tension[attached] = distribution.distribute(structure[:, attached], wrench)
     except InfeasibleTensionError as err:
-        raise err.at(position_m, orientation) from None
+        raise err.of_cables(np.flatnonzero(attached)).at(position_m, orientation) from None
     return tension
 
 

@@ -19,30 +19,41 @@ BOUND_TOLERANCE_N = 1e-9
 
 
 class InfeasibleTensionError(ValueError):
-    """No tensions within the bounds produce the wrench; names the pose when known."""
+    """No tensions within the bounds produce the wrench; names the pose when known, and
+    the cable that cannot be held (`cable`, 0-based: a column of the structure matrix
+    given, the robot's cable once `of_cables` has told which cables those columns are)."""
 
-    def __init__(self, reason: str, position_m=None, row: int | None = None, orientation=None):
+    def __init__(self, reason: str, position_m=None, row: int | None = None, orientation=None,
+                 cable: int | None = None):
         self.reason = reason
         self.row = row
+        self.cable = cable
         self.position_m = None if position_m is None else np.array(position_m, dtype=float)
         self.orientation = None if orientation is None else np.array(orientation, dtype=float)
         where = '' if position_m is None else ' at p = ({:.4f}, {:.4f}, {:.4f}) m'.format(*position_m)
         if orientation is not None:
             where += ', q = ({:.4f}, {:.4f}, {:.4f}, {:.4f})'.format(*orientation)
-        super().__init__(f'no feasible cable tensions{where}: {reason}')
+        named = reason if cable is None else f'cable {cable + 1} {reason}'
+        super().__init__(f'no feasible cable tensions{where}: {named}')
 
     def __reduce__(self):
         # rebuilt from its parts, not its message, when it crosses to another process (a
         # campaign's or a calibration's worker): the message is not prefixed twice
-        return type(self), (self.reason, self.position_m, self.row, self.orientation)
+        return type(self), (self.reason, self.position_m, self.row, self.orientation, self.cable)
 
     def at(self, position_m, orientation=None) -> 'InfeasibleTensionError':
         """The same error, naming the end-effector's position (and a platform's orientation)."""
-        return InfeasibleTensionError(self.reason, position_m, self.row, orientation)
+        return InfeasibleTensionError(self.reason, position_m, self.row, orientation, self.cable)
 
     def in_row(self, row: int) -> 'InfeasibleTensionError':
         """The same error, naming the row of a stack it came from."""
-        return InfeasibleTensionError(self.reason, self.position_m, row)
+        return InfeasibleTensionError(self.reason, self.position_m, row, self.orientation, self.cable)
+
+    def of_cables(self, cables: np.ndarray) -> 'InfeasibleTensionError':
+        """The same error where the structure's columns were the robot's `cables` (0-based
+        indices, e.g. the attached ones): its cable named as the robot numbers it."""
+        cable = None if self.cable is None else int(cables[self.cable])
+        return InfeasibleTensionError(self.reason, self.position_m, self.row, self.orientation, cable)
 
 
 class TensionDistribution(ABC):

@@ -138,8 +138,8 @@ class BoundedMinimumNorm(TensionDistribution):
                 count = normals.shape[0] // 2
                 bound = self.tension_min_n if added < count else self.tension_max_n
                 raise InfeasibleTensionError(
-                    f'cable {added % count + 1} cannot be brought to {bound} N '
-                    'while the others keep within their bounds')
+                    f'cannot be brought to {bound} N while the others keep within their bounds',
+                    cable=added % count)
             step = min(full_step, partial_step)
             if np.isfinite(full_step):
                 z = z + step * primal_direction

@@ -22,9 +22,12 @@ slower than `settle_speed_m_s`, or `settle_timeout_s` later.
 
 A move whose tensions would come within `plan_tension_margin_n` of tension_min_n (what
 the drives' tracking, and on a redundant robot the joints' position control, takes off a
-planned tension) is planned again, braking sooner and
-moving slower; when no plan fits, phase 1 holds the end-effector where it is until it
-can, and after the timeout the recovery is given up (FAULT). Then SAFE_HOLD at SP.
+planned tension) is planned again, braking sooner and moving slower; where no try keeps
+the margin (a light end-effector settled where the cables left hold it with little more
+than τ_min), the same tries with the margin lowered where a pose needs it, not below
+τ_min (LoweredFloor), and a note says so. When no plan fits even so, phase 1 holds the
+end-effector where it is and planning is tried again `replan_interval_s` later, until
+the timeout gives the recovery up (FAULT). Then SAFE_HOLD at SP.
 """
 from __future__ import annotations
 
@@ -34,7 +37,7 @@ from cdpr_control.point_mass.kinematics import cable_vectors, forward_kinematics
 from cdpr_control.model.reference_table import tabulate_reference
 from cdpr_control.model.robot import Robot
 from cdpr_control.point_mass.statics import static_tensions
-from cdpr_control.tension_distribution import (InfeasibleTensionError, TensionDistribution,
+from cdpr_control.tension_distribution import (InfeasibleTensionError, LoweredFloor, TensionDistribution,
                                                floored_fit, make_tension_distribution)
 from cdpr_control.geometry.pose_trajectories import PoseTrajectory
 from cdpr_control.geometry.trajectories import HermiteQuintic, Hold, Sequence, quintic_profile
@@ -131,6 +134,8 @@ class Recovery(TabulatedMove):
         self.distribution = make_tension_distribution(
             distribution.name, distribution.tension_min_n + config.plan_tension_margin_n,
             distribution.tension_max_n)
+        # where no plan keeps that margin: as much of it as each pose allows
+        self.lowered = LoweredFloor(self.distribution, distribution.tension_min_n)
         self.period_s = period_s
         self.attached = attached.copy()
         self.safe_point_m = safe_point_for(robot, config, attached)
@@ -148,6 +153,8 @@ class Recovery(TabulatedMove):
         self.phase_ticks = {RECOVERY_TENSION: start_tick}
         self.move = None
         self.last_plan_error: InfeasibleTensionError | None = None
+        # the first tick planning is tried again on after a plan that failed
+        self.next_plan_tick = start_tick
 
     def tension_setpoint(self, tick: int) -> np.ndarray:
         """t(s) = t_R + (t_E − t_R) s, s quintic over the tension phase (N)."""
@@ -218,26 +225,38 @@ class Recovery(TabulatedMove):
         straight line. Where the tensions of a plan would leave the bounds, it is planned
         again, braking `replan_slowdown` times sooner (nearer where it is) and moving that
         much slower, at most `replan_attempts` times; then as often from no acceleration
-        (the tensions stepping to the plan's).
+        (the tensions stepping to the plan's). Where none keeps the planned margin, the
+        same tries with it lowered where a pose needs it (module docstring). A failed
+        planning is not tried again before `replan_interval_s` has passed.
         """
+        if tick < self.next_plan_tick:
+            return False
         brake_s = self.config.brake_s(float(np.linalg.norm(velocity_m_s)))
-        # from rest in acceleration once: a plan that asks none is not tried twice
-        for acceleration in ((acceleration_m_s2, np.zeros(3)) if np.any(acceleration_m_s2)
-                             else (acceleration_m_s2,)):
-            for attempt in range(self.config.replan_attempts + 1):
-                slowdown = self.config.replan_slowdown ** attempt
-                try:
-                    table = tabulate_reference(
-                        self.robot, self.distribution, PoseTrajectory(self.move_to_safe_point(
-                            start_m, velocity_m_s, acceleration, brake_s / slowdown, slowdown)),
-                        self.period_s, attached=self.attached)
-                except InfeasibleTensionError as err:
-                    self.last_plan_error = err
-                    continue
-                self.move = (tick, table)
-                self.mode = RECOVERY_MOVE
-                self.phase_ticks[RECOVERY_MOVE] = tick
-                return True
+        for distribution in (self.distribution, self.lowered):
+            # from rest in acceleration once: a plan that asks none is not tried twice
+            for acceleration in ((acceleration_m_s2, np.zeros(3)) if np.any(acceleration_m_s2)
+                                 else (acceleration_m_s2,)):
+                for attempt in range(self.config.replan_attempts + 1):
+                    slowdown = self.config.replan_slowdown ** attempt
+                    try:
+                        table = tabulate_reference(
+                            self.robot, distribution, PoseTrajectory(self.move_to_safe_point(
+                                start_m, velocity_m_s, acceleration, brake_s / slowdown, slowdown)),
+                            self.period_s, attached=self.attached)
+                    except InfeasibleTensionError as err:
+                        # the margin's reason: the lowered floor's only says no plan holds τ_min
+                        self.last_plan_error = err if distribution is self.distribution else self.last_plan_error
+                        continue
+                    if distribution is self.lowered:
+                        self.notes.append(
+                            f'the move to SP cannot keep the planned tension margin ({self.last_plan_error}): '
+                            f'planned with the margin each pose allows, the least tension '
+                            f'{table.tension_n[:, self.attached].min():.2f} N')
+                    self.move = (tick, table)
+                    self.mode = RECOVERY_MOVE
+                    self.phase_ticks[RECOVERY_MOVE] = tick
+                    return True
+        self.next_plan_tick = tick + max(round(self.config.replan_interval_s / self.period_s), 1)
         return False
 
     def acceleration_m_s2(self, position_m: np.ndarray, tensions_n: np.ndarray) -> np.ndarray:

@@ -171,6 +171,7 @@ class RecoveryConfig:
     plan_tension_margin_n: float
     replan_attempts: int
     replan_slowdown: float
+    replan_interval_s: float
     command_step_share: float
     brake_lift_m_s2: float
     committed_brake_s: float
@@ -198,17 +199,24 @@ class RecoveryConfig:
         return max(QUINTIC_PEAK_SPEED_RATIO * distance_m / self.move_peak_speed_m_s,
                    self.minimum_move_s)
 
-    def budget_s(self, position_m, velocity_m_s, safe_point_m) -> float:
+    def budget_s(self, position_m, velocity_m_s, safe_point_m, workspace_m) -> float:
         """The longest a recovery may take (s) from the failure of a robot whose end-effector
         is at `position_m` moving at `velocity_m_s`: the tension phase and its settle time
         (the case outside the residual workspace), braking, the move to SP re-planned
         `replan_attempts` times (each `replan_slowdown` times longer), and the hold that
         shows SP is kept; where the strategy may steer (RecoveryStrategy.steers), its
-        approach's limit where that is longer. A run
-        ends sooner when its recovery does (cdpr_twin.nodes.run_length)."""
+        approach's limit where that is longer. The move is taken from the corner of the
+        workspace box (`workspace_m`: its least and greatest corners, m) farthest from SP
+        where that is farther than where the brake would leave the end-effector: phase 1
+        holds it by tension alone, and a light one drifts (half a metre up on a 0.8 kg
+        end-effector under 2 m cables). A run ends sooner when its recovery does
+        (cdpr_twin.nodes.run_length)."""
         brake = self.brake_s(float(np.linalg.norm(velocity_m_s)))
         rest = np.asarray(position_m) + 0.5 * brake * np.asarray(velocity_m_s)
-        move = self.move_s(float(np.linalg.norm(np.asarray(safe_point_m) - rest)))
+        low, high = (np.asarray(corner, dtype=float) for corner in workspace_m)
+        farthest = np.maximum(np.abs(np.asarray(safe_point_m) - low), np.abs(high - np.asarray(safe_point_m)))
+        move = self.move_s(max(float(np.linalg.norm(np.asarray(safe_point_m) - rest)),
+                               float(np.linalg.norm(farthest))))
         slowest_move = move * self.replan_slowdown ** self.replan_attempts
         braked = self.tension_phase_s + self.settle_timeout_s + brake + slowest_move
         return (max(braked, self.approach_limit_s) if STRATEGIES[self.strategy].steers else braked) + self.hold_after_s
@@ -258,6 +266,7 @@ class RecoveryConfig:
             replan_attempts=recovery.integer('replan_attempts', minimum=0),
             # each re-plan slower than the one before
             replan_slowdown=recovery.number('replan_slowdown', minimum=1.0),
+            replan_interval_s=recovery.number('replan_interval_s', positive=True),
             command_step_share=recovery.number('command_step_share', positive=True, maximum=1.0),
             brake_lift_m_s2=recovery.number('brake_lift_m_s2', non_negative=True),
             committed_brake_s=recovery.number('committed_brake_s', non_negative=True),
