@@ -7,16 +7,19 @@ where the residual is not zero.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
 import yaml
 
 from cdpr_bringup.reports import robot_summary
+from cdpr_bringup.reports.summary import summary_lines
 from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions
 from cdpr_control.config import Section
+from cdpr_fdi.detection.visibility import hidden_below_n, hidden_spans
 from cdpr_control.control.controller import PdGains
 from cdpr_control.point_mass.kinematics import forward_kinematics
 from cdpr_control.geometry.motions import motion_names
@@ -54,6 +57,7 @@ def test_paper_case_cable_4_along_2_detected_within_two_cycles_and_recovered():
     scenario, recording, metrics = run('along-2', [4])
     assert 0.0 < metrics['detection_delay_ms'] <= DETECTION_WITHIN_PERIODS * scenario.period_s * 1000.0
     assert metrics['identified_cables'] == [4] and not metrics['false_alarm']
+    assert not metrics['break']['late_detection_expected']
     assert_recovered(scenario, metrics)
     # the safe point is on the configured height, and the robot came to rest there
     assert metrics['safe_point_m'][2] == pytest.approx(scenario.recovery.safe_height_m)
@@ -298,13 +302,19 @@ def test_a_break_the_residual_never_sees_is_found_by_the_tension_collapse():
     """The tall frame, robot file alone: cable 4 parts carrying 1.5 N (a residual of
     0.05 N·m against ε = 0.125 N·m) late on the circle and no other cable slackens: the
     robot would go on on three cables. Its motor feels nothing while the reference asks
-    1.5 N: named within the collapse's window of the parting, and recovered."""
+    1.5 N: named within the collapse's window of the parting, and recovered; the run says
+    the late detection was to be expected (1.5 N under ε/ρ = 4.2 N)."""
     scenario = every_tick_scenario(ScenarioOptions(
         config=str(CONFIG_DIR / 'robots' / 'tall_frame_robot.yaml'),
         motions=str(CONFIG_DIR / 'tall_frame_motions.yaml'), motion='circle', fail_cables=[4],
         fail_at_s=7.525300261572056, fidelity='elastic', seed=2, detector='threshold'))
     metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
     assert metrics['identified_cables'] == [4] and not metrics['false_alarm']
+    hidden = metrics['break']
+    assert hidden['cable'] == 4 and hidden['late_detection_expected']
+    assert hidden['reference_tension_n'] < hidden['hidden_below_n'] == pytest.approx(
+        scenario.fdi.epsilon_nm / scenario.robot.motor.drum_radius_m)
+    assert 'a late detection was expected' in '\n'.join(summary_lines(metrics))
     window_ms = scenario.fdi.collapse_window_cycles * scenario.period_s * 1000.0
     assert metrics['detection_delay_ms'] <= window_ms
     assert_recovered(scenario, metrics)
@@ -339,6 +349,29 @@ def test_cdpr_robot_warns_where_a_loaded_cable_carries_less_than_the_identificat
              if line.startswith('  ') and line.split()[0] in ('along-4', 'circle')}
     assert 'below the identification δ 2.78 N' in lines['along-4']
     assert 'identification δ' not in lines['circle']
+
+
+def test_cdpr_robot_says_where_a_break_would_leave_the_residual_below_epsilon(capsys):
+    """The tall frame's elastic ε (0.125 N·m over 30 mm drums: 4.17 N) is above what its
+    cables carry on most of its motions; the rigid plant's (0.03 N·m: 1 N, τ_min) is not:
+    every break there is seen. Each span says where, as fractions of the motion."""
+    robot_summary.main(['--config', str(CONFIG_DIR / 'robots' / 'tall_frame_robot.yaml'),
+                        '--motions', str(CONFIG_DIR / 'tall_frame_motions.yaml')])
+    out = capsys.readouterr().out
+    hidden = [line for line in out.splitlines() if 'a break found late' in line]
+    assert hidden and all(line.strip().startswith('elastic plant, below ε/ρ = 4.17 N') for line in hidden)
+    lift = out.split('\n  lift')[1].splitlines()[1]
+    # lift's tensions (3.92–4.51 N) fall under 4.17 N for the first part of the climb only
+    spans = re.findall(r'cable (\d) at (\d\.\d\d)–(\d\.\d\d)', lift)
+    assert [cable for cable, *_ in spans] == ['1', '2', '3', '4']
+    assert all(float(start) == 0.0 and 0.0 < float(end) < 1.0 for _, start, end in spans)
+
+
+def test_hidden_spans_are_the_rows_under_epsilon_over_rho():
+    tension = np.array([[5.0, 0.5], [1.0, 0.5], [0.9, 3.0], [4.0, 0.2]])
+    # ε / ρ = 0.03 / 0.03 = 1 N: a cable at exactly 1 N is seen
+    assert hidden_spans(tension, 0.03, 0.03) == [[(2, 2)], [(0, 1), (3, 3)]]
+    assert hidden_below_n(0.03, 0.03) == pytest.approx(1.0)
 
 
 def test_a_break_near_a_corner_swings_into_the_frame_not_up_to_its_exit_points():

@@ -138,9 +138,12 @@ def test_scenario_and_report_compute_the_same_metrics_of_one_run(failure_run, tm
     recomputed = write_report(run / 'bag', run / 'plots', run_settings(run / 'bag'))
     own, recomputed = flat(own), flat(recomputed)
     assert FLAT_DESIGN_KEYS <= set(recomputed)
-    # what the scenario knows beyond its bag: its options, and when the failure was commanded
+    # what the scenario knows beyond its bag: its options, when the failure was commanded,
+    # and what its reference asked of the cable as it parted
     assert set(own) - set(recomputed) == {'motion', 'fidelity', 'detector', 'failure_signal_time_s',
-                                          'detection_delay_from_signal_ms'}
+                                          'detection_delay_from_signal_ms', 'break.cable',
+                                          'break.reference_tension_n', 'break.hidden_below_n',
+                                          'break.late_detection_expected'}
     assert set(recomputed) <= set(own)
     differ = {key: (own[key], recomputed[key]) for key in sorted(set(recomputed) - {'wall_time_s'})
               if not (recomputed[key] == own[key] if own[key] is None or isinstance(own[key], (bool, str))

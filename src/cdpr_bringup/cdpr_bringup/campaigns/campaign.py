@@ -87,7 +87,7 @@ SECONDS_PER_HOUR = 3600.0
 CSV_COLUMNS = (
     'run_id', 'motion', 'direction', 'cable', 'fidelity', 'detector', 'seed',
     'fail_at_fraction', 'failure_time_s', 'detection_delay_ms', 'detection_delay_from_signal_ms',
-    'identified_cables', 'correct_identification',
+    'late_detection_expected', 'identified_cables', 'correct_identification',
     'false_alarm', 'mode', 'fault', 'reached_safe_point', 'final_error_m', 'final_orientation_error_deg',
     'min_tension_n', 'max_tension_n',
     'min_height_m',
@@ -264,6 +264,7 @@ def row_of(run: Run, run_dir: Path, outcome: dict | None) -> dict:
         failure_time_s=metrics.get('failure_time_s'),
         detection_delay_ms=metrics.get('detection_delay_ms'),
         detection_delay_from_signal_ms=metrics.get('detection_delay_from_signal_ms'),
+        late_detection_expected=(metrics.get('break') or {}).get('late_detection_expected'),
         identified_cables=identified,
         correct_identification=(detected and identified == sorted(metrics['true_broken_cables'])
                                 if failure else None),

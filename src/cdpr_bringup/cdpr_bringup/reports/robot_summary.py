@@ -20,6 +20,7 @@ from cdpr_control.tension_distribution import InfeasibleTensionError, configured
 from cdpr_control.platform.statics import workspace_grid, wrench_feasible_share
 from cdpr_control.geometry.rotation import conjugate, from_axis_angle, product, to_rotation_vector
 from cdpr_control.point_mass.workspace import safe_point
+from cdpr_fdi.detection.visibility import hidden_below_n, hidden_spans
 from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.recovery_planning.recovery import RecoveryInfeasible, safe_pose_for
 from cdpr_fdi.recovery_strategies import STRATEGIES
@@ -36,7 +37,8 @@ def setting(section, name: str, text: str) -> str:
 
 def print_settings(config, robot):
     """What the robot file resolves to: its own values, the paper's defaults, derived ones.
-    Returns the recovery settings and the identification δ (N of tension)."""
+    Returns the recovery settings, the identification δ (N of tension) and the detection
+    threshold ε (N·m) of each plant it has one for (`thresholds`)."""
     settings = load_config(config)
     control = settings.section('control')
     gains = PdGains.from_section(robot, control)
@@ -46,12 +48,14 @@ def print_settings(config, robot):
           if abs(frequency - asked) > 1e-9 else setting(control, 'pd_natural_frequency_hz', f'{frequency:g} Hz'))
     fdi_section = settings.section('fdi')
     fdi = load_fdi_config(config, robot)
+    thresholds = {'rigid': fdi.epsilon_nm}
     recovery = load_recovery_config(config, robot)
     recovery_section = settings.section('recovery')
     try:
         calibration = calibration_for(config, fdi_section, robot, 'elastic', None)
         elastic = load_fdi_config(config, robot, Path(calibration.path))
         elastic_text = f'{Path(calibration.path).name}: ε = {elastic.epsilon_nm:g} N·m'
+        thresholds = {'rigid': fdi.epsilon_nm, 'elastic': elastic.epsilon_nm}
     except ConfigError as err:
         elastic_text = (f'cannot be used: {err}' if err.key != 'fdi.elastic_calibration_file'
                         else 'none (cdpr-calibrate makes one; until then --fidelity rigid)')
@@ -87,15 +91,34 @@ def print_settings(config, robot):
     print(f'  recovery SP height {heights[0]}, table {heights[1]}, move {move}, every remaining '
           f'cable planned {recovery.plan_tension_margin_n:g} N above τ_min '
           f"({recovery_section.number('plan_tension_margin_share'):g} τ_min)")
-    return recovery, delta_n
+    return recovery, delta_n, thresholds
 
 
 def motion_extremes(robot, tension_distribution, motion, period_s):
-    """Least and greatest tension (N) and largest |torque| (N·m) along a motion."""
+    """Least and greatest tension (N), largest |torque| (N·m) and the tensions (N, rows of
+    `period_s` × cables) along a motion."""
     times = np.arange(0.0, motion.trajectory.duration_s, period_s)
     # the whole motion as one stack (each row what its pose alone gives)
     result = inverse_dynamics(robot, tension_distribution, *motion.trajectory.sample(times))
-    return np.min(result.tension_n), np.max(result.tension_n), np.max(np.abs(result.torque_nm))
+    return np.min(result.tension_n), np.max(result.tension_n), np.max(np.abs(result.torque_nm)), result.tension_n
+
+
+def hidden_break_lines(robot, tension_n: np.ndarray, thresholds: dict[str, float]) -> list[str]:
+    """Where along a motion (its tensions, N, rows × cables) a break would leave the
+    residual below ε on each plant (cdpr_fdi.detection.visibility): per cable, the spans
+    as fractions of the motion; such a break is found late, by the tension collapse or
+    once another cable slackens."""
+    lines = []
+    rows = max(len(tension_n) - 1, 1)
+    for plant, epsilon in thresholds.items():
+        below = hidden_below_n(epsilon, robot.motor.drum_radius_m)
+        spans = [(cable, ', '.join(f'{first / rows:.2f}–{last / rows:.2f}' for first, last in cable_spans))
+                 for cable, cable_spans in enumerate(hidden_spans(tension_n, epsilon, robot.motor.drum_radius_m))
+                 if cable_spans]
+        if spans:
+            lines.append(f'      {plant} plant, below ε/ρ = {below:.2f} N (a break found late): '
+                         + '; '.join(f'cable {cable + 1} at {where}' for cable, where in spans))
+    return lines
 
 
 # The grid the platform's wrench-feasible workspace is sampled on (m), and the turns it is
@@ -134,7 +157,9 @@ def print_platform(robot, config, distribution, motions, period_s: float, safe_h
     for i in range(robot.cable_count):
         share = wrench_feasible_share(robot, distribution, nominal, points, robot.cable_mask([i]))
         print(f'  cable {i + 1} broken: {share:6.1%}')
-    print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}):')
+    thresholds = {'rigid': load_fdi_config(config, robot).epsilon_nm}
+    print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}), and where a break '
+          'would leave the residual below ε (rigid plant ε; fractions of the motion):')
     print(f'  {"motion":<14} {"move s":>7} {"turn °":>7} {"min N":>7} {"max N":>7} {"max |c| N·m":>12}')
     for name in motion_names(motions):
         motion = pose_motion_from_settled(settled_motion(motions, name), nominal)
@@ -146,6 +171,8 @@ def print_platform(robot, config, distribution, motions, period_s: float, safe_h
         turn = np.degrees(abs(motion.turn.angle_rad))
         print(f'  {name:<14} {motion.move.duration_s:7.3f} {turn:7.1f} {reference.tension_n.min():7.2f} '
               f'{reference.tension_n.max():7.2f} {np.abs(reference.feedforward_nm).max():12.3f}')
+        for line in hidden_break_lines(robot, reference.tension_n, thresholds):
+            print(line)
     recovery = load_recovery_config(config, robot)
     if safe_height is not None:
         recovery = dataclasses.replace(recovery, safe_height_m=safe_height)
@@ -189,7 +216,7 @@ def print_point_mass(robot, config, distribution, motions, period: float, safe_h
     tension along each of `motions`."""
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, '
           f'end-effector {robot.mass_kg} kg')
-    recovery, delta_n = print_settings(config, robot)
+    recovery, delta_n, thresholds = print_settings(config, robot)
     safe_height = recovery.safe_height_m if safe_height is None else safe_height
     for i, point in enumerate(robot.exit_points_m):
         print(f'  A{i + 1} = ({point[0]:.3f}, {point[1]:.3f}, {point[2]:.3f}) m')
@@ -197,12 +224,13 @@ def print_point_mass(robot, config, distribution, motions, period: float, safe_h
     for i in range(robot.cable_count):
         point = safe_point(robot, robot.cable_mask([i]), safe_height)
         print(f'  cable {i + 1} broken: SP = ({point[0]:.4f}, {point[1]:.4f}, {point[2]:.4f}) m')
-    print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}):')
+    print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}), and where a break '
+          'would leave the residual below ε (fractions of the motion):')
     print(f'  {"motion":<14} {"move s":>7} {"min N":>7} {"max N":>7} {"max |c| N·m":>12}')
     for name in motion_names(motions):
         motion = load_motion(motions, name)
         try:
-            low, high, torque = motion_extremes(robot, distribution, motion, period)
+            low, high, torque, tension = motion_extremes(robot, distribution, motion, period)
         except InfeasibleTensionError as err:
             print(f'  {name:<14} {motion.move.duration_s:7.3f} no tensions within the bounds: {err}')
             continue
@@ -210,6 +238,8 @@ def print_point_mass(robot, config, distribution, motions, period: float, safe_h
         warning = (f'  below the identification δ {delta_n:g} N: a loaded cable can look free'
                    if low < delta_n else '')
         print(f'  {name:<14} {motion.move.duration_s:7.3f} {low:7.2f} {high:7.2f} {torque:12.3f}{warning}')
+        for line in hidden_break_lines(robot, tension, thresholds):
+            print(line)
 
 
 

@@ -33,6 +33,11 @@ def summary_lines(metrics: dict) -> list[str]:
                      + ('' if delay is None else ')')
                      + f', cable(s) {metrics["identified_cables"]} named'
                      + (' — FALSE ALARM' if metrics['false_alarm'] else ''))
+    hidden = metrics.get('break') or {}
+    if hidden.get('late_detection_expected'):
+        lines.append(f'  cable {hidden["cable"]} carried {hidden["reference_tension_n"]:.2f} N (its reference) as it '
+                     f'parted, under ε/ρ = {hidden["hidden_below_n"]:.2f} N: a late detection was expected (by the '
+                     'tension collapse, or once another cable slackens)')
     recovery = metrics['recovery']
     if metrics['fault']:
         lines.append(f'  FAULT: {metrics["fault"]}')

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import yaml
 
+from cdpr_fdi.detection.visibility import AT_THRESHOLD_N, hidden_below_n
 from cdpr_fdi.view.markers import Frame
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 from cdpr_twin.models.plant import FIDELITIES
@@ -109,6 +110,17 @@ def run_graph(args, scenario, out: Path):
     return recording, interrupted
 
 
+def break_visibility(scenario, failure_s: float, cable: int) -> dict:
+    """What the residual could see of the first break (cdpr_fdi.detection.visibility): the
+    tension (N) the reference asked of the 0-based `cable` when it parted at `failure_s`,
+    and whether that is under ε / ρ, so that a late detection was to be expected."""
+    row = min(int(round(failure_s / scenario.period_s)), len(scenario.reference) - 1)
+    tension = float(scenario.reference.tension_n[row, cable])
+    below = hidden_below_n(scenario.fdi.epsilon_nm, scenario.robot.motor.drum_radius_m)
+    return {'cable': cable + 1, 'reference_tension_n': tension, 'hidden_below_n': below,
+            'late_detection_expected': tension < below - AT_THRESHOLD_N}
+
+
 def metrics_of(scenario, recording, wall_time_s: float, interrupted: bool = False) -> dict:
     """metrics.json; of an interrupted run, for the ticks it ran (failures scheduled after
     its last tick did not happen)."""
@@ -152,6 +164,8 @@ def metrics_of(scenario, recording, wall_time_s: float, interrupted: bool = Fals
         reached_tolerance_m=scenario.recovery.reached_tolerance_m, supervisor=supervisor,
         wall_time_s=wall_time_s)))
     detection = metrics['detection_time_s']
+    if failures:
+        metrics['break'] = break_visibility(scenario, failure, failures[0][1])
     metrics['failure_signal_time_s'] = signal
     metrics['detection_delay_from_signal_ms'] = (None if detection is None or signal is None
                                                  else (detection - signal) * 1000.0)
