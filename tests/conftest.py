@@ -351,3 +351,55 @@ def light_tall_robot_files(tmp_path):
     robot.write_text(yaml.safe_dump(LIGHT_TALL_ROBOT))
     motions.write_text(yaml.safe_dump(LIGHT_TALL_MOTIONS))
     return robot, motions
+
+
+# A suspended 12 kg platform on 8 cables in the crossed-pairs layout of the shipped one,
+# at 2.2 times its size (a 4.4 × 3.4 × 3 m frame, τ_min 5 N, τ_max 200 N), none of the
+# shipped robots; and its elastic-plant thresholds as `cdpr-calibrate` gives them on
+# DRAWN_PLATFORM_MOTIONS (seeds 0–2, 24 runs, 2026-12-07).
+DRAWN_PLATFORM_ROBOT = {'robot': {
+    'name': 'drawn_platform_robot', 'gravity_m_s2': [0.0, 0.0, -9.81],
+    'end_effector': {'mass_kg': 12.0, 'radius_m': 0.2},
+    'platform': {
+        'attachment_points_m': [[0.2, -0.15, 0.075], [-0.2, 0.15, -0.075], [-0.2, -0.15, 0.075],
+                                [0.2, 0.15, -0.075], [-0.2, 0.15, 0.075], [0.2, -0.15, -0.075],
+                                [0.2, 0.15, 0.075], [-0.2, -0.15, -0.075]],
+        'centre_of_mass_m': [0.0, 0.0, 0.0],
+        'inertia_kg_m2': [[0.1125, 0.0, 0.0], [0.0, 0.1825, 0.0], [0.0, 0.0, 0.25]],
+        'home_orientation': [1.0, 0.0, 0.0, 0.0]},
+    'exit_points_m': [[0.0, 0.1, 3.0], [0.1, 0.0, 3.0], [4.3, 0.0, 3.0], [4.4, 0.1, 3.0], [4.4, 3.3, 3.0],
+                      [4.3, 3.4, 3.0], [0.1, 3.4, 3.0], [0.0, 3.3, 3.0]],
+    'workspace_m': {'min': [0.2, 0.2, 0.3], 'max': [4.2, 3.2, 2.7]},
+    'home_position_m': [2.2, 1.7, 1.5],
+    'motor': {'inertia_kg_m2': 0.0015, 'drum_radius_m': 0.05, 'viscous_friction_nm_s_rad': 0.003,
+              'static_friction_nm': 0.15, 'nominal_torque_nm': 4.0, 'nominal_speed_rpm': 3000,
+              'torque_limit_nm': 12.0},
+    'cables': {'tension_min_n': 5.0, 'tension_max_n': 200.0}}}
+DRAWN_PLATFORM_MOTIONS = {
+    'motion_defaults': {'peak_speed_m_s': 0.4, 'rest_before_s': 0.5, 'rest_after_s': 1.0},
+    'motions': {
+        'low-line': {'type': 'line', 'start': [1.2, 1.7, 0.8], 'goal': [3.2, 1.7, 0.8]},
+        'climb-tilt': {'type': 'line', 'start': [1.5, 1.2, 0.9], 'goal': [2.9, 2.2, 1.9],
+                       'turn': {'axis': [1, 0, 0], 'angle_deg': 8.0}},
+        'across-yaw': {'type': 'line', 'start': [2.2, 1.0, 1.5], 'goal': [2.2, 2.4, 1.5],
+                       'turn': {'axis': [0, 0, 1], 'angle_deg': 10.0}},
+        'loop': {'type': 'circle', 'centre': [2.2, 1.7, 1.4], 'radius_m': 0.7, 'start_angle_deg': 180.0,
+                 'sweep_deg': 360.0}}}
+DRAWN_PLATFORM_FDI = {
+    'coulomb_friction_nm': 0.07548, 'epsilon_nm': 0.41769,
+    'cusum': {'sigma_nm': [0.028286, 0.027796, 0.028115, 0.02818, 0.030133, 0.030056, 0.028379, 0.028723],
+              'drift': 5.0, 'threshold': 11.076, 'limit': 14.733, 'epsilon_nm': 0.4417}}
+
+
+@pytest.fixture
+def drawn_platform_files(tmp_path):
+    """(robot file, motions file, elastic calibration file) of DRAWN_PLATFORM_ROBOT."""
+    import yaml
+    robot, motions = tmp_path / 'drawn_platform_robot.yaml', tmp_path / 'drawn_platform_motions.yaml'
+    robot.write_text(yaml.safe_dump(DRAWN_PLATFORM_ROBOT))
+    motions.write_text(yaml.safe_dump(DRAWN_PLATFORM_MOTIONS))
+    calibration = tmp_path / 'drawn_platform_calibration_elastic.yaml'
+    calibration.write_text(yaml.safe_dump({'fdi': DRAWN_PLATFORM_FDI, 'calibration': {
+        'robot': 'drawn_platform_robot', 'robot_fingerprint': load_robot(robot).fingerprint(),
+        'fidelity': 'elastic'}}))
+    return robot, motions, calibration

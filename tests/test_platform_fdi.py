@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from cdpr_bringup.runs.engine import run_inprocess
+from cdpr_bringup.scenario import command as scenario_cli
 from cdpr_bringup.runs.settle import ScenarioOptions
 
 from cdpr_control.geometry.pose_trajectories import PoseSample
@@ -419,3 +420,21 @@ def test_a_move_planned_on_a_thread_of_its_own_is_the_move_planned_at_once():
     failing.continuation.exception(timeout=30.0)
     with pytest.raises(InfeasibleTensionError, match='planned to fail'):
         failing.setpoint(1000, None, None)
+
+
+def test_a_steered_approach_that_would_turn_too_far_is_steered_again_slower_not_given_up(drawn_platform_files):
+    """The drawn 12 kg platform (conftest), elastic plant, its own thresholds: cable 3 parts
+    19 % into the loop, carrying little, and is named 31 ms later, the platform turning
+    fast by then. Steered at the configured 1.5 rad/s it would turn 25° from its safe
+    orientation, past the 20° limit, and the recovery was given up (FAULT). Stepped ahead
+    at the naming, the approach is steered again pulled 1.5 times slower, and the platform
+    reaches its safe pose."""
+    robot, motions, calibration = drawn_platform_files
+    scenario = every_tick_scenario(ScenarioOptions(
+        config=str(robot), motions=str(motions), motion='loop', fail_cables=[3], fail_at_s=7.032629951511934,
+        fidelity='elastic', seed=0, detector='threshold', calibration=str(calibration)))
+    metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
+    assert metrics['identified_cables'] == [3] and not metrics['false_alarm']
+    assert metrics['mode'] == 'SAFE_HOLD' and not metrics['fault']
+    assert metrics['recovery']['reached_safe_point']
+    assert metrics['recovery']['final_orientation_error_deg'] < 0.1

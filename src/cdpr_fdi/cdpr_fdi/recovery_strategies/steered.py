@@ -13,12 +13,20 @@ eased in from them (ease_in). Once the platform is within `approach_arrival_m` a
 `approach_arrival_deg` of the safe pose, nearly at rest, it is held there (SAFE_HOLD).
 
 A steered motion that turns the platform more than `approach_turn_limit_deg` further from
-the safe orientation than it was at the naming (its cables would wind about it), or that
-has not arrived within `approach_limit_s`, is given up: RecoveryInfeasible, so the
-supervisor holds the drums (FAULT) and says why.
+the safe orientation than it was at the naming (its cables would wind about it) is not
+waited for: the approach is stepped ahead to its end by the recovery's planner (at once
+where it has none; on a realtime supervisor's planning thread, while the rows are sent),
+and where it would turn too far it is steered again from the row then under way, its
+position pulled `replan_slowdown` times slower (a platform spun by the break turns
+further while it is pulled fast across the frame: the loop of a drawn 12 kg platform,
+cable 3 at 19 %, turned 25° and reached its safe pose pulled at 1 rad/s, not 1.5), at
+most `replan_attempts` times, each try stepped ahead in turn; a note says so. One that
+still turns too far, or has not arrived within `approach_limit_s`, is given up:
+RecoveryInfeasible, so the supervisor holds the drums (FAULT) and says why.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -29,10 +37,11 @@ from cdpr_control.model.reference_table import ReferenceTable, table_of
 from cdpr_control.geometry.pose_trajectories import PoseSample
 from cdpr_control.model.robot import Robot
 from cdpr_control.geometry.rotation import normalised
-from cdpr_control.platform.steered_approach import SteeredApproach
+from cdpr_control.platform.steered_approach import ApproachGains, SteeredApproach
 from cdpr_control.tension_distribution import FlooredLeastSquares, TensionDistribution
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 
+from ..recovery_planning.planning import PlanAtOnce
 from ..recovery_planning.recovery import RecoveryInfeasible
 from .base import Naming, RecoveryStrategy, table_reference
 from .platform import PlatformRecovery, after_the_naming_tick, ease_in, named_state, prepare_platform
@@ -42,6 +51,8 @@ from .platform import PlatformRecovery, after_the_naming_tick, ease_in, named_st
 # it numpy's per-call cost, the same for two rows: two at a time cost four times the CPU;
 # docs/platform.md).
 ROWS_PER_STEP = 10
+# A try is stepped ahead this many rows at a time (its rows do not depend on it).
+ROWS_PER_LOOK_AHEAD = 500
 
 
 class PoseApproach(PlatformRecovery):
@@ -50,10 +61,11 @@ class PoseApproach(PlatformRecovery):
 
     def __init__(self, robot: Robot, config, distribution: TensionDistribution,
                  period_s: float, attached: np.ndarray, start_tick: int, position_m, orientation,
-                 velocity_m_s, angular_velocity_rad_s, command_nm):
+                 velocity_m_s, angular_velocity_rad_s, command_nm, planner=None):
         """From the pose and twist the remaining (`attached`) cables give at detection and
-        the torques (N·m) commanded on that tick; RecoveryInfeasible where there is no
-        safe pose."""
+        the torques (N·m) commanded on that tick, each try stepped ahead by `planner`
+        (planning.py; at once when None); RecoveryInfeasible where there is no safe
+        pose."""
         super().__init__(robot, config, distribution, period_s, attached, start_tick)
         # the steered wrench is pulled by tensions above the margin: the floored fit never
         # acts but on a rounding at a bound
@@ -62,19 +74,75 @@ class PoseApproach(PlatformRecovery):
         start = after_the_naming_tick(robot, self.attached, np.asarray(position_m, dtype=float),
                                       normalised(orientation), np.asarray(velocity_m_s, dtype=float),
                                       np.asarray(angular_velocity_rad_s, dtype=float), self.command_nm, period_s)
-        self.approach = SteeredApproach(
-            robot, self.attached, start, self.safe_point_m, self.safe_orientation, config.approach_gains,
-            robot.tension_min_n + config.approach_tension_margin_n, robot.tension_max_n, period_s)
+        self.planner = planner or PlanAtOnce()
+        # the try under way, the row of the recovery its first row is, and its gains
+        self.gains, self.approach_row = config.approach_gains, 0
+        self.approach = self.steered(start, self.gains)
         self.turn_limit_rad = (self.approach.errors(self.approach.samples(0, 1))[1][0]
                                + math.radians(config.approach_turn_limit_deg))
         self.row_limit = math.ceil(config.approach_limit_s / period_s)
+        self.slowdowns = 0
+        # whether the try under way, stepped ahead to its end, turns too far (a Future)
+        self.look_ahead = self.planner.submit(self.turns_too_far, start, self.gains, 0, urgent=True)
         self.tables: list[ReferenceTable] = []
         self.arrival_row: int | None = None
         self.hold: JointReference | None = None
         self.notes.append('steered to the safe pose under tensions within their bounds')
 
+    def steered(self, start: PoseSample, gains: ApproachGains) -> SteeredApproach:
+        """A try from `start` to the safe pose with the pull `gains`."""
+        return SteeredApproach(self.robot, self.attached, start, self.safe_point_m, self.safe_orientation, gains,
+                               self.robot.tension_min_n + self.config.approach_tension_margin_n,
+                               self.robot.tension_max_n, self.period_s)
+
+    def turns_too_far(self, start: PoseSample, gains: ApproachGains, first_row: int) -> bool:
+        """Whether the try from `start` (the recovery's row `first_row`) with `gains`, stepped
+        ahead on a copy of its own, turns the platform further than the limit before it
+        arrives (or the time limit ends it)."""
+        probe = self.steered(start, gains)
+        for row in range(0, self.row_limit - first_row, ROWS_PER_LOOK_AHEAD):
+            sample = probe.samples(row, row + ROWS_PER_LOOK_AHEAD)
+            turned = np.flatnonzero(probe.errors(sample)[1] > self.turn_limit_rad)
+            arrived = self.arrivals(probe, sample)
+            if turned.size and (not arrived.size or turned[0] < arrived[0]):
+                return True
+            if arrived.size:
+                return False
+        return False
+
+    def arrivals(self, approach: SteeredApproach, sample: PoseSample) -> np.ndarray:
+        """The rows of `sample` (offsets) where the platform has arrived at the safe pose."""
+        distance_m, angle_rad, speed_m_s, angular_speed_rad_s = approach.errors(sample)
+        config, gains = self.config, self.config.approach_gains
+        arrival_rad = math.radians(config.approach_arrival_deg)
+        return np.flatnonzero((distance_m <= config.approach_arrival_m) & (angle_rad <= arrival_rad)
+                              & (speed_m_s <= gains.position_frequency_rad_s * config.approach_arrival_m)
+                              & (angular_speed_rad_s <= gains.orientation_frequency_rad_s * arrival_rad))
+
     def tabulated_rows(self) -> int:
         return len(self.tables) * ROWS_PER_STEP
+
+    def slow_down(self, row: int) -> None:
+        """Where the look ahead found the try under way to turn too far: steer again from
+        the recovery's row `row`, the position pulled `replan_slowdown` times slower, and
+        step that try ahead in turn (none after `replan_attempts`: the try under way
+        goes on, and its check gives the recovery up)."""
+        if (self.look_ahead is None or not self.look_ahead.done() or not self.look_ahead.result()
+                or self.slowdowns >= self.config.replan_attempts):
+            return
+        self.slowdowns += 1
+        base = self.config.approach_gains
+        self.gains = dataclasses.replace(base, position_frequency_rad_s=base.position_frequency_rad_s
+                                         / self.config.replan_slowdown ** self.slowdowns)
+        sample = self.approach.samples(row - self.approach_row, row - self.approach_row + 1)
+        start = PoseSample(*(np.array(figure[0]) for figure in (
+            sample.position_m, sample.orientation, sample.velocity_m_s, sample.angular_velocity_rad_s,
+            sample.acceleration_m_s2, sample.angular_acceleration_rad_s2)))
+        self.approach, self.approach_row = self.steered(start, self.gains), row
+        self.notes.append(f'the steered approach would turn the platform more than approach_turn_limit_deg: '
+                          f'steered again from tick {self.first_tick + row}, the position pulled at '
+                          f'{self.gains.position_frequency_rad_s:.3g} rad/s')
+        self.look_ahead = self.planner.submit(self.turns_too_far, start, self.gains, row, urgent=True)
 
     def tabulate_to(self, row: int) -> None:
         """Step and tabulate the approach until row `row` is planned or the platform has
@@ -85,7 +153,8 @@ class PoseApproach(PlatformRecovery):
                 raise RecoveryInfeasible(
                     f'the steered approach did not bring the platform to its safe pose within '
                     f'{self.config.approach_limit_s:g} s')
-            sample = self.approach.samples(start, start + ROWS_PER_STEP)
+            self.slow_down(start)
+            sample = self.approach.samples(start - self.approach_row, start - self.approach_row + ROWS_PER_STEP)
             self.check(start, sample)
             dynamics = inverse_dynamics(self.robot, self.distribution, *sample.motion, attached=self.attached)
             self.tables.append(table_of(self.period_s, sample, dynamics))
@@ -96,17 +165,13 @@ class PoseApproach(PlatformRecovery):
     def check(self, start: int, sample: PoseSample) -> None:
         """Note an arrival among the rows of `sample` (the first is row `start`);
         RecoveryInfeasible where the platform turned too far."""
-        distance_m, angle_rad, speed_m_s, angular_speed_rad_s = self.approach.errors(sample)
+        angle_rad = self.approach.errors(sample)[1]
         if angle_rad.max() > self.turn_limit_rad:
             raise RecoveryInfeasible(
                 f'the steered approach turns the platform {math.degrees(angle_rad.max()):.0f} deg from its safe '
                 f'orientation, more than approach_turn_limit_deg ({self.config.approach_turn_limit_deg:g} deg) '
                 f'beyond where it was')
-        config, gains = self.config, self.config.approach_gains
-        arrival_rad = math.radians(config.approach_arrival_deg)
-        arrived = np.flatnonzero((distance_m <= config.approach_arrival_m) & (angle_rad <= arrival_rad)
-                                 & (speed_m_s <= gains.position_frequency_rad_s * config.approach_arrival_m)
-                                 & (angular_speed_rad_s <= gains.orientation_frequency_rad_s * arrival_rad))
+        arrived = self.arrivals(self.approach, sample)
         if self.arrival_row is None and arrived.size:
             offset = int(arrived[0])
             self.arrival_row = start + offset
@@ -155,7 +220,7 @@ def approach(naming: Naming, position_m, orientation, velocity_m_s, angular_velo
     """The steered approach from the platform's state on the naming tick (platform.named_state)."""
     return PoseApproach(naming.robot, naming.config, naming.distribution, naming.period_s, naming.attached,
                         naming.tick, position_m, orientation, velocity_m_s, angular_velocity_rad_s,
-                        naming.command_nm)
+                        naming.command_nm, naming.planner)
 
 
 class Steered(RecoveryStrategy):
