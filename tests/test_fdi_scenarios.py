@@ -20,6 +20,7 @@ from cdpr_bringup.runs.engine import run_inprocess
 from cdpr_bringup.runs.settle import ScenarioOptions
 from cdpr_control.config import Section
 from cdpr_fdi.detection.visibility import hidden_below_n, hidden_spans
+from cdpr_fdi.detectors import make_detector
 from cdpr_control.control.controller import PdGains
 from cdpr_control.point_mass.kinematics import forward_kinematics
 from cdpr_control.geometry.motions import motion_names
@@ -359,7 +360,7 @@ def test_cdpr_robot_says_where_a_break_would_leave_the_residual_below_epsilon(ca
                         '--motions', str(CONFIG_DIR / 'tall_frame_motions.yaml')])
     out = capsys.readouterr().out
     hidden = [line for line in out.splitlines() if 'a break found late' in line]
-    assert hidden and all(line.strip().startswith('elastic plant, below ε/ρ = 4.17 N') for line in hidden)
+    assert hidden and all(line.strip().startswith('elastic plant, threshold: below 4.17 N') for line in hidden)
     lift = out.split('\n  lift')[1].splitlines()[1]
     # lift's tensions (3.92–4.51 N) fall under 4.17 N for the first part of the climb only
     spans = re.findall(r'cable (\d) at (\d\.\d\d)–(\d\.\d\d)', lift)
@@ -372,6 +373,25 @@ def test_hidden_spans_are_the_rows_under_epsilon_over_rho():
     # ε / ρ = 0.03 / 0.03 = 1 N: a cable at exactly 1 N is seen
     assert hidden_spans(tension, 0.03, 0.03) == [[(2, 2)], [(0, 1), (3, 3)]]
     assert hidden_below_n(0.03, 0.03) == pytest.approx(1.0)
+    # a level per motor (the CUSUM's ν σ_i): cable 2 seen from 0.3 N
+    assert hidden_spans(tension, [0.03, 0.009], 0.03) == [[(2, 2)], [(3, 3)]]
+
+
+@pytest.mark.parametrize('detector, level', [('threshold', lambda fdi: fdi.epsilon_nm),
+                                             ('cusum', lambda fdi: fdi.cusum_drift * np.asarray(fdi.cusum_sigma_nm))])
+def test_the_least_residual_a_detector_alarms_on_is_its_epsilon_or_its_drift_times_sigma(detector, level):
+    """A steady residual just above the level alarms (the CUSUM's sum grows to its h), just
+    below it never does."""
+    scenario = every_tick_scenario(ScenarioOptions(motion='circle', fidelity='elastic', detector=detector))
+    fdi = scenario.fdi
+    least = np.broadcast_to(np.asarray(level(fdi), dtype=float), (4,))
+    np.testing.assert_allclose(make_detector(fdi).least_alarming_nm, level(fdi))
+    still = np.zeros(4)
+    for factor, alarms in ((1.02, True), (0.98, False)):
+        found = make_detector(fdi)
+        seen = any(found.update(factor * least + fdi.residual_friction.torque_nm(still), still)
+                   for _ in range(20_000))
+        assert seen == alarms, factor
 
 
 def test_a_break_near_a_corner_swings_into_the_frame_not_up_to_its_exit_points():

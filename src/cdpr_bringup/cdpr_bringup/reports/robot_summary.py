@@ -21,6 +21,7 @@ from cdpr_control.platform.statics import workspace_grid, wrench_feasible_share
 from cdpr_control.geometry.rotation import conjugate, from_axis_angle, product, to_rotation_vector
 from cdpr_control.point_mass.workspace import safe_point
 from cdpr_fdi.detection.visibility import hidden_below_n, hidden_spans
+from cdpr_fdi.detectors import make_detector
 from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.recovery_planning.recovery import RecoveryInfeasible, safe_pose_for
 from cdpr_fdi.recovery_strategies import STRATEGIES
@@ -37,8 +38,8 @@ def setting(section, name: str, text: str) -> str:
 
 def print_settings(config, robot):
     """What the robot file resolves to: its own values, the paper's defaults, derived ones.
-    Returns the recovery settings, the identification δ (N of tension) and the detection
-    threshold ε (N·m) of each plant it has one for (`thresholds`)."""
+    Returns the recovery settings, the identification δ (N of tension) and, of each plant
+    it has thresholds for, its detector (`detectors`)."""
     settings = load_config(config)
     control = settings.section('control')
     gains = PdGains.from_section(robot, control)
@@ -48,14 +49,14 @@ def print_settings(config, robot):
           if abs(frequency - asked) > 1e-9 else setting(control, 'pd_natural_frequency_hz', f'{frequency:g} Hz'))
     fdi_section = settings.section('fdi')
     fdi = load_fdi_config(config, robot)
-    thresholds = {'rigid': fdi.epsilon_nm}
+    detectors = {'rigid': make_detector(fdi)}
     recovery = load_recovery_config(config, robot)
     recovery_section = settings.section('recovery')
     try:
         calibration = calibration_for(config, fdi_section, robot, 'elastic', None)
         elastic = load_fdi_config(config, robot, Path(calibration.path))
         elastic_text = f'{Path(calibration.path).name}: ε = {elastic.epsilon_nm:g} N·m'
-        thresholds = {'rigid': fdi.epsilon_nm, 'elastic': elastic.epsilon_nm}
+        detectors = {'rigid': make_detector(fdi), 'elastic': make_detector(elastic)}
     except ConfigError as err:
         elastic_text = (f'cannot be used: {err}' if err.key != 'fdi.elastic_calibration_file'
                         else 'none (cdpr-calibrate makes one; until then --fidelity rigid)')
@@ -91,7 +92,7 @@ def print_settings(config, robot):
     print(f'  recovery SP height {heights[0]}, table {heights[1]}, move {move}, every remaining '
           f'cable planned {recovery.plan_tension_margin_n:g} N above τ_min '
           f"({recovery_section.number('plan_tension_margin_share'):g} τ_min)")
-    return recovery, delta_n, thresholds
+    return recovery, delta_n, detectors
 
 
 def motion_extremes(robot, tension_distribution, motion, period_s):
@@ -103,20 +104,22 @@ def motion_extremes(robot, tension_distribution, motion, period_s):
     return np.min(result.tension_n), np.max(result.tension_n), np.max(np.abs(result.torque_nm)), result.tension_n
 
 
-def hidden_break_lines(robot, tension_n: np.ndarray, thresholds: dict[str, float]) -> list[str]:
+def hidden_break_lines(robot, tension_n: np.ndarray, detectors: dict) -> list[str]:
     """Where along a motion (its tensions, N, rows × cables) a break would leave the
-    residual below ε on each plant (cdpr_fdi.detection.visibility): per cable, the spans
-    as fractions of the motion; such a break is found late, by the tension collapse or
-    once another cable slackens."""
+    residual below what each plant's detector alarms on (cdpr_fdi.detection.visibility):
+    per cable, the spans as fractions of the motion; such a break is found late, by the
+    tension collapse or once another cable slackens."""
     lines = []
     rows = max(len(tension_n) - 1, 1)
-    for plant, epsilon in thresholds.items():
-        below = hidden_below_n(epsilon, robot.motor.drum_radius_m)
+    radius = robot.motor.drum_radius_m
+    for plant, detector in detectors.items():
+        below = hidden_below_n(detector.least_alarming_nm, radius)
         spans = [(cable, ', '.join(f'{first / rows:.2f}–{last / rows:.2f}' for first, last in cable_spans))
-                 for cable, cable_spans in enumerate(hidden_spans(tension_n, epsilon, robot.motor.drum_radius_m))
+                 for cable, cable_spans in enumerate(hidden_spans(tension_n, detector.least_alarming_nm, radius))
                  if cable_spans]
+        level = f'{below.min():.2f}' if np.ptp(below) < 0.005 else f'{below.min():.2f}–{below.max():.2f}'
         if spans:
-            lines.append(f'      {plant} plant, below ε/ρ = {below:.2f} N (a break found late): '
+            lines.append(f'      {plant} plant, {detector.name}: below {level} N (a break found late): '
                          + '; '.join(f'cable {cable + 1} at {where}' for cable, where in spans))
     return lines
 
@@ -157,9 +160,9 @@ def print_platform(robot, config, distribution, motions, period_s: float, safe_h
     for i in range(robot.cable_count):
         share = wrench_feasible_share(robot, distribution, nominal, points, robot.cable_mask([i]))
         print(f'  cable {i + 1} broken: {share:6.1%}')
-    thresholds = {'rigid': load_fdi_config(config, robot).epsilon_nm}
+    detectors = {'rigid': make_detector(load_fdi_config(config, robot))}
     print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}), and where a break '
-          'would leave the residual below ε (rigid plant ε; fractions of the motion):')
+          'would leave the residual below what the detector sees (rigid plant; fractions of the motion):')
     print(f'  {"motion":<14} {"move s":>7} {"turn °":>7} {"min N":>7} {"max N":>7} {"max |c| N·m":>12}')
     for name in motion_names(motions):
         motion = pose_motion_from_settled(settled_motion(motions, name), nominal)
@@ -171,7 +174,7 @@ def print_platform(robot, config, distribution, motions, period_s: float, safe_h
         turn = np.degrees(abs(motion.turn.angle_rad))
         print(f'  {name:<14} {motion.move.duration_s:7.3f} {turn:7.1f} {reference.tension_n.min():7.2f} '
               f'{reference.tension_n.max():7.2f} {np.abs(reference.feedforward_nm).max():12.3f}')
-        for line in hidden_break_lines(robot, reference.tension_n, thresholds):
+        for line in hidden_break_lines(robot, reference.tension_n, detectors):
             print(line)
     recovery = load_recovery_config(config, robot)
     if safe_height is not None:
@@ -216,7 +219,7 @@ def print_point_mass(robot, config, distribution, motions, period: float, safe_h
     tension along each of `motions`."""
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, '
           f'end-effector {robot.mass_kg} kg')
-    recovery, delta_n, thresholds = print_settings(config, robot)
+    recovery, delta_n, detectors = print_settings(config, robot)
     safe_height = recovery.safe_height_m if safe_height is None else safe_height
     for i, point in enumerate(robot.exit_points_m):
         print(f'  A{i + 1} = ({point[0]:.3f}, {point[1]:.3f}, {point[2]:.3f}) m')
@@ -225,7 +228,7 @@ def print_point_mass(robot, config, distribution, motions, period: float, safe_h
         point = safe_point(robot, robot.cable_mask([i]), safe_height)
         print(f'  cable {i + 1} broken: SP = ({point[0]:.4f}, {point[1]:.4f}, {point[2]:.4f}) m')
     print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}), and where a break '
-          'would leave the residual below ε (fractions of the motion):')
+          'would leave the residual below what the detector sees (fractions of the motion):')
     print(f'  {"motion":<14} {"move s":>7} {"min N":>7} {"max N":>7} {"max |c| N·m":>12}')
     for name in motion_names(motions):
         motion = load_motion(motions, name)
@@ -238,7 +241,7 @@ def print_point_mass(robot, config, distribution, motions, period: float, safe_h
         warning = (f'  below the identification δ {delta_n:g} N: a loaded cable can look free'
                    if low < delta_n else '')
         print(f'  {name:<14} {motion.move.duration_s:7.3f} {low:7.2f} {high:7.2f} {torque:12.3f}{warning}')
-        for line in hidden_break_lines(robot, tension, thresholds):
+        for line in hidden_break_lines(robot, tension, detectors):
             print(line)
 
 

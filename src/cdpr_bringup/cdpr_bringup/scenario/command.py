@@ -21,9 +21,11 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from cdpr_fdi.detection.visibility import AT_THRESHOLD_N, hidden_below_n
+from cdpr_fdi.detectors import make_detector
 from cdpr_fdi.view.markers import Frame
 from cdpr_msgs_py.contract import DEFAULT_NAMESPACE
 from cdpr_twin.models.plant import FIDELITIES
@@ -113,10 +115,12 @@ def run_graph(args, scenario, out: Path):
 def break_visibility(scenario, failure_s: float, cable: int) -> dict:
     """What the residual could see of the first break (cdpr_fdi.detection.visibility): the
     tension (N) the reference asked of the 0-based `cable` when it parted at `failure_s`,
-    and whether that is under ε / ρ, so that a late detection was to be expected."""
+    and whether that is under what the run's detector alarms on, so that a late detection
+    was to be expected."""
     row = min(int(round(failure_s / scenario.period_s)), len(scenario.reference) - 1)
     tension = float(scenario.reference.tension_n[row, cable])
-    below = hidden_below_n(scenario.fdi.epsilon_nm, scenario.robot.motor.drum_radius_m)
+    level = hidden_below_n(make_detector(scenario.fdi).least_alarming_nm, scenario.robot.motor.drum_radius_m)
+    below = float(np.broadcast_to(level, (scenario.robot.cable_count,))[cable])
     return {'cable': cable + 1, 'reference_tension_n': tension, 'hidden_below_n': below,
             'late_detection_expected': tension < below - AT_THRESHOLD_N}
 

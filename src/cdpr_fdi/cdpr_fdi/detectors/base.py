@@ -25,3 +25,10 @@ class Detector(ABC):
     @abstractmethod
     def threshold(self) -> float:
         """The level `statistic` is compared with (for plots and diagnostics)."""
+
+    @property
+    @abstractmethod
+    def least_alarming_nm(self):
+        """The least steady residual (N·m; one number, or one per motor) this detector
+        ever alarms on: a cable that parts carrying less than that over its drum radius
+        leaves no residual it sees (cdpr_fdi.detection.visibility)."""

@@ -55,3 +55,8 @@ class CusumDetector(Detector):
     @property
     def threshold(self) -> float:
         return self.level
+
+    @property
+    def least_alarming_nm(self) -> np.ndarray:
+        # a steady residual of z = ν never grows the sum (friction aside)
+        return self.drift * self.sigma_nm

@@ -23,3 +23,7 @@ class ThresholdDetector(Detector):
     @property
     def threshold(self) -> float:
         return self.epsilon_nm
+
+    @property
+    def least_alarming_nm(self) -> float:
+        return self.epsilon_nm

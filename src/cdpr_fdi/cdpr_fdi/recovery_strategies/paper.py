@@ -22,12 +22,13 @@ slower than `settle_speed_m_s`, or `settle_timeout_s` later.
 
 A move whose tensions would come within `plan_tension_margin_n` of tension_min_n (what
 the drives' tracking, and on a redundant robot the joints' position control, takes off a
-planned tension) is planned again, braking sooner and moving slower; where no try keeps
-the margin (a light end-effector settled where the cables left hold it with little more
-than τ_min), the same tries with the margin lowered where a pose needs it, not below
-τ_min (LoweredFloor), and a note says so. When no plan fits even so, phase 1 holds the
-end-effector where it is and planning is tried again `replan_interval_s` later, until
-the timeout gives the recovery up (FAULT). Then SAFE_HOLD at SP.
+planned tension) is planned again, braking sooner and moving slower; when no plan fits,
+phase 1 holds the end-effector where it is and planning is tried again
+`replan_interval_s` later (a plan takes tens of ms, more than a tick). At the timeout,
+where no try keeps the margin still (a light end-effector settled where the cables left
+hold it with little more than τ_min), the same tries with the margin lowered where a pose
+needs it, never below τ_min (LoweredFloor), and a note says so; only when not even those
+fit is the recovery given up (FAULT). Then SAFE_HOLD at SP.
 """
 from __future__ import annotations
 
@@ -225,14 +226,15 @@ class Recovery(TabulatedMove):
         straight line. Where the tensions of a plan would leave the bounds, it is planned
         again, braking `replan_slowdown` times sooner (nearer where it is) and moving that
         much slower, at most `replan_attempts` times; then as often from no acceleration
-        (the tensions stepping to the plan's). Where none keeps the planned margin, the
-        same tries with it lowered where a pose needs it (module docstring). A failed
-        planning is not tried again before `replan_interval_s` has passed.
+        (the tensions stepping to the plan's). A failed planning is not tried again before
+        `replan_interval_s` has passed; once phase 1 has timed out, where none keeps the
+        planned margin, the same tries with it lowered where a pose needs it (module
+        docstring).
         """
-        if tick < self.next_plan_tick:
+        if tick < self.next_plan_tick and not self.timed_out:
             return False
         brake_s = self.config.brake_s(float(np.linalg.norm(velocity_m_s)))
-        for distribution in (self.distribution, self.lowered):
+        for distribution in (self.distribution, self.lowered) if self.timed_out else (self.distribution,):
             # from rest in acceleration once: a plan that asks none is not tried twice
             for acceleration in ((acceleration_m_s2, np.zeros(3)) if np.any(acceleration_m_s2)
                                  else (acceleration_m_s2,)):
