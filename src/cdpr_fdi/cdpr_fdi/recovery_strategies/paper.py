@@ -240,11 +240,15 @@ class Recovery(TabulatedMove):
                                  else (acceleration_m_s2,)):
                 for attempt in range(self.config.replan_attempts + 1):
                     slowdown = self.config.replan_slowdown ** attempt
+                    trajectory = PoseTrajectory(self.move_to_safe_point(
+                        start_m, velocity_m_s, acceleration, brake_s / slowdown, slowdown))
                     try:
-                        table = tabulate_reference(
-                            self.robot, distribution, PoseTrajectory(self.move_to_safe_point(
-                                start_m, velocity_m_s, acceleration, brake_s / slowdown, slowdown)),
-                            self.period_s, attached=self.attached)
+                        # a try whose first row no tensions pull fails with that row's error
+                        # whatever follows: found in one row, not in thousands
+                        tabulate_reference(self.robot, distribution, trajectory, self.period_s, duration_s=0.0,
+                                           attached=self.attached)
+                        table = tabulate_reference(self.robot, distribution, trajectory, self.period_s,
+                                                   attached=self.attached)
                     except InfeasibleTensionError as err:
                         # the margin's reason: the lowered floor's only says no plan holds τ_min
                         self.last_plan_error = err if distribution is self.distribution else self.last_plan_error
