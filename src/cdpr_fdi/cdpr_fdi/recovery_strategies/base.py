@@ -165,14 +165,17 @@ class StartedRecovery:
         self.notes.append(f'the move ended {where} (tolerance {config.reached_tolerance_m:g} m / '
                           f'{config.reached_tolerance_deg:g}°): re-planned from where it is '
                           f'({self.hold_replans} of {config.hold_replan_attempts})')
-        self.replan(tick, angle_rad, angular_velocity_rad_s)
+        try:
+            self.replan(tick, angle_rad, angular_velocity_rad_s)
+        except (RecoveryInfeasible, ValueError) as err:
+            raise HeldOffSafePose(f'held {where}, and no move from there: {err}') from None
         return self.step(tick, angle_rad, angular_velocity_rad_s)
 
     def replan(self, tick: int, angle_rad, angular_velocity_rad_s) -> None:
         """A move to the safe pose from where the motors say the end-effector is, from
         the tick the verdict on `tick` is due (mode RECOVERY_MOVE); RecoveryInfeasible
         where the strategy has none."""
-        raise RecoveryInfeasible(f'recovery.strategy cannot re-plan its move')
+        raise RecoveryInfeasible('the strategy re-plans no move')
 
     def bounded(self, tensions: np.ndarray | None) -> np.ndarray | None:
         """Tension setpoints (N) with the attached cables' within [τ_min, τ_max] (noted once
