@@ -75,11 +75,15 @@ class Naming:
         cables' motor angles give on the naming tick, its fallback started from the
         reference pose of the tick (all cables)."""
         tracker = PoseTracker(self.robot, self.attached, self.config.kinematics_fallback_iterations)
+        return tracker, tracker.pose(self.angle_rad, self.reference_pose())
+
+    def reference_pose(self) -> tuple | None:
+        """(position m, orientation) of the tick's joint reference, every cable's angle;
+        None where forward kinematics finds none."""
         try:
-            hint = self.robot.body.pose_of_angles(self.robot, self.reference.angle_rad)
+            return self.robot.body.pose_of_angles(self.robot, self.reference.angle_rad)
         except KinematicsError:
-            hint = None
-        return tracker, tracker.pose(self.angle_rad, hint)
+            return None
 
 
 class StartedRecovery:

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.point_mass.kinematics import cable_vectors, forward_kinematics
+from cdpr_control.point_mass.kinematics import cable_vectors
 from cdpr_control.model.reference_table import tabulate_reference
 from cdpr_control.model.robot import Robot
 from cdpr_control.point_mass.statics import static_tensions
@@ -343,8 +343,10 @@ class Paper(RecoveryStrategy):
         tracker, (position, _) = naming.named_pose()
         taut = taut_tension_n(robot, config, attached)
         entry = entry_point(robot, attached, position, taut)
-        reference = naming.reference
-        start = initial_tensions(robot, position, attached, forward_kinematics(robot, reference.angle_rad),
+        reference, reference_pose = naming.reference, naming.reference_pose()
+        if reference_pose is None:
+            raise RecoveryInfeasible('the reference angles of the naming tick fit no position')
+        start = initial_tensions(robot, position, attached, reference_pose[0],
                                  naming.reference_tensions_n, naming.command_nm - reference.feedforward_nm, taut)
         recovery = Recovery(robot, config, naming.distribution, naming.period_s, attached, naming.tick, start,
                             entry, inside=bool(np.all(entry == position)))
