@@ -149,8 +149,8 @@ def metrics_json(run: KnownRun) -> dict:
 
     The KPIs cover the ticks before the failure (or its detection): from then on the twin
     is meant to differ. The figures of the end-effector are `run.figures`: the tracking
-    error over the same ticks, recovery.min_tension_n and max_tension_n over the remaining
-    cables from then on, min_height_m the whole run; duration_s is the detection to
+    error over the same ticks, recovery.min_tension_n and max_tension_n (the plant's, measured)
+    over the remaining cables from then on, min_height_m the whole run; duration_s is the detection to
     SAFE_HOLD. Unknowable figures are None: the tracking error without ground truth,
     false_alarm when nothing tells whether a cable broke.
     """
@@ -189,6 +189,13 @@ def metrics_json(run: KnownRun) -> dict:
             'duration_s': None if hold is None or detection is None else hold - detection,
             'phase_times_s': dict(run.phase_times_s),
             'settle_timed_out': run.supervisor.get('settle_timed_out'),
+            # where the motors put the end-effector from the safe pose as the last move's end
+            # was judged (SAFE_HOLD only within reached_tolerance_m / _deg), the re-plans
+            # from there, and the ticks forward kinematics fell back on
+            'hold_error_m': run.supervisor.get('hold_error_m'),
+            **({'hold_error_deg': run.supervisor.get('hold_error_deg')} if has_orientation else {}),
+            'hold_replans': run.supervisor.get('hold_replans'),
+            'kinematics_fallbacks': run.supervisor.get('kinematics_fallbacks'),
             # a platform's: the angle (deg) from its last true orientation to the safe one
             **({'final_orientation_error_deg': final_orientation_error_deg(run)} if has_orientation else {}),
         },

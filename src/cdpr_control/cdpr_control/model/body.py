@@ -52,9 +52,18 @@ class Body(ABC):
         tension of cable i applies."""
 
     @abstractmethod
-    def pose_of_angles(self, robot, angles_rad, cables=None):
+    def pose_of_angles(self, robot, angles_rad, cables=None, start=None, iterations=None):
         """(position m, orientation) where the motor angles of `cables` (boolean mask;
-        all when None) put the end-effector: forward kinematics, from home."""
+        all when None) put the end-effector: forward kinematics, from the pose `start`
+        (home when None) in at most `iterations` steps (the body's default when None), for
+        a body whose forward kinematics iterates; KinematicsError where it finds none. A
+        recovery finds its poses through model.pose_tracking.PoseTracker, which falls
+        back where this does not converge."""
+
+    @abstractmethod
+    def orientation_error_rad(self, orientation, target) -> float:
+        """The angle (rad) from the orientation `target` to `orientation` (0 for a body
+        without one)."""
 
     @abstractmethod
     def poses_of_angles(self, robot, angles_rad, cables=None):

@@ -14,7 +14,7 @@ import numpy as np
 
 from cdpr_control.config import Section
 from cdpr_control.geometry.motions import motion_from_settled
-from cdpr_control.geometry.rotation import normalised, rotation_matrix
+from cdpr_control.geometry.rotation import difference, normalised, rotation_matrix
 from cdpr_control.model.body import Body
 from cdpr_control.platform import substeps
 from cdpr_control.model.reference_table import sampled
@@ -63,8 +63,11 @@ class Platform(Body):
     def structure_matrix(self, robot, position_m, orientation) -> np.ndarray:
         return wrench_matrix(robot, position_m, orientation)[0]
 
-    def pose_of_angles(self, robot, angles_rad, cables=None):
-        return forward_kinematics(robot, angles_rad, cables)
+    def pose_of_angles(self, robot, angles_rad, cables=None, start=None, iterations=None):
+        return forward_kinematics(robot, angles_rad, cables, start, iterations)
+
+    def orientation_error_rad(self, orientation, target) -> float:
+        return float(np.linalg.norm(difference(target, orientation)))
 
     def poses_of_angles(self, robot, angles_rad, cables=None):
         return forward_kinematics_rows(robot, np.asarray(angles_rad, dtype=float), cables)

@@ -101,13 +101,15 @@ def velocity_product(u: np.ndarray, d: np.ndarray, r: np.ndarray, velocity_m_s,
     return kappa
 
 
-def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None) -> tuple[np.ndarray, np.ndarray]:
+def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None,
+                       iterations: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The pose (p, q) whose cable lengths are those of the motor angles of `cables`
     (boolean mask; at least 6), by Gauss–Newton from `start` (a pose; the home pose when
     None): each step solves Wᵀ δ = d(x) − l in the least-squares sense for δ = (δp, δφ),
     moves p by δp and turns q by the rotation vector δφ. It stops when every length is
     met to FK_TOLERANCE_M or the step is below FK_STEP_TOLERANCE (the least-squares pose
-    of lengths with noise); KinematicsError after FK_ITERATIONS steps, or when the
+    of lengths with noise); KinematicsError after `iterations` steps (FK_ITERATIONS where
+    None; a recovery's fallback takes more, model.pose_tracking), or when the
     lengths are then still off by more than FK_RESIDUAL_LIMIT_M. Where the cables used
     lose rank on the way, the step is damped (Levenberg–Marquardt). Solved by
     platform_substeps.forward_kinematics."""
@@ -120,10 +122,11 @@ def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None) -> tup
                              else start)
     pose = np.concatenate([position, normalised(orientation)])
     exits, attachments, _ = platform_substeps.geometry_of(robot)
-    taken = platform_substeps.kernel().forward_kinematics(exits, attachments, lengths, used, pose, FK_ITERATIONS,
+    steps = FK_ITERATIONS if iterations is None else int(iterations)
+    taken = platform_substeps.kernel().forward_kinematics(exits, attachments, lengths, used, pose, steps,
                                                           FK_TOLERANCE_M, FK_STEP_TOLERANCE)
     if taken == -1:
-        raise KinematicsError(f'forward kinematics did not converge in {FK_ITERATIONS} Gauss–Newton steps')
+        raise KinematicsError(f'forward kinematics did not converge in {steps} Gauss–Newton steps')
     if taken == -2:
         raise KinematicsError('forward kinematics: the cable lengths are not numbers')
     position, orientation = pose[:3], pose[3:]

@@ -45,11 +45,16 @@ class PointMass(Body):
     def structure_matrix(self, robot, position_m, orientation) -> np.ndarray:
         return structure_matrix(robot, position_m)[0]
 
-    def pose_of_angles(self, robot, angles_rad, cables=None):
+    def pose_of_angles(self, robot, angles_rad, cables=None, start=None, iterations=None):
+        # closed form, then a few refining steps: no start or step count to choose
         return forward_kinematics(robot, np.asarray(angles_rad, dtype=float), cables), None
 
-    # forward_kinematics takes one set of angles or a stack of them alike
-    poses_of_angles = pose_of_angles
+    def poses_of_angles(self, robot, angles_rad, cables=None):
+        # forward_kinematics takes one set of angles or a stack of them alike
+        return forward_kinematics(robot, np.asarray(angles_rad, dtype=float), cables), None
+
+    def orientation_error_rad(self, orientation, target) -> float:
+        return 0.0
 
     def motion_terms(self, robot, poses, twists, twist_rates):
         return motion_terms(robot, poses, twists, twist_rates)

@@ -83,13 +83,15 @@ class WrenchBalance:
                                              structure @ tensions.mean(axis=0))
 
 
-def placement(robot: Robot, angle_rad, angular_velocity_rad_s, taut: np.ndarray):
+def placement(robot: Robot, angle_rad, angular_velocity_rad_s, taut: np.ndarray, pose=None):
     """The end-effector as the `taut` cables place and move it: (position m, orientation
     or None for a point mass, twist — ṗ (m/s), or a platform's (v, ω) — and the wrench
-    matrix at the pose). The pose by forward kinematics of their angles, the twist from
+    matrix at the pose). The pose by forward kinematics of their angles (`pose` where the
+    caller found it: a recovery's, model.pose_tracking), the twist from
     their speeds, ρ θ̇_j = −w_jᵀ twist, in the least-squares sense (as sharp as the speeds,
     where differentiating poses would amplify their quantisation)."""
-    position, orientation = robot.body.pose_of_angles(robot, np.asarray(angle_rad, float), taut)
+    position, orientation = (robot.body.pose_of_angles(robot, np.asarray(angle_rad, float), taut)
+                             if pose is None else pose)
     structure = robot.body.structure_matrix(robot, position, orientation)
     twist, *_ = np.linalg.lstsq(structure[:, taut].T,
                                 -robot.motor.drum_radius_m * np.asarray(angular_velocity_rad_s, float)[taut],

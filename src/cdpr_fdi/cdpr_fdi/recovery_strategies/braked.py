@@ -100,6 +100,7 @@ class PoseRecovery(PlatformRecovery):
             np.asarray(velocity_m_s, dtype=float), np.asarray(angular_velocity_rad_s, dtype=float), command_nm,
             period_s))
         ease_in(self.brake, command_nm, config.command_step_share, self.attached, robot.motor.drum_radius_m)
+        self.bounded_table(self.brake)
         # the brake's last row (its rest, where the move starts), once the brake is settled
         self.brake_end_tick: int | None = None
         self.planned_move = None
@@ -250,7 +251,7 @@ class PoseRecovery(PlatformRecovery):
                 continue
             least = table.tension_n[:, self.attached].min(axis=1)
             if least.min() >= floor:
-                return table, ''
+                return self.bounded_table(table), ''
             if not short:
                 where = table.position_m[int(np.argmax(least < floor))]
                 short = (f'{self.margin.tension_min_n:g} N not kept from p = '
@@ -259,10 +260,11 @@ class PoseRecovery(PlatformRecovery):
                     slowest_on_ties and least.min() > best_least - LEAST_TENSION_RESOLUTION_N):
                 best, best_least = table, float(least.min())
         if best is not None:
-            return best, (f'{part} cannot keep the planned tension margin ({short}): planned with the margin '
-                          f'each pose allows, the least tension {best_least:.2f} N')
-        return (tabulate_reference(self.robot, FlooredLeastSquares(self.lowered), tries[-1], self.period_s,
-                                   attached=self.attached),
+            return self.bounded_table(best), (
+                f'{part} cannot keep the planned tension margin ({short}): planned with the margin each pose '
+                f'allows, the least tension {best_least:.2f} N')
+        return (self.bounded_table(tabulate_reference(self.robot, FlooredLeastSquares(self.lowered), tries[-1],
+                                                      self.period_s, attached=self.attached)),
                 f'{part} cannot keep the planned tension margin ({short}); no try keeps every cable at '
                 f'{self.robot.tension_min_n:g} N: the last planned nearest the bounds')
 
@@ -281,6 +283,16 @@ class PoseRecovery(PlatformRecovery):
         if others:
             tables = tabulate_references(self.robot, self.lowered, others, self.period_s, self.attached)
             yield from tables[:first] + ([alone] if first else []) + tables[first:]
+
+    def replan(self, tick: int, angle_rad, angular_velocity_rad_s) -> None:
+        """The move to the safe pose planned again from where the motors say the platform
+        is, from the tick the verdict on `tick` is due, at once (StartedRecovery.replan):
+        the drives hold the last reference meanwhile, the platform at rest."""
+        position, orientation = self.pose(angle_rad)
+        self.move, note = self.plan_move(np.asarray(position, dtype=float), normalised(orientation))
+        self.move_start_tick = tick + VERDICT_DELAY_TICKS
+        self.notes += [note] if note else []
+        self.mode = RECOVERY_MOVE
 
     def take_move(self, tick: int) -> None:
         """The move, once planned: its first row (the brake's rest) on the brake's last
@@ -359,9 +371,12 @@ class Braked(RecoveryStrategy):
         prepare_platform(robot, config)
 
     def start(self, naming: Naming) -> StartedRecovery:
-        state = position, orientation, velocity, angular_velocity = named_state(naming)
+        tracker, state = named_state(naming)
+        position, orientation, velocity, angular_velocity = state
         if tension_margin_n(naming.robot, position, orientation, naming.attached) < 0.0:
-            return approach(naming, *state)
-        return PoseRecovery(naming.robot, naming.config, naming.distribution, naming.period_s, naming.attached,
-                            naming.tick, position, orientation, velocity, angular_velocity, naming.command_nm,
-                            naming.planner)
+            return approach(naming, tracker, state)
+        recovery = PoseRecovery(naming.robot, naming.config, naming.distribution, naming.period_s, naming.attached,
+                                naming.tick, position, orientation, velocity, angular_velocity, naming.command_nm,
+                                naming.planner)
+        recovery.tracker = tracker
+        return recovery

@@ -27,8 +27,11 @@ from .base import Naming, RecoveryStrategy, TabulatedMove
 class LineMove(TabulatedMove):
     """The line, tabulated per tick from the naming tick on (row 0 its state)."""
 
-    def __init__(self, start_tick: int, table, safe_point_m: np.ndarray):
+    def __init__(self, naming: Naming, table, safe_point_m: np.ndarray, tracker):
         super().__init__()
+        start_tick = naming.tick
+        self.robot, self.config, self.period_s = naming.robot, naming.config, naming.period_s
+        self.attached, self.tracker = naming.attached.copy(), tracker
         self.safe_point_m = safe_point_m
         self.move = (start_tick, table)
         self.mode = RECOVERY_MOVE
@@ -55,7 +58,8 @@ class Line(RecoveryStrategy):
 
     def start(self, naming: Naming) -> LineMove:
         robot, config, attached = naming.robot, naming.config, naming.attached
-        position, _, velocity, _ = placement(robot, naming.angle_rad, naming.angular_velocity_rad_s, attached)
+        tracker, pose = naming.named_pose()
+        position, _, velocity, _ = placement(robot, naming.angle_rad, naming.angular_velocity_rad_s, attached, pose)
         safe = safe_point_for(robot, config, attached)
         # as long as the paper's move to SP would take from rest, and at least as long as
         # its brake from this speed
@@ -71,4 +75,4 @@ class Line(RecoveryStrategy):
             table = tabulate_reference(robot, distribution, PoseTrajectory(path), naming.period_s, attached=attached)
         except InfeasibleTensionError as err:
             raise RecoveryInfeasible(f'no straight line to SP keeps the tensions within their bounds: {err}') from None
-        return LineMove(naming.tick, table, safe)
+        return LineMove(naming, table, safe, tracker)

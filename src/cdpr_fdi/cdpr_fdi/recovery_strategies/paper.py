@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.point_mass.kinematics import cable_vectors, forward_kinematics
+from cdpr_control.point_mass.kinematics import cable_vectors
 from cdpr_control.model.reference_table import tabulate_reference
 from cdpr_control.model.robot import Robot
 from cdpr_control.point_mass.statics import static_tensions
@@ -195,7 +195,7 @@ class Recovery(TabulatedMove):
     def end_effector_state(self, angle_rad, angular_velocity_rad_s):
         """Position (m, forward kinematics of the remaining cables) and velocity (m/s):
         l̇ = −S_Rᵀ ṗ = ρ θ̇  ⇒  ṗ = −(S_Rᵀ)⁺ ρ θ̇ (eq. 17)."""
-        position = forward_kinematics(self.robot, np.asarray(angle_rad, dtype=float), self.attached)
+        position, _ = self.pose(angle_rad)
         u, _ = cable_vectors(self.robot.exit_points_m[self.attached], position)
         velocity, *_ = np.linalg.lstsq(
             u, -self.robot.motor.drum_radius_m * np.asarray(angular_velocity_rad_s)[self.attached],
@@ -253,6 +253,7 @@ class Recovery(TabulatedMove):
                         # the margin's reason: the lowered floor's only says no plan holds τ_min
                         self.last_plan_error = err if distribution is self.distribution else self.last_plan_error
                         continue
+                    self.bounded_table(table)
                     if distribution is self.lowered:
                         self.notes.append(
                             f'the move to SP cannot keep the planned tension margin ({self.last_plan_error}): '
@@ -264,6 +265,16 @@ class Recovery(TabulatedMove):
                     return True
         self.next_plan_tick = tick + max(round(self.config.replan_interval_s / self.period_s), 1)
         return False
+
+    def replan(self, tick: int, angle_rad, angular_velocity_rad_s) -> None:
+        """The move to SP planned again from where the motors say the end-effector is
+        (StartedRecovery.replan; RecoveryInfeasible where no plan holds), RECOVERY_MOVE
+        still dated from the first move."""
+        position, velocity = self.end_effector_state(angle_rad, angular_velocity_rad_s)
+        started, self.next_plan_tick = self.phase_ticks.get(RECOVERY_MOVE, tick), tick
+        if not self.plan_move(tick, position, velocity, np.zeros(3)):
+            raise self.last_plan_error or RecoveryInfeasible('no move to SP from where the move ended')
+        self.phase_ticks[RECOVERY_MOVE] = started
 
     def acceleration_m_s2(self, position_m: np.ndarray, tensions_n: np.ndarray) -> np.ndarray:
         """p̈ = (S_R t_R + m g) / m: what the remaining cables' tensions (N) do to the
@@ -335,11 +346,15 @@ class Paper(RecoveryStrategy):
 
     def start(self, naming: Naming) -> Recovery:
         robot, config, attached = naming.robot, naming.config, naming.attached
-        position = forward_kinematics(robot, naming.angle_rad, attached)
+        tracker, (position, _) = naming.named_pose()
         taut = taut_tension_n(robot, config, attached)
         entry = entry_point(robot, attached, position, taut)
-        reference = naming.reference
-        start = initial_tensions(robot, position, attached, forward_kinematics(robot, reference.angle_rad),
+        reference, reference_pose = naming.reference, naming.reference_pose()
+        if reference_pose is None:
+            raise RecoveryInfeasible('the reference angles of the naming tick fit no position')
+        start = initial_tensions(robot, position, attached, reference_pose[0],
                                  naming.reference_tensions_n, naming.command_nm - reference.feedforward_nm, taut)
-        return Recovery(robot, config, naming.distribution, naming.period_s, attached, naming.tick, start, entry,
-                        inside=bool(np.all(entry == position)))
+        recovery = Recovery(robot, config, naming.distribution, naming.period_s, attached, naming.tick, start,
+                            entry, inside=bool(np.all(entry == position)))
+        recovery.tracker = tracker
+        return recovery

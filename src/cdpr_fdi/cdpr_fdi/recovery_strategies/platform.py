@@ -29,10 +29,18 @@ def prepare_platform(robot: Robot, config) -> None:
 
 
 def named_state(naming: Naming):
-    """(position m, orientation, velocity m/s, angular velocity rad/s) of the platform as
-    the remaining cables place and move it on the naming tick (wrench_balance.placement)."""
-    position, orientation, twist, _ = placement(naming.robot, naming.angle_rad, naming.angular_velocity_rad_s,
-                                                naming.attached)
+    """The recovery's pose tracker (Naming.named_pose) and (position m, orientation,
+    velocity m/s, angular velocity rad/s) of the platform as the remaining cables place
+    and move it on the naming tick (wrench_balance.placement)."""
+    tracker, pose = naming.named_pose()
+    return tracker, moving_state(naming.robot, naming.angle_rad, naming.angular_velocity_rad_s, naming.attached,
+                                 pose)
+
+
+def moving_state(robot: Robot, angle_rad, angular_velocity_rad_s, attached: np.ndarray, pose):
+    """(position m, orientation, velocity m/s, angular velocity rad/s) of the platform at
+    `pose`, its twist from the `attached` cables' motor speeds (wrench_balance.placement)."""
+    position, orientation, twist, _ = placement(robot, angle_rad, angular_velocity_rad_s, attached, pose)
     return position, orientation, twist[:3], twist[3:]
 
 
@@ -94,5 +102,5 @@ class PlatformRecovery(StartedRecovery):
         self.first_tick = start_tick + VERDICT_DELAY_TICKS
 
     def summary(self) -> dict:
-        """The safe orientation, a unit quaternion (w, x, y, z)."""
-        return {'safe_orientation': self.safe_orientation.tolist()}
+        """StartedRecovery's, and the safe orientation, a unit quaternion (w, x, y, z)."""
+        return {**super().summary(), 'safe_orientation': self.safe_orientation.tolist()}

@@ -44,7 +44,8 @@ from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 from ..recovery_planning.planning import PlanAtOnce
 from ..recovery_planning.recovery import RecoveryInfeasible
 from .base import Naming, RecoveryStrategy, table_reference
-from .platform import PlatformRecovery, after_the_naming_tick, ease_in, named_state, prepare_platform
+from .platform import (PlatformRecovery, after_the_naming_tick, ease_in, moving_state, named_state,
+                       prepare_platform)
 
 # Rows are stepped and tabulated this many at a time (the rows do not depend on it): a
 # realtime supervisor's tick is held up ~0.35 ms once every ten ticks for them (~0.27 ms of
@@ -71,23 +72,44 @@ class PoseApproach(PlatformRecovery):
         # acts but on a rounding at a bound
         self.distribution = FlooredLeastSquares(self.lowered)
         self.command_nm = np.asarray(command_nm, dtype=float)
+        self.eased = False
         start = after_the_naming_tick(robot, self.attached, np.asarray(position_m, dtype=float),
                                       normalised(orientation), np.asarray(velocity_m_s, dtype=float),
                                       np.asarray(angular_velocity_rad_s, dtype=float), self.command_nm, period_s)
         self.planner = planner or PlanAtOnce()
+        self.row_limit = math.ceil(config.approach_limit_s / period_s)
+        self.steer_from(start)
+        self.notes.append('steered to the safe pose under tensions within their bounds')
+
+    def steer_from(self, start: PoseSample) -> None:
+        """The approach from the state `start` on the row first_tick, with the configured
+        pull, stepped ahead by the planner, tabulated as asked."""
+        config = self.config
         # the try under way, the row of the recovery its first row is, and its gains
         self.gains, self.approach_row = config.approach_gains, 0
         self.approach = self.steered(start, self.gains)
         self.turn_limit_rad = (self.approach.errors(self.approach.samples(0, 1))[1][0]
                                + math.radians(config.approach_turn_limit_deg))
-        self.row_limit = math.ceil(config.approach_limit_s / period_s)
         self.slowdowns = 0
         # whether the try under way, stepped ahead to its end, turns too far (a Future)
         self.look_ahead = self.planner.submit(self.turns_too_far, start, self.gains, 0, urgent=True)
         self.tables: list[ReferenceTable] = []
         self.arrival_row: int | None = None
         self.hold: JointReference | None = None
-        self.notes.append('steered to the safe pose under tensions within their bounds')
+
+    def replan(self, tick: int, angle_rad, angular_velocity_rad_s) -> None:
+        """Steered again from where the motors say the platform is, from the tick the
+        verdict on `tick` is due (StartedRecovery.replan), its first row not eased in (the
+        drives hold the last reference)."""
+        position, orientation, velocity, angular_velocity = moving_state(
+            self.robot, angle_rad, angular_velocity_rad_s, self.attached, self.pose(angle_rad))
+        zero = np.zeros(3)
+        self.first_tick = tick + VERDICT_DELAY_TICKS
+        self.eased = True
+        self.steer_from(PoseSample(np.asarray(position, dtype=float), normalised(orientation),
+                                   np.asarray(velocity, dtype=float), np.asarray(angular_velocity, dtype=float),
+                                   zero, zero))
+        self.mode = RECOVERY_MOVE
 
     def steered(self, start: PoseSample, gains: ApproachGains) -> SteeredApproach:
         """A try from `start` to the safe pose with the pull `gains`."""
@@ -158,9 +180,11 @@ class PoseApproach(PlatformRecovery):
             self.check(start, sample)
             dynamics = inverse_dynamics(self.robot, self.distribution, *sample.motion, attached=self.attached)
             self.tables.append(table_of(self.period_s, sample, dynamics))
-            if start == 0:
+            if start == 0 and not self.eased:
+                self.eased = True
                 ease_in(self.tables[0], self.command_nm, self.config.command_step_share, self.attached,
                         self.robot.motor.drum_radius_m)
+            self.bounded_table(self.tables[-1])
 
     def check(self, start: int, sample: PoseSample) -> None:
         """Note an arrival among the rows of `sample` (the first is row `start`);
@@ -216,11 +240,13 @@ class PoseApproach(PlatformRecovery):
         return planned
 
 
-def approach(naming: Naming, position_m, orientation, velocity_m_s, angular_velocity_rad_s) -> PoseApproach:
-    """The steered approach from the platform's state on the naming tick (platform.named_state)."""
-    return PoseApproach(naming.robot, naming.config, naming.distribution, naming.period_s, naming.attached,
-                        naming.tick, position_m, orientation, velocity_m_s, angular_velocity_rad_s,
-                        naming.command_nm, naming.planner)
+def approach(naming: Naming, tracker, state) -> PoseApproach:
+    """The steered approach from the platform's state on the naming tick and the pose
+    tracker that found it (platform.named_state)."""
+    recovery = PoseApproach(naming.robot, naming.config, naming.distribution, naming.period_s, naming.attached,
+                            naming.tick, *state, naming.command_nm, naming.planner)
+    recovery.tracker = tracker
+    return recovery
 
 
 class Steered(RecoveryStrategy):

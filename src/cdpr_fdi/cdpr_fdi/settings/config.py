@@ -176,6 +176,10 @@ class RecoveryConfig:
     brake_lift_m_s2: float
     committed_brake_s: float
     reached_tolerance_m: float
+    reached_tolerance_deg: float
+    hold_settle_s: float
+    hold_replan_attempts: int
+    kinematics_fallback_iterations: int
     hold_after_s: float
     swing_damping_ratio: float
     safe_pose_turns_deg: tuple[float, ...]
@@ -218,7 +222,8 @@ class RecoveryConfig:
         move = self.move_s(max(float(np.linalg.norm(np.asarray(safe_point_m) - rest)),
                                float(np.linalg.norm(farthest))))
         slowest_move = move * self.replan_slowdown ** self.replan_attempts
-        braked = self.tension_phase_s + self.settle_timeout_s + brake + slowest_move
+        # a move that ended off the safe pose: held to settle (no re-plan is scheduled for)
+        braked = self.tension_phase_s + self.settle_timeout_s + brake + slowest_move + self.hold_settle_s
         return (max(braked, self.approach_limit_s) if STRATEGIES[self.strategy].steers else braked) + self.hold_after_s
 
     @classmethod
@@ -271,6 +276,10 @@ class RecoveryConfig:
             brake_lift_m_s2=recovery.number('brake_lift_m_s2', non_negative=True),
             committed_brake_s=recovery.number('committed_brake_s', non_negative=True),
             reached_tolerance_m=recovery.number('reached_tolerance_m', positive=True),
+            reached_tolerance_deg=recovery.number('reached_tolerance_deg', positive=True, maximum=180.0),
+            hold_settle_s=recovery.number('hold_settle_s', non_negative=True),
+            hold_replan_attempts=recovery.integer('hold_replan_attempts', minimum=0),
+            kinematics_fallback_iterations=recovery.integer('kinematics_fallback_iterations', minimum=1),
             hold_after_s=recovery.number('hold_after_s', non_negative=True),
             swing_damping_ratio=recovery.number('swing_damping_ratio', non_negative=True),
             safe_pose_turns_deg=tuple(turns.tolist()),

@@ -212,10 +212,11 @@ class Supervisor:
         if self.recovery is not None and self.mode != FAULT:
             previous_mode = self.mode
             try:
-                self.mode, tensions, setpoint = self.recovery.setpoint(tick, angle_rad,
-                                                                       angular_velocity_rad_s)
+                # SAFE_HOLD only at the safe pose (StartedRecovery.step)
+                self.mode, tensions, setpoint = self.recovery.step(tick, angle_rad, angular_velocity_rad_s)
             except (ValueError, RecoveryInfeasible, np.linalg.LinAlgError) as err:
-                # the pose cannot be found or the move to SP cannot be planned: hold
+                # no pose was ever found, the move to SP cannot be planned, or it ended
+                # off the safe pose and re-planning did not help: hold
                 self.mode, tensions, setpoint = FAULT, None, None
                 self.fault_reason = f'recovery failed at tick {tick}: {err}'
             events += self.recovery.take_notes()
