@@ -127,7 +127,9 @@ def table_line(label: str, plant: str, found: dict, tension_min_n: float | None)
             f'| {found["reached"]} ({found["reached_where_held"]} of {found["could_hold"]}) '
             f'| {_fmt(found["delay_median_ms"], 2)} / {_fmt(found["delay_p95_ms"], 2)} / {_fmt(found["delay_max_ms"], 2)} '
             f'| {_fmt(found["least_tension_n"], 2)} / {bound} '
-            f'| {found["failure_free_runs"]}, {found["false_alarms"]} |')
+            f'| {found["failure_free_runs"]}, {found["false_alarms"]}'
+            + (f' ({found["failure_free_not_completed"]} not completed)' if found['failure_free_not_completed'] else '')
+            + ' |')
 
 
 def table(rows: list[dict], members) -> list[str]:

@@ -19,15 +19,17 @@ from ..cli import UsageError
 from ..runs.settle import NO_CALIBRATION, ScenarioOptions, build_scenario
 
 LINES = 3
-# a line's half length, as a share of the workspace box's half size along its direction
+# a line's half length: a share of the workspace box's half size along its direction, at
+# most a length (a big frame's motions as long as a small one's: runs of seconds)
 LINE_REACH_SHARE = 0.8
+LINE_REACH_MOST_M = 0.5
 TURN_DEG = (5.0, 15.0)
 # each try shrinks the line (and its turn) towards home by this factor, at most so often
 SHRINK_FACTOR = 0.6
 SHRINKS = 6
 # a line shorter than this is not a motion
 SHORTEST_LINE_M = 0.05
-MOTION_DEFAULTS = {'peak_speed_m_s': 0.3, 'rest_before_s': 0.5, 'rest_after_s': 1.0}
+MOTION_DEFAULTS = {'peak_speed_m_s': 0.4, 'rest_before_s': 0.5, 'rest_after_s': 1.0}
 
 
 @dataclass
@@ -87,7 +89,7 @@ def draw_motions(rng: np.random.Generator, robot_path: Path, motions_path: Path,
         direction = rng.normal(size=3)
         direction /= np.linalg.norm(direction)
         # as far as the box allows along the direction, a share of it
-        reach = LINE_REACH_SHARE * float(np.min(half / np.maximum(np.abs(direction), 1e-12)))
+        reach = min(LINE_REACH_SHARE * float(np.min(half / np.maximum(np.abs(direction), 1e-12))), LINE_REACH_MOST_M)
         axis = rng.normal(size=3)
         turn = None if turned else [axis / np.linalg.norm(axis), float(rng.uniform(*TURN_DEG))]
         for _ in range(SHRINKS + 1):
