@@ -70,7 +70,7 @@ def test_a_small_family_is_judged_by_the_rules(tmp_path):
     assert len(free) == 3 * 2 and not any(row['false_alarm'] for row in free)
     assert found['cases'] == []
     for member in found['members']:
-        assert member.robot_file.parent == tmp_path / 'robots' and member.calibration.exists()
+        assert member.robot_file.parent == tmp_path.resolve() / 'robots' and member.calibration.exists()
     assert (tmp_path / 'summary.csv').read_text().count('\n') == len(found['rows']) + 1
     assert '| **all** | all |' in (tmp_path / 'summary.md').read_text()
 

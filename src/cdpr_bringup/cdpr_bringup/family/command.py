@@ -97,7 +97,8 @@ def draw_family(options: FamilyOptions, out: Path) -> tuple[list[Member], dict]:
     motion, drawn from `options.seed`; and the drawing's tally (draws, refusals by why)."""
     rng = np.random.default_rng(options.seed)
     members, refused, draws = [], Counter(), 0
-    robots, rejected = out / 'robots', out / 'refused'
+    # absolute: a Dask worker (--scheduler) reads them from its own working folder
+    robots, rejected = out.resolve() / 'robots', out.resolve() / 'refused'
     while len(members) < options.count:
         if draws >= DRAWS_PER_ROBOT_MOST * options.count:
             raise UsageError(f'--count {options.count}: {draws} robots drawn from --seed {options.seed}, only '
