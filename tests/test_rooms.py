@@ -25,7 +25,7 @@ PACKAGES = {
 }
 # Rooms a package must have, as a check that the rooms are read at all.
 EXPECTED = {
-    'cdpr_bringup': {'runs', 'bags', 'reports', 'graph', 'scenario', 'campaigns', 'bench'},
+    'cdpr_bringup': {'runs', 'bags', 'reports', 'graph', 'scenario', 'campaigns', 'bench', 'family'},
     'cdpr_control': {'model', 'point_mass', 'platform', 'geometry', 'control', 'setup'},
     'cdpr_twin': {'models', 'nodes'},
     'cdpr_msgs_py': {'runtime'},

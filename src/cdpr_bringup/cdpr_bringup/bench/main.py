@@ -12,7 +12,8 @@ workers (cdpr_bringup.bench.campaign). run: one whole cdpr-scenario run, and its
 (cdpr_bringup.bench.run). cycle: the in-process engine with the elastic sub-steps compiled
 and in pure Python, and the µs of each stage of a cycle (cdpr_bringup.bench.cycle).
 recorder: whether the bag keeps every tick in realtime with outside readers frozen or
-reading (cdpr_bringup.bench.recorder).
+reading (cdpr_bringup.bench.recorder). robots: robots drawn from --seed, calibrated, every
+cable broken at --instants random instants, the stack judged on them (cdpr_bringup.family).
 """
 from __future__ import annotations
 
@@ -161,6 +162,17 @@ def _plants(text: str) -> list[str]:
     return plants
 
 
+def _list(text: str) -> tuple[str, ...]:
+    return tuple(item.strip() for item in text.split(',') if item.strip())
+
+
+def _seeds(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(item) for item in _list(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError('plant seeds are integers, comma-separated, e.g. 0,1,2') from None
+
+
 def _counts(text: str) -> list[int]:
     counts = [int(item) for item in text.split(',') if item.strip()]
     if not counts or min(counts) < 1:
@@ -191,7 +203,7 @@ SUITES = {
 @command('cdpr-bench')
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument('suite', choices=['model', 'soak', *SUITES], help='what to measure')
+    parser.add_argument('suite', choices=['model', 'soak', *SUITES, 'robots'], help='what to measure')
     parser.add_argument('--minutes', type=float, default=10.0, help='soak: how long')
     parser.add_argument('--config', default=DEFAULT_ROBOT, help='robot YAML')
     parser.add_argument('--json', action='store_true', help='print one JSON object last')
@@ -200,7 +212,8 @@ def main(argv=None):
                         help='fdi, roc, sweep, campaign, far: the plant')
     parser.add_argument('--workers', type=_counts, default=[1, 2],
                         help='campaign: Dask worker counts, comma-separated (default 1,2)')
-    parser.add_argument('--jobs', type=int, default=None, help='fdi, roc, sweep, far: parallel runs (default: cores)')
+    parser.add_argument('--jobs', type=int, default=None,
+                        help='fdi, roc, sweep, far, robots: parallel runs (default: cores)')
     parser.add_argument('--hours', type=float, default=1.0,
                         help='far: simulated hours of failure-free motion per plant (default 1)')
     parser.add_argument('--plants', type=_plants,
@@ -209,8 +222,19 @@ def main(argv=None):
                         help='far: the sensitivities, factors on the calibrated thresholds, comma-separated '
                              f'(default {",".join(f"{f:g}" for f in FACTORS)})')
     parser.add_argument('--scheduler', metavar='ADDRESS',
-                        help='far: run on the workers of this Dask scheduler (tcp://HOST:PORT) '
+                        help='far, robots: run on the workers of this Dask scheduler (tcp://HOST:PORT) '
                              'instead of local processes')
+    # robots: every default is FamilyOptions'
+    parser.add_argument('--count', type=int, help='robots: how many robots to draw (default 5)')
+    parser.add_argument('--seed', type=int, help='robots: the seed they are drawn from (default 0)')
+    parser.add_argument('--instants', type=int,
+                        help='robots: random instants each cable breaks at, on each plant (default 3)')
+    parser.add_argument('--fidelities', type=_list, help='robots: the plants, comma-separated (default rigid,elastic)')
+    parser.add_argument('--cables', type=int, help='robots: cables broken per robot, drawn (default: every cable)')
+    parser.add_argument('--calibration-seeds', type=_seeds,
+                        help="robots: the calibration's plant seeds, comma-separated (default 0,1,2)")
+    parser.add_argument('--calibration-motions', type=int,
+                        help="robots: the calibration's first N motions of each robot (default: all)")
     args = parser.parse_args(argv)
     # a refused robot is said here, in one line, before any suite starts its workers
     load_robot(config_file(args.config))
@@ -223,6 +247,19 @@ def main(argv=None):
             print(f'  {key:<28} {value}')
         for label, value, target, met in targets(figures):
             print(f'  {label:<38} {value:>24}  {target:<10} {"yes" if met else "NO"}')
+    elif args.suite == 'robots':
+        from ..family.command import bench_robots, settle_family, table
+        options = settle_family(count=args.count, seed=args.seed, instants=args.instants, fidelities=args.fidelities,
+                                cables=args.cables, calibration_seeds=args.calibration_seeds,
+                                calibration_motions=args.calibration_motions, jobs=args.jobs,
+                                scheduler=args.scheduler, out=out)
+        heading = (f'cdpr-bench robots on {machine()}: --count {options.count} --seed {options.seed} '
+                   f'--instants {options.instants} --fidelities {",".join(options.fidelities)}')
+        found = bench_robots(options, heading)
+        print(heading)
+        print('\n'.join(table(found)))
+        figures = {'robots': len(found['members']), 'draws': found['drawing']['draws'],
+                   'cases': len(found['cases']), 'runs': len(found['rows'])}
     elif args.suite in SUITES:
         arguments, heading = SUITES[args.suite]
         # imported only for its suite (bench_graph loads rclpy, bench_campaign Dask)

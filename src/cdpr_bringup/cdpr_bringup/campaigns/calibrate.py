@@ -18,6 +18,7 @@ import math
 import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import yaml
@@ -119,28 +120,36 @@ def from_far(path: str, fidelity: str, target_per_hour: float, out: Path) -> int
     return 0
 
 
-@command('cdpr-calibrate')
-def main(argv=None):
-    args = parse_args(argv)
-    if args.from_far:
-        return from_far(args.from_far, args.fidelity, args.false_alarms_per_hour, Path(args.out))
-    config, motions = config_file(args.config), config_file(args.motions)
-    seeds = [int(seed) for seed in args.seeds.split(',')]
-    jobs = [(str(config), str(motions), motion, reverse, args.fidelity, seed)
-            for motion in motion_names(motions) for reverse in (False, True) for seed in seeds]
-    # settled here first, so that a refused robot or motion is said before a worker starts
+@dataclass
+class Calibrated:
+    """What `calibrate_robot` found: the calibration document (as written to FILE), the
+    fit it came from, the friction the twin models (N·m) and the number of runs."""
+
+    document: dict
+    result: object
+    twin_friction_nm: float
+
+
+def calibrate_robot(config: Path, motions: Path, fidelity: str, seeds: list[int], jobs: int,
+                    false_alarms_per_hour: float, drift: float | None = None,
+                    motion_set: list[str] | None = None) -> Calibrated:
+    """The core of cdpr-calibrate: every motion of `motions` (or those of `motion_set`), both
+    directions, each seed, run failure-free on the `fidelity` plant in `jobs` processes, and
+    the thresholds fitted to them; every run settled first, so that a refused robot or
+    motion is said (ConfigError, UsageError) before a worker starts."""
+    work = [(str(config), str(motions), motion, reverse, fidelity, seed)
+             for motion in (motion_set or motion_names(motions)) for reverse in (False, True) for seed in seeds]
     robot = load_robot(config)
-    friction = [scenario_of(job) for job in jobs][0].twin_friction
+    friction = [scenario_of(job) for job in work][0].twin_friction
     twin_friction_nm = 0.0 if friction is None else friction.coulomb_nm
-    print(f'cdpr-calibrate: {len(jobs)} failure-free runs on the {args.fidelity} plant', flush=True)
-    with ProcessPoolExecutor(max(args.jobs, 1)) as pool:
-        runs = list(pool.map(failure_free_run, jobs))
+    with ProcessPoolExecutor(max(jobs, 1)) as pool:
+        runs = list(pool.map(failure_free_run, work))
     control = load_section(config, 'control')
-    drift = (args.drift if args.drift is not None
+    drift = (drift if drift is not None
              else load_section(config, 'fdi').section('cusum').number('drift', non_negative=True))
     result = calibrate(runs, control.number('period_s', positive=True),
                        control.number('coulomb_smoothing_rad_s', positive=True), drift,
-                       args.false_alarms_per_hour, twin_friction_nm)
+                       false_alarms_per_hour, twin_friction_nm)
     document = {
         'fdi': {
             'coulomb_friction_nm': round(result.coulomb_friction_nm, 5),
@@ -154,13 +163,28 @@ def main(argv=None):
         'calibration': {
             'robot': robot.name, 'robot_fingerprint': robot.fingerprint(),
             'date': datetime.date.today().isoformat(),
-            'fidelity': args.fidelity, 'seeds': seeds, 'runs': len(runs),
+            'fidelity': fidelity, 'seeds': list(seeds), 'runs': len(runs),
             'hours': round(result.hours, 4),
-            'target_false_alarms_per_hour': args.false_alarms_per_hour,
+            'target_false_alarms_per_hour': false_alarms_per_hour,
             'largest_residual_nm': round(result.largest_residual_nm, 5),
             'largest_cusum': round(result.largest_cusum, 3),
         },
     }
+    return Calibrated(document, result, twin_friction_nm)
+
+
+@command('cdpr-calibrate')
+def main(argv=None):
+    args = parse_args(argv)
+    if args.from_far:
+        return from_far(args.from_far, args.fidelity, args.false_alarms_per_hour, Path(args.out))
+    config, motions = config_file(args.config), config_file(args.motions)
+    seeds = [int(seed) for seed in args.seeds.split(',')]
+    runs = len(motion_names(motions)) * 2 * len(seeds)
+    print(f'cdpr-calibrate: {runs} failure-free runs on the {args.fidelity} plant', flush=True)
+    calibrated = calibrate_robot(config, motions, args.fidelity, seeds, args.jobs, args.false_alarms_per_hour,
+                                 args.drift)
+    document, result, twin_friction_nm = calibrated.document, calibrated.result, calibrated.twin_friction_nm
     out = Path(args.out)
     write_calibration(out, document)
     print(f'  {result.hours * 60:.1f} min of failure-free motion in {result.runs} runs')

@@ -1,0 +1,90 @@
+"""cdpr-bench robots: robots drawn from a seed are robots the project accepts, with motions
+inside their wrench-feasible workspace; and on a small family the stack names the right
+cable, FAULTs only where the cables left cannot hold the pose, and reaches the safe point
+where they can."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+
+from cdpr_bringup.bench import main as bench
+from cdpr_bringup.family.command import bench_robots, draw_family, settle_family
+from cdpr_bringup.family.draw import refusal
+from cdpr_bringup.runs.settle import NO_CALIBRATION, ScenarioOptions, build_scenario
+from cdpr_control.geometry.motions import motion_names
+from cdpr_msgs_py.contract import FAULT
+
+# Drawn here: a point mass and two platforms (a suspended and a crossed one).
+SEED = 0
+# The small family judged, its cable (one per robot) and instant drawn from SEED; few
+# failure-free calibration runs (one motion, both directions, one plant seed).
+SMALL = dict(count=3, seed=SEED, instants=1, cables=1, calibration_motions=1, calibration_seeds=(0,), jobs=2)
+
+
+def test_every_drawn_robot_is_accepted_and_every_drawn_motion_is_wrench_feasible(tmp_path):
+    members, drawing = draw_family(settle_family(count=4, seed=SEED), tmp_path)
+    assert len(members) == 4 and drawing['draws'] >= 4
+    assert {member.robot.body.kind for member in members} == {'point_mass', 'platform'}
+    for member in members:
+        assert list(yaml.safe_load(member.robot_file.read_text())) == ['robot']
+        assert refusal(member.robot_file) is None
+        assert motion_names(member.motions_file) == member.motions
+        turned = []
+        for name in member.motions:
+            scenario = build_scenario(ScenarioOptions(config=str(member.robot_file), motions=str(member.motions_file),
+                                                      motion=name, calibration=NO_CALIBRATION))
+            robot, tension = scenario.robot, scenario.reference.tension_n
+            assert np.all(np.isfinite(tension)), (member.robot_file, name)
+            assert tension.min() >= robot.tension_min_n - 1e-9 and tension.max() <= robot.tension_max_n + 1e-9, \
+                (member.robot_file, name, tension.min(), tension.max())
+            spread = np.ptp(scenario.reference.orientation, axis=0) if scenario.reference.orientation.size else [0.0]
+            turned.append(float(np.max(spread)) > 1e-6)
+        # a platform's motions include one that turns it; a point mass has no orientation
+        assert any(turned) == member.robot.body.has_orientation, member.robot_file
+    # what was refused stays refused, each with its reason counted
+    assert sum(drawing['refused'].values()) == drawing['draws'] - len(members)
+    for refused in (tmp_path / 'refused').glob('*.yaml'):
+        motions = refused.with_name(f'{refused.stem}_motions.yaml')
+        if not refused.stem.endswith('_motions'):
+            assert refusal(refused) is not None or motion_names(motions) == [], refused
+
+
+def test_a_small_family_is_judged_by_the_rules(tmp_path):
+    found = bench_robots(settle_family(**SMALL, out=str(tmp_path)), show_progress=False)
+    kinds = [member.robot.body.kind for member in found['members']]
+    assert 'point_mass' in kinds and 'platform' in kinds
+    failures = [row for row in found['rows'] if row['cable'] is not None]
+    assert len(failures) == 3 * 2   # one cable of each robot, on both plants
+    for row in failures:
+        case = (row['robot_file'], row['cable'], row['motion'], row['fail_at_fraction'], row['fidelity'])
+        assert row['error'] is None, case
+        assert row['outcome'] == 'right', case
+        assert row['cables_could_hold'] is not None, case
+        if row['cables_could_hold']:
+            assert row['mode'] != FAULT and row['reached_safe_point'], case
+    free = [row for row in found['rows'] if row['cable'] is None]
+    assert len(free) == 3 * 2 and not any(row['false_alarm'] for row in free)
+    assert found['cases'] == []
+    for member in found['members']:
+        assert member.robot_file.parent == tmp_path.resolve() / 'robots' and member.calibration.exists()
+    assert (tmp_path / 'summary.csv').read_text().count('\n') == len(found['rows']) + 1
+    assert '| **all** | all |' in (tmp_path / 'summary.md').read_text()
+
+
+@pytest.mark.parametrize('options, named', [
+    (['--count', '0'], '--count 0'), (['--instants', '-1'], '--instants -1'), (['--cables', '0'], '--cables 0'),
+    (['--fidelities', 'field'], '--fidelities field'), (['--seed', '-2'], '--seed -2')])
+def test_a_bad_option_is_one_line_naming_it(options, named, tmp_path, capsys):
+    assert bench.main(['robots', *options, '--out', str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f'cdpr-bench: {named}:') and err.count('\n') == 1, err
+
+
+def test_the_drawing_and_judging_import_no_rclpy():
+    code = ('import sys, cdpr_bringup.family.command, cdpr_bringup.family.judge; '
+            'sys.exit("rclpy" in sys.modules)')
+    assert subprocess.run([sys.executable, '-c', code]).returncode == 0
