@@ -5,13 +5,14 @@ import re
 
 import numpy as np
 import pytest
+import yaml
 
 from cdpr_control.config import ConfigError, load_section
 from cdpr_control.control.controller import JointController, JointReference, PdGains, command_lead_periods
 from cdpr_control.model.friction import FrictionModel
 from cdpr_msgs_py.contract import FAULT, NOMINAL, RECOVERY_MOVE, RECOVERY_TENSION, SAFE_HOLD
 
-from conftest import CONFIG_DIR, PAPER_ROBOT
+from conftest import CONFIG_DIR, PAPER_ROBOT, load_robot
 
 EIGHT_CABLE_ROBOT = CONFIG_DIR / 'robots' / 'eight_cable_robot.yaml'
 
@@ -204,3 +205,28 @@ def test_the_sampled_loop_diverges_where_the_check_says(eight_cable_robot, paper
             angle += period * speed + 0.5 * period ** 2 * torque / inertia
             speed += period * torque / inertia
         assert (abs(angle) < 0.01) == gains.sampled_stable(robot, period), (robot.name, frequency)
+
+
+def test_a_robot_whose_motors_no_pd_keeps_stable_is_refused_not_run_without_feedback(tmp_path):
+    """A drawn 6.6 kg end-effector on 2.85e-4 kg·m² motors with 47.7 mm drums: the motor
+    alone is 53 times lighter than its share of the load, and no frequency keeps both
+    stable with a margin at 2 ms (the bisection ends at 0 Hz: K_p = K_d = 0, no feedback,
+    breaks named 48 ms late and a calibration of σ = 0). Refused, even left to the
+    default, naming the key and what would lift it."""
+    robot_data = yaml.safe_load(EIGHT_CABLE_ROBOT.read_text())
+    robot_data['robot']['end_effector']['mass_kg'] = 6.6
+    robot_data['robot']['motor'].update(inertia_kg_m2=2.85e-4, drum_radius_m=0.0477)
+    config = tmp_path / 'robot.yaml'
+    config.write_text(yaml.safe_dump(robot_data))
+    robot = load_robot(config)
+    assert PdGains.highest_stable_frequency_hz(robot, 12.0, 0.7, 0.002) == 0.0
+    with pytest.raises(ConfigError, match=r"'control.pd_natural_frequency_hz' no frequency is stable at a "
+                                          r"period of 0.002 s .* 53 times lighter") as error:
+        PdGains.from_section(robot, load_section(config, 'control'))
+    assert str(config) in str(error.value)
+    # not the period: the ratio of the inertias; motors ten times heavier lift it
+    assert PdGains.highest_stable_frequency_hz(robot, 12.0, 0.7, 0.0005) == 0.0
+    robot_data['robot']['motor']['inertia_kg_m2'] = 2.85e-3
+    config.write_text(yaml.safe_dump(robot_data))
+    heavier = load_robot(config)
+    assert PdGains.from_section(heavier, load_section(config, 'control')).sampled_stable(heavier, 0.002)

@@ -67,6 +67,16 @@ class PdGains:
         if gains.sampled_stable(robot, period):
             return gains, frequency, False
         highest = cls.highest_stable_frequency_hz(robot, frequency, damping, period)
+        if highest <= 0.0:
+            # K_p = K_d = 0 would be no control at all: the robot cannot be run so
+            motor = robot.motor
+            raise control.error('pd_natural_frequency_hz', (
+                f'no frequency is stable at a period of {period:g} s with pd_damping_ratio {damping:g} on this '
+                f'robot\'s motors: a motor alone (J = {motor.inertia_kg_m2:g} kg·m²) is '
+                f'{robot.mass_kg * motor.drum_radius_m ** 2 / motor.inertia_kg_m2:.0f} times lighter than its '
+                f'share of the end-effector (m ρ² = {robot.mass_kg * motor.drum_radius_m ** 2:.3g} kg·m²), '
+                f'whatever the period (the ratio sets it): heavier motors (or a gear), smaller drums or a lighter '
+                f'end-effector'))
         if control.is_default('pd_natural_frequency_hz'):
             return cls.from_bandwidth(robot, highest, damping, tension_damping), highest, True
         raise control.error('pd_natural_frequency_hz', (
