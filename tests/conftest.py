@@ -346,11 +346,7 @@ LIGHT_TALL_MOTIONS = {
 @pytest.fixture
 def light_tall_robot_files(tmp_path):
     """(robot file, motions file) of LIGHT_TALL_ROBOT, written to the test's folder."""
-    import yaml
-    robot, motions = tmp_path / 'light_tall_robot.yaml', tmp_path / 'light_tall_motions.yaml'
-    robot.write_text(yaml.safe_dump(LIGHT_TALL_ROBOT))
-    motions.write_text(yaml.safe_dump(LIGHT_TALL_MOTIONS))
-    return robot, motions
+    return written_robot(tmp_path, LIGHT_TALL_ROBOT, LIGHT_TALL_MOTIONS)[:2]
 
 
 # A suspended 12 kg platform on 8 cables in the crossed-pairs layout of the shipped one,
@@ -394,12 +390,44 @@ DRAWN_PLATFORM_FDI = {
 @pytest.fixture
 def drawn_platform_files(tmp_path):
     """(robot file, motions file, elastic calibration file) of DRAWN_PLATFORM_ROBOT."""
+    return written_robot(tmp_path, DRAWN_PLATFORM_ROBOT, DRAWN_PLATFORM_MOTIONS, DRAWN_PLATFORM_FDI)
+
+
+# A point mass of 1.6 kg on eight cables at mixed heights (4.2–5.1 m) over a 6.6 × 5.7 m
+# frame, τ_min 1.58 N, 21 mm drums: drawn by `cdpr-bench robots --seed 1` (family1_007),
+# none of the shipped robots; its line and its elastic-plant thresholds as that bench
+# made them (cdpr-calibrate on its motions, seed 0, 2026-12-07).
+DRAWN_EIGHT_CABLE_ROBOT = {'robot': {
+    'name': 'family1_007', 'gravity_m_s2': [0.0, 0.0, -9.81],
+    'end_effector': {'mass_kg': 1.557, 'radius_m': 0.05},
+    'exit_points_m': [[6.576, 3.084, 4.266], [5.866, 5.701, 4.406], [3.924, 5.701, 4.613], [0.621, 5.701, 4.664],
+                      [0.0, 2.563, 5.104], [0.0, 0.486, 4.511], [3.134, 0.0, 4.203], [5.072, 0.0, 5.044]],
+    'workspace_m': {'min': [0.986, 0.855, 0.0], 'max': [5.589, 4.846, 3.157]},
+    'home_position_m': [3.288, 2.851, 1.579],
+    'motor': {'inertia_kg_m2': 0.000322, 'drum_radius_m': 0.0209, 'viscous_friction_nm_s_rad': 0.0022,
+              'static_friction_nm': 0.076, 'nominal_torque_nm': 1.354, 'nominal_speed_rpm': 2529,
+              'torque_limit_nm': 3.874},
+    'cables': {'tension_min_n': 1.58, 'tension_max_n': 99.9}}}
+DRAWN_EIGHT_CABLE_MOTIONS = {
+    'motion_defaults': {'peak_speed_m_s': 0.4, 'rest_before_s': 0.5, 'rest_after_s': 1.0},
+    'motions': {'007-line-2': {'type': 'line', 'start': [2.9731, 3.1715, 1.7983], 'goal': [3.6029, 2.5305, 1.3597]}}}
+DRAWN_EIGHT_CABLE_FDI = {
+    'coulomb_friction_nm': 0.03566, 'epsilon_nm': 0.08621,
+    'cusum': {'sigma_nm': [0.009258, 0.014561, 0.008603, 0.016626, 0.010082, 0.015917, 0.009088, 0.009348],
+              'drift': 5.0, 'threshold': 1.491, 'limit': 6.491, 'epsilon_nm': 0.08849}}
+
+
+def written_robot(tmp_path, robot: dict, motions: dict, fdi: dict | None = None) -> tuple:
+    """(robot file, motions file, elastic calibration file or None) of a robot of the tests,
+    written to the test's folder; the calibration made on that robot (its fingerprint)."""
     import yaml
-    robot, motions = tmp_path / 'drawn_platform_robot.yaml', tmp_path / 'drawn_platform_motions.yaml'
-    robot.write_text(yaml.safe_dump(DRAWN_PLATFORM_ROBOT))
-    motions.write_text(yaml.safe_dump(DRAWN_PLATFORM_MOTIONS))
-    calibration = tmp_path / 'drawn_platform_calibration_elastic.yaml'
-    calibration.write_text(yaml.safe_dump({'fdi': DRAWN_PLATFORM_FDI, 'calibration': {
-        'robot': 'drawn_platform_robot', 'robot_fingerprint': load_robot(robot).fingerprint(),
-        'fidelity': 'elastic'}}))
-    return robot, motions, calibration
+    name = robot['robot']['name']
+    robot_file, motions_file = tmp_path / f'{name}.yaml', tmp_path / f'{name}_motions.yaml'
+    robot_file.write_text(yaml.safe_dump(robot))
+    motions_file.write_text(yaml.safe_dump(motions))
+    if fdi is None:
+        return robot_file, motions_file, None
+    calibration = tmp_path / f'{name}_calibration_elastic.yaml'
+    calibration.write_text(yaml.safe_dump({'fdi': fdi, 'calibration': {
+        'robot': name, 'robot_fingerprint': load_robot(robot_file).fingerprint(), 'fidelity': 'elastic'}}))
+    return robot_file, motions_file, calibration

@@ -47,6 +47,7 @@ class FdiConfig:
     disturbance_hold_cycles: int
     disturbance_settle_cycles: int
     identification_stretch_m: float
+    identification_lead_stretch_m: float
     drive_delay_s: float
     # the friction the twin models itself (FrictionModel.of_twin; None for none): of the
     # motors' Coulomb friction (`friction`) the residual shows only the rest
@@ -91,6 +92,7 @@ class FdiConfig:
             disturbance_hold_cycles=fdi.integer('disturbance_hold_cycles', minimum=1),
             disturbance_settle_cycles=fdi.integer('disturbance_settle_cycles', minimum=0),
             identification_stretch_m=fdi.number('identification_stretch_m', positive=True),
+            identification_lead_stretch_m=fdi.number('identification_lead_stretch_m', positive=True),
             drive_delay_s=fdi.number('drive_delay_s', non_negative=True),
             twin_friction=twin_friction,
         )

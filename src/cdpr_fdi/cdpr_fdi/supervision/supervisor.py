@@ -349,7 +349,21 @@ class Supervisor:
                        if len(self.candidates) > 1 and placed else None)
             proven = [] if stretch is None else [cable for cable in self.candidates
                                                  if stretch[cable] > self.fdi.identification_stretch_m]
-            return sorted(proven or self.candidates)
+            return sorted(proven or self.leading(stretch) or self.candidates)
+        return []
+
+    def leading(self, stretch: np.ndarray | None) -> list[int]:
+        """Of several candidates none of which spans identification_stretch_m beyond its
+        length (`stretch`, m per cable, where the others place the end-effector), the one
+        that spans fdi.identification_lead_stretch_m beyond it while every other spans at
+        most half of that: a cable that parted lightly loaded, still falling away, beside
+        attached ones that carry little. None where no one leads so (or no stretch)."""
+        if stretch is None:
+            return []
+        lead = self.fdi.identification_lead_stretch_m
+        ranked = sorted(self.candidates, key=lambda cable: stretch[cable], reverse=True)
+        if stretch[ranked[0]] >= lead and all(stretch[cable] <= 0.5 * lead for cable in ranked[1:]):
+            return ranked[:1]
         return []
 
     def on_identified(self, tick: int, cables: list[int], angle_rad, angular_velocity_rad_s, command_nm,
