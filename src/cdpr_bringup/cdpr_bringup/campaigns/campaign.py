@@ -435,12 +435,13 @@ def _csv_cell(value):
     return value
 
 
-def write_summary_csv(rows: list[dict], path: str | Path) -> None:
+def write_summary_csv(rows: list[dict], path: str | Path, columns: tuple[str, ...] = CSV_COLUMNS) -> None:
+    """A row per run, of `columns` (a campaign's; a bench may add its own to them)."""
     with open(path, 'w', newline='') as stream:
-        writer = csv.DictWriter(stream, fieldnames=CSV_COLUMNS)
+        writer = csv.DictWriter(stream, fieldnames=columns)
         writer.writeheader()
         for row in rows:
-            writer.writerow({column: _csv_cell(row[column]) for column in CSV_COLUMNS})
+            writer.writerow({column: _csv_cell(row[column]) for column in columns})
 
 
 def _fmt(value, digits: int = 1) -> str:

@@ -25,7 +25,7 @@ from . import judge
 from .draw import draw_robot, refusal, write_robot
 from .motions import draw_motions
 from ..campaigns.calibrate import calibrate_robot, write_calibration
-from ..campaigns.campaign import DETECTORS, RANDOM_FRACTION_RANGE, Run, run_campaign
+from ..campaigns.campaign import DETECTORS, RANDOM_FRACTION_RANGE, Run, run_campaign, write_summary_csv
 from ..campaigns.campaign_run import SchedulerUnreachable
 from ..cli import UsageError
 
@@ -175,7 +175,7 @@ def bench_robots(options: FamilyOptions, heading: str = '', show_progress: bool 
         raise UsageError(f'--scheduler {options.scheduler}: {err}') from None
     owner = {run.id: member for member in members for run in member.runs}
     judged = [judge.judged(row, owner[row['run_id']]) for row in rows]
-    judge.write_csv(judged, out / 'summary.csv')
+    write_summary_csv(judged, out / 'summary.csv', judge.COLUMNS)
     (out / 'summary.md').write_text(judge.summary_markdown(judged, members, drawing, heading))
     return {'rows': judged, 'members': members, 'drawing': drawing, 'cases': judge.cases(judged), 'out': out}
 

@@ -5,9 +5,7 @@ reached, the least remaining tension against τ_min; per robot and plant, and in
 Written as summary.csv (a row per run) and summary.md."""
 from __future__ import annotations
 
-import csv
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 
@@ -15,7 +13,7 @@ from cdpr_control.model.dynamics import inverse_dynamics
 from cdpr_control.tension_distribution import InfeasibleTensionError
 from cdpr_msgs_py.contract import FAULT
 
-from ..campaigns.campaign import CSV_COLUMNS, _csv_cell, _fmt
+from ..campaigns.campaign import CSV_COLUMNS, _fmt
 from ..runs.settle import NO_CALIBRATION, ScenarioOptions, build_scenario
 
 OUTCOMES = ('right', 'wrong', 'missed', 'not completed')
@@ -104,14 +102,6 @@ def cases(rows: list[dict]) -> list[dict]:
     where the cables left could hold the pose, the safe point not reached there."""
     return [row for row in rows if row['cable'] is not None and (
         row['outcome'] != 'right' or (row['cables_could_hold'] and (row['mode'] == FAULT or not row['reached_safe_point'])))]
-
-
-def write_csv(rows: list[dict], path: Path) -> None:
-    with open(path, 'w', newline='') as stream:
-        writer = csv.DictWriter(stream, fieldnames=COLUMNS)
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({column: _csv_cell(row.get(column)) for column in COLUMNS})
 
 
 TABLE_HEAD = ('| {} | plant | failure runs | right | wrong | missed | not completed | FAULT: cannot hold / could '

@@ -251,7 +251,8 @@ class Recovery(TabulatedMove):
                                                    attached=self.attached)
                     except InfeasibleTensionError as err:
                         # the margin's reason: the lowered floor's only says no plan holds τ_min
-                        self.last_plan_error = err if distribution is self.distribution else self.last_plan_error
+                        if distribution is self.distribution:
+                            self.last_plan_error = err
                         continue
                     self.bounded_table(table)
                     if distribution is self.lowered:
