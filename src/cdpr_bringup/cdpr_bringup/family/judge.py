@@ -1,7 +1,8 @@
 """How the stack did on a family of robots: each failure run's outcome (the right cable
 named, a wrong one, none), whether the cables left could hold the end-effector at rest
 where the cable broke (a FAULT there is unavoidable, elsewhere it is not), the safe point
-reached, the least remaining tension against τ_min; per robot and plant, and in total.
+reached, the least remaining tension against τ_min and whether the ticks under it lie
+within docs/recovery-tensions.md's allowance; per robot and plant, and in total.
 Written as summary.csv (a row per run) and summary.md."""
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import numpy as np
 from cdpr_control.model.dynamics import inverse_dynamics
 from cdpr_control.tension_distribution import InfeasibleTensionError
 from cdpr_msgs_py.contract import FAULT
+from cdpr_twin.models.run_figures import JOLT_S
 
 from ..campaigns.campaign import CSV_COLUMNS, _fmt
 from ..runs.settle import NO_CALIBRATION, ScenarioOptions, build_scenario
@@ -20,6 +22,10 @@ OUTCOMES = ('right', 'wrong', 'missed', 'not completed')
 COLUMNS = ('robot', 'body', 'robot_file', *CSV_COLUMNS, 'outcome', 'cables_could_hold', 'tension_min_bound_n')
 # a remaining cable's tension this far (N) under τ_min is under it (the plant's rounding)
 TENSION_TOLERANCE_N = 1e-6
+# docs/recovery-tensions.md's allowance: a cable left may be under τ_min for at most this
+# many control periods within the break's jolt (run_figures.JOLT_S), and this many after
+ALLOWED_TICKS_IN_JOLT = 5
+ALLOWED_TICKS_AFTER_JOLT = 1
 DELAY_PERCENTILE = 95.0
 
 
@@ -67,6 +73,15 @@ def judged(row: dict, member) -> dict:
     return row
 
 
+def beyond_allowance(row: dict) -> bool:
+    """Whether a recovered failure run's cables left were under τ_min for longer than the
+    allowance (a FAULT brakes the motors: what the cables carry then is no recovery's)."""
+    if row['mode'] == FAULT:
+        return False
+    jolt, after = row.get('ticks_under_tension_min_jolt'), row.get('ticks_under_tension_min_after_jolt')
+    return (jolt or 0) > ALLOWED_TICKS_IN_JOLT or (after or 0) > ALLOWED_TICKS_AFTER_JOLT
+
+
 def figures(rows: list[dict]) -> dict:
     """The figures of some judged rows (of one robot and plant, or more)."""
     failures = [row for row in rows if row['cable'] is not None]
@@ -74,8 +89,10 @@ def figures(rows: list[dict]) -> dict:
     delays = [row['detection_delay_ms'] for row in done if row['detection_delay_ms'] is not None]
     holding = [row for row in done if row['cables_could_hold']]
     faults = [row for row in done if row['mode'] == FAULT]
-    margins = [row['min_tension_n'] - row['tension_min_bound_n'] for row in done if row['min_tension_n'] is not None]
-    tensions = [row['min_tension_n'] for row in done if row['min_tension_n'] is not None]
+    # a FAULT brakes the motors: the least tension is the recoveries'
+    recovered = [row for row in done if row['mode'] != FAULT and row['min_tension_n'] is not None]
+    margins = [row['min_tension_n'] - row['tension_min_bound_n'] for row in recovered]
+    tensions = [row['min_tension_n'] for row in recovered]
     free = [row for row in rows if row['cable'] is None]
     return {
         'failure_runs': len(failures),
@@ -91,6 +108,7 @@ def figures(rows: list[dict]) -> dict:
         'least_tension_n': min(tensions) if tensions else None,
         'least_margin_n': min(margins) if margins else None,
         'under_tension_min': sum(margin < -TENSION_TOLERANCE_N for margin in margins),
+        'beyond_allowance': sum(beyond_allowance(row) for row in done),
         'failure_free_runs': len(free),
         'false_alarms': sum(bool(row['false_alarm']) for row in free if row['error'] is None),
         'failure_free_not_completed': sum(row['error'] is not None for row in free),
@@ -99,15 +117,17 @@ def figures(rows: list[dict]) -> dict:
 
 def cases(rows: list[dict]) -> list[dict]:
     """The failure runs the stack did not do right: a wrong or no cable named, a FAULT
-    where the cables left could hold the pose, the safe point not reached there."""
+    where the cables left could hold the pose, the safe point not reached there, a cable
+    left under τ_min beyond the allowance."""
     return [row for row in rows if row['cable'] is not None and (
-        row['outcome'] != 'right' or (row['cables_could_hold'] and (row['mode'] == FAULT or not row['reached_safe_point'])))]
+        row['outcome'] != 'right' or beyond_allowance(row)
+        or (row['cables_could_hold'] and (row['mode'] == FAULT or not row['reached_safe_point'])))]
 
 
 TABLE_HEAD = ('| {} | plant | failure runs | right | wrong | missed | not completed | FAULT: cannot hold / could '
               '| SP reached (where the cables hold) | delay median / p95 / max (ms) | least tension / τ_min (N) '
-              '| failure-free runs, false alarms |')
-TABLE_RULE = '|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|'
+              '| under τ_min beyond the allowance | failure-free runs, false alarms |')
+TABLE_RULE = '|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|'
 
 
 def table_line(label: str, plant: str, found: dict, tension_min_n: float | None) -> str:
@@ -116,7 +136,7 @@ def table_line(label: str, plant: str, found: dict, tension_min_n: float | None)
             f'| {found["not_completed"]} | {found["fault_cannot_hold"]} / {found["fault_could_hold"]} '
             f'| {found["reached"]} ({found["reached_where_held"]} of {found["could_hold"]}) '
             f'| {_fmt(found["delay_median_ms"], 2)} / {_fmt(found["delay_p95_ms"], 2)} / {_fmt(found["delay_max_ms"], 2)} '
-            f'| {_fmt(found["least_tension_n"], 2)} / {bound} '
+            f'| {_fmt(found["least_tension_n"], 2)} / {bound} | {found["beyond_allowance"]} '
             f'| {found["failure_free_runs"]}, {found["false_alarms"]}'
             + (f' ({found["failure_free_not_completed"]} not completed)' if found['failure_free_not_completed'] else '')
             + ' |')
@@ -148,6 +168,9 @@ def case_line(row: dict) -> str:
     return (f'- `{row["robot_file"]}`: cable {row["cable"]} on {row["motion"]} at {row["fail_at_fraction"]:.3f} of '
             f'the move (t = {_fmt(row["failure_time_s"], 4)} s), {row["fidelity"]} plant: {row["outcome"]}, named '
             f'{row["identified_cables"] or "none"}{fault}, SP {"reached" if row["reached_safe_point"] else "not reached"}'
+            + (f'; a cable left under τ_min for {row["ticks_under_tension_min_jolt"]} periods in the jolt and '
+               f'{row["ticks_under_tension_min_after_jolt"]} after (least {_fmt(row["min_tension_n"], 2)} N)'
+               if beyond_allowance(row) else '')
             + (f'; {row["error"]}' if row['error'] else ''))
 
 
@@ -160,7 +183,12 @@ def summary_markdown(rows: list[dict], members, drawing: dict, heading: str) -> 
         'Right / wrong / missed: the broken cable named alone, another named, none. FAULT: the supervisor gave up; '
         '"cannot hold" where no tensions within [τ_min, τ_max] of the cables left hold the end-effector at rest at '
         'the pose the cable broke at, "could" where they do. SP reached: all runs, and of those where the cables '
-        'could hold the pose. Least tension: of a remaining cable after the break. Failure-free runs: those the '
+        'could hold the pose. Least tension: of a remaining cable after the break, in the runs not in FAULT (a FAULT '
+        'brakes the motors). Beyond the allowance: runs not in '
+        'FAULT whose '
+        f'cables left were under τ_min more than {ALLOWED_TICKS_IN_JOLT} control periods within the break\'s jolt '
+        f'({JOLT_S * 1000:g} ms) or more than {ALLOWED_TICKS_AFTER_JOLT} after (docs/recovery-tensions.md). '
+        'Failure-free runs: those the '
         'calibration ran, run again with the supervisor on the calibrated thresholds.', '',
         *table(rows, members), '',
         '## Robots', '',

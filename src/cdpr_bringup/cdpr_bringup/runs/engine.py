@@ -121,7 +121,7 @@ def run_inprocess(scenario: Scenario, supervised: bool = True) -> Recording:
     held = np.minimum(np.arange(ran), len(table) - 1)
     view_held = held[viewed]
     # the figures of every tick, as the plant simulator computes them tick by tick
-    figures = RunFigures(m, scenario.period_s, has_orientation)
+    figures = RunFigures(m, scenario.period_s, has_orientation, tension_min_n=robot.tension_min_n)
     figures.take_breaks(plant.broken_at_s)
     if named is not None:
         figures.detection_at(named)

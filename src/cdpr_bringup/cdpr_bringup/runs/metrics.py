@@ -67,7 +67,7 @@ def figures_from_rows(robot: Robot, period_s: float, time_s, position_m, orienta
     whose plant did not say them: its view ticks' truth, or a real robot's pose and
     tensions as measured and estimated at every tick (`reference_position_m` None: no
     tracking error). Cables 1-based."""
-    figures = RunFigures(robot.cable_count, period_s, robot.body.has_orientation)
+    figures = RunFigures(robot.cable_count, period_s, robot.body.has_orientation, tension_min_n=robot.tension_min_n)
     for cable in broken_cables:
         if failure_time_s is not None:
             figures.failure_at(failure_time_s, cable - 1)
@@ -185,6 +185,9 @@ def metrics_json(run: KnownRun) -> dict:
             'final_error_m': final_error,
             'min_tension_n': window['min_tension_n'],
             'max_tension_n': window['max_tension_n'],
+            # the ticks a cable left carried less than τ_min: within the break's jolt
+            # (run_figures.JOLT_S of the event) and after it
+            'ticks_under_tension_min': window.get('ticks_under_tension_min'),
             'min_height_m': run.figures['lowest_point_m'],
             'duration_s': None if hold is None or detection is None else hold - detection,
             'phase_times_s': dict(run.phase_times_s),

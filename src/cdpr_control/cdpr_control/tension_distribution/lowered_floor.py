@@ -93,19 +93,84 @@ class LoweredFloor(TensionDistribution):
         return tensions
 
     def _bisected(self, structures, wrenches_n):
-        """largest_floors by bisection with `within`'s method, for any null space."""
+        """largest_floors by bisection with `within`'s method, for any null space.
+
+        The floors tried are those of a bisection of [tension_min_n, within's floor] in
+        FLOOR_BISECTIONS steps, each row's the largest of them its tensions exist at. The
+        rows of a stack are the poses of a move, whose floors change little from one to the
+        next: each row's search starts at the floor found for the row before and widens
+        from there, a few tries a row instead of a bisection's FLOOR_BISECTIONS + 1, to
+        the same floor.
+        """
         floors = np.full(len(structures), -np.inf)
         tensions = np.full(structures.shape[:1] + structures.shape[-1:], np.nan)
+        grid = _bisection_floors(self.tension_min_n, self.within.tension_min_n)
+        start = 0
         for row, (structure, wrench) in enumerate(zip(structures, wrenches_n)):
-            low, high = self.tension_min_n, self.within.tension_min_n
-            for step in range(FLOOR_BISECTIONS + 1):
-                floor = low if step == 0 else 0.5 * (low + high)
-                try:
-                    tensions[row] = self.within.with_floor(floor).distribute(structure, wrench)
-                except InfeasibleTensionError:
-                    if step == 0:
-                        break
-                    high = floor
-                else:
-                    floors[row], low = floor, floor
+            found = _largest_index(lambda index: self._tensions_at(grid[index], structure, wrench),
+                                   len(grid) - 1, start)
+            if found is not None:
+                start, tensions[row] = found
+                floors[row] = grid[start]
         return floors, tensions
+
+    def _tensions_at(self, floor, structure, wrench):
+        """`within`'s tensions with its floor at `floor` (N), None where there are none."""
+        try:
+            return self.within.with_floor(floor).distribute(structure, wrench)
+        except InfeasibleTensionError:
+            return None
+
+
+def _bisection_floors(low: float, high: float) -> np.ndarray:
+    """The floors (N) a bisection of [low, high] in FLOOR_BISECTIONS steps can end at, in
+    increasing order: the value of index j as the bisection's own arithmetic reaches it
+    (the midpoints taken, kept where j lies at or above them)."""
+    floors = np.empty(2 ** FLOOR_BISECTIONS)
+    for index in range(len(floors)):
+        value, top, lower_index, upper_index = low, high, 0, len(floors)
+        for _ in range(FLOOR_BISECTIONS):
+            middle, middle_index = 0.5 * (value + top), (lower_index + upper_index) // 2
+            if middle_index <= index:
+                value, lower_index = middle, middle_index
+            else:
+                top, upper_index = middle, middle_index
+        floors[index] = value
+    return floors
+
+
+def _largest_index(tensions_at, last: int, start: int):
+    """The largest index in [0, last] where `tensions_at` (index → tensions or None,
+    None from some index on) has tensions, and those tensions; None where index 0 has
+    none. Searched outwards from `start` in doubling steps, then halved."""
+    start = min(max(start, 0), last)
+    found = tensions_at(start)
+    if found is None:
+        # down to the first index that has tensions
+        high, step = start, 1
+        while True:
+            low = max(high - step, 0)
+            found = tensions_at(low)
+            if found is not None:
+                break
+            if low == 0:
+                return None
+            high, step = low, 2 * step
+    else:
+        low, step = start, 1
+        while True:
+            if low == last:
+                return low, found
+            high = min(low + step, last)
+            above = tensions_at(high)
+            if above is None:
+                break
+            low, found, step = high, above, 2 * step
+    while high - low > 1:
+        middle = (low + high) // 2
+        at_middle = tensions_at(middle)
+        if at_middle is None:
+            high = middle
+        else:
+            low, found = middle, at_middle
+    return low, found

@@ -9,8 +9,10 @@ the lowest point over the run; the last pose; and relative to an event — the f
 cable's parting (`failure_at`) or, in a run where none parts, the first naming of a
 broken cable (`detection_at`) — the largest tracking error (position, and a platform's
 orientation) on the ticks before it, and the least and greatest tension of the cables
-left (all but those that parted) on the ticks from it on. A tick is before an event when
-its time (tick × period) is before the event's instant, as metrics.ticks_before counts.
+left (all but those that parted) on the ticks from it on, and the ticks on which one of
+them carried less than τ_min: within JOLT_S of the event (the break's jolt, which
+docs/recovery-tensions.md allows) and after. A tick is before an event when its time
+(tick × period) is before the event's instant, as metrics.ticks_before counts.
 
 A naming is learnt a few ticks after the tick it judged: rows are kept HOLD_S before they
 are counted, so that a tick is judged against the events of its own time.
@@ -27,6 +29,11 @@ from cdpr_control.geometry.rotation import difference
 # reach the plant (VERDICT_DELAY_TICKS in lockstep; a realtime supervisor trails by a
 # few ms).
 HOLD_S = 1.0
+# The break's jolt (s): a cable left may go slack this soon after the parting, before a
+# detection can act (docs/recovery-tensions.md, the allowance)
+JOLT_S = 0.075
+# a tension this far (N) under τ_min is not under it: the plant's rounding
+UNDER_TOLERANCE_N = 1e-6
 EVENTS = ('failure', 'detection')
 
 
@@ -49,8 +56,9 @@ class _Window:
         self.low_n = np.full(cable_count, math.inf)
         self.high_n = np.full(cable_count, -math.inf)
         self.after = 0
+        self.under = {'jolt': 0, 'after_jolt': 0}
 
-    def fold(self, ticks, event, error_m, turn_rad, tension_n) -> None:
+    def fold(self, ticks, event, error_m, turn_rad, tension_n, remaining, tension_min_n, jolt_ticks) -> None:
         before = ticks < event if event is not None else np.ones(ticks.size, dtype=bool)
         tracked = before & np.isfinite(error_m)
         if tracked.any():
@@ -62,14 +70,20 @@ class _Window:
             self.low_n = np.minimum(self.low_n, tension_n[after].min(axis=0))
             self.high_n = np.maximum(self.high_n, tension_n[after].max(axis=0))
             self.after += int(np.count_nonzero(after))
+            if tension_min_n is not None and remaining.any():
+                under = (tension_n[after][:, remaining] < tension_min_n - UNDER_TOLERANCE_N).any(axis=1)
+                in_jolt = ticks[after] < event + jolt_ticks if event is not None else np.zeros(under.size, dtype=bool)
+                self.under['jolt'] += int(np.count_nonzero(under & in_jolt))
+                self.under['after_jolt'] += int(np.count_nonzero(under & ~in_jolt))
 
     def copy(self) -> '_Window':
         other = _Window(self.low_n.size)
         other.tracking_m, other.turn_rad, other.after = self.tracking_m, self.turn_rad, self.after
         other.low_n, other.high_n = self.low_n.copy(), self.high_n.copy()
+        other.under = dict(self.under)
         return other
 
-    def figures(self, remaining: np.ndarray, has_orientation: bool) -> dict:
+    def figures(self, remaining: np.ndarray, has_orientation: bool, counts_under: bool) -> dict:
         held = self.after and remaining.any()
         return {
             'tracking_error_m': None if self.tracking_m == -math.inf else self.tracking_m,
@@ -77,14 +91,19 @@ class _Window:
                if has_orientation else {}),
             'min_tension_n': float(np.min(self.low_n[remaining])) if held else None,
             'max_tension_n': float(np.max(self.high_n[remaining])) if held else None,
+            'ticks_under_tension_min': dict(self.under) if held and counts_under else None,
         }
 
 
 class RunFigures:
     """The figures of a run, fed a row per tick (`add`), or a stack of rows (`add_rows`)."""
 
-    def __init__(self, cable_count: int, period_s: float, has_orientation: bool, hold_s: float = HOLD_S):
+    def __init__(self, cable_count: int, period_s: float, has_orientation: bool, hold_s: float = HOLD_S,
+                 tension_min_n: float | None = None):
+        """`tension_min_n` (N): the robot's τ_min, the ticks under it counted; None: not."""
         self.cable_count = cable_count
+        self.tension_min_n = tension_min_n
+        self.jolt_ticks = int(math.ceil(JOLT_S / period_s))
         self.period_s = period_s
         self.has_orientation = has_orientation
         self.hold_ticks = max(1, int(math.ceil(hold_s / period_s)))
@@ -184,13 +203,17 @@ class RunFigures:
                 turn[known] = np.linalg.norm(difference(orientation[known], wanted[known]), axis=-1)
         if self.tracked_until is not None:
             error[ticks >= self.tracked_until] = np.nan
+        remaining = np.ones(self.cable_count, dtype=bool)
+        remaining[list(self.broken)] = False
         for event, window in into.windows.items():
-            window.fold(ticks, self.events[event], error, turn, tension)
+            window.fold(ticks, self.events[event], error, turn, tension, remaining, self.tension_min_n,
+                        self.jolt_ticks)
 
     def summary(self) -> dict:
         """The figures so far, in plain types (cables 1-based); the rows still held are
         counted without being let go."""
-        whole = RunFigures(self.cable_count, self.period_s, self.has_orientation)
+        whole = RunFigures(self.cable_count, self.period_s, self.has_orientation,
+                           tension_min_n=self.tension_min_n)
         whole.windows = {event: window.copy() for event, window in self.windows.items()}
         whole.lowest_m, whole.ticks = self.lowest_m, self.ticks
         if self.rows:
@@ -209,6 +232,6 @@ class RunFigures:
             'failure_tick': self.events['failure'],
             'detection_tick': self.events['detection'],
             'tracked_until_tick': self.tracked_until,
-            'failure': whole.windows['failure'].figures(remaining, self.has_orientation),
-            'detection': whole.windows['detection'].figures(remaining, self.has_orientation),
+            **{event: whole.windows[event].figures(remaining, self.has_orientation, self.tension_min_n is not None)
+               for event in EVENTS},
         }

@@ -64,7 +64,8 @@ class PlantSimulatorNode(CdprNode):
                                     self.robot.body.orientation_from(run, 'start_orientation'))
         # The figures of the end-effector from every tick (run_figures), against the settled
         # motion's reference poses (none when started alone without one).
-        self.figures = RunFigures(self.robot.cable_count, self.period_s, self.robot.body.has_orientation)
+        self.figures = RunFigures(self.robot.cable_count, self.period_s, self.robot.body.has_orientation,
+                                  tension_min_n=self.robot.tension_min_n)
         self.reference_poses = (self.robot.body.reference_poses(self.robot, settings.section('motion'), self.period_s)
                                 if settings.has('motion') else None)
         self.run_length = RunLength(
