@@ -342,6 +342,13 @@ LIGHT_TALL_MOTIONS = {
     'motion_defaults': {'peak_speed_m_s': 0.4, 'rest_before_s': 1.0, 'rest_after_s': 1.5},
     'motions': {'line-x': {'type': 'line', 'start': [0.25, 0.4, 2.0], 'goal': [0.55, 0.4, 2.0]}}}
 
+# Its elastic-plant thresholds as cdpr-calibrate gives them on its motions (line-x, line-y
+# and a lift; seeds 0-2, 18 runs, 2026-12-07).
+LIGHT_TALL_FDI = {
+    'coulomb_friction_nm': 0.05151, 'epsilon_nm': 0.07276,
+    'cusum': {'sigma_nm': [0.004173, 0.00417, 0.00418, 0.004177], 'drift': 5.0, 'threshold': 93.11,
+              'limit': 13.8, 'epsilon_nm': 0.07443}}
+
 
 @pytest.fixture
 def light_tall_robot_files(tmp_path):

@@ -28,7 +28,8 @@ from cdpr_control.point_mass.workspace import contains, sew_cross_section
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 from cdpr_twin.nodes.run_length import RunLength
 
-from conftest import (CONFIG_DIR, DRAWN_EIGHT_CABLE_FDI, DRAWN_EIGHT_CABLE_MOTIONS, DRAWN_EIGHT_CABLE_ROBOT, MOTIONS,
+from conftest import (CONFIG_DIR, DRAWN_EIGHT_CABLE_FDI, DRAWN_EIGHT_CABLE_MOTIONS, DRAWN_EIGHT_CABLE_ROBOT,
+                      LIGHT_TALL_FDI, LIGHT_TALL_MOTIONS, LIGHT_TALL_ROBOT, MOTIONS,
                       PAPER_ROBOT, every_tick_scenario, written_robot)
 
 
@@ -505,6 +506,24 @@ def test_a_light_end_effector_held_near_tau_min_after_phase_1_is_still_moved_to_
     scenario, _, metrics = run('line-x', [1], config=robot, motions=motions, fail_at_fraction=0.484)
     assert metrics['identified_cables'] == [1] and not metrics['false_alarm']
     assert_recovered(scenario, metrics)
+
+
+def test_a_break_at_rest_whose_end_effector_falls_off_a_second_cable_names_the_first_alone(tmp_path):
+    """The light tall robot (conftest), its own thresholds, elastic plant: at rest after
+    line-x reversed, cable 2 parts carrying 2.8 N. Its residual crosses ε only ~0.1 s
+    later, when the end-effector, falling away from exit 2, hangs from cables 1 and 3 and
+    cable 4 has gone slack too: two free motors, too few cables left to place it, a push's
+    signature — both were named after 17 s (FAULT, '2 cables left'). Motor 2 lost its
+    pull first, alone, with the others explaining the balance: cable 2 is named alone
+    and the end-effector recovered on the three left."""
+    robot, motions, calibration = written_robot(tmp_path, LIGHT_TALL_ROBOT, LIGHT_TALL_MOTIONS, LIGHT_TALL_FDI)
+    scenario = every_tick_scenario(ScenarioOptions(
+        config=str(robot), motions=str(motions), motion='line-x', reverse=True, fail_cables=[2],
+        fail_at_s=2.66, fidelity='elastic', seed=0, detector='threshold', calibration=str(calibration)))
+    metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
+    assert metrics['identified_cables'] == [2] and not metrics['false_alarm']
+    assert metrics['detection_delay_ms'] < 2 * scenario.fdi.identification_confirm_cycles * scenario.period_s * 1000.0
+    assert metrics['mode'] == 'SAFE_HOLD' and metrics['recovery']['reached_safe_point']
 
 
 def test_a_lightly_loaded_break_is_named_alone_beside_an_attached_cable_that_carries_little(tmp_path):

@@ -138,6 +138,12 @@ class Supervisor:
         self.unplaced_since: int | None = None
         # the motors looking free on the last alarm tick: since which tick (0-based cable)
         self.free_since: dict[int, int] = {}
+        # per motor, the first tick of its residual's run above δ, on every tick (alarm or
+        # not; -1: not above now): the order in which motors lost their cables' pull
+        self.unloaded_since = np.full(robot.cable_count, -1)
+        # of a motor that lost its pull alone, weighed once disturbance_window_cycles on:
+        # (cable, since) whose balance the cables left explained (no push)
+        self.unloaded_alone: tuple[int, int] | None = None
         # free cables spanning more than their length: since which tick
         self.overstretched_since: dict[int, int] = {}
         self.disturbance_reported = False
@@ -148,6 +154,8 @@ class Supervisor:
                command_nm, twin_torque_nm, twin_angular_velocity_rad_s,
                reference: JointReference) -> Verdict:
         residual = np.asarray(command_nm, float) - np.asarray(twin_torque_nm, float)
+        unloaded = residual > self.fdi.delta_nm
+        self.unloaded_since = np.where(unloaded, np.where(self.unloaded_since < 0, tick, self.unloaded_since), -1)
         applied = np.ascontiguousarray(applied_torque_nm, float)
         speed = np.ascontiguousarray(angular_velocity_rad_s, float)
         collapsed: list[int] = []
@@ -157,6 +165,8 @@ class Supervisor:
                                                 self.previous_speed, speed, self.period_s, tension, low, high)
             self.tension_bounds_n = low, high
             self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
+            if not self.broken:
+                self.weigh_unloaded_alone(tick)
             if not self.broken:   # once a cable is named, nothing more is looked for
                 collapsed = self.collapse.update(low, high, self.reference_tensions(reference))
         events: list[str] = []
@@ -342,6 +352,9 @@ class Supervisor:
             self.candidates, self.candidates_since = found, tick
         watched = tick - self.candidates_since + 1
         placed = self.placed_by(self.robot.cable_mask(found))
+        if (not placed and len(self.candidates) > 1 and watched >= self.fdi.identification_confirm_cycles
+                and (first := self.unloaded_first()) is not None):
+            return [first]
         if (self.candidates and (len(self.candidates) == 1
                                  or watched >= self.fdi.identification_confirm_cycles)
                 and (placed or watched >= self.fdi.disturbance_hold_cycles)):
@@ -351,6 +364,43 @@ class Supervisor:
                                                  if stretch[cable] > self.fdi.identification_stretch_m]
             return sorted(proven or self.leading(stretch) or self.candidates)
         return []
+
+    def weigh_unloaded_alone(self, tick: int) -> None:
+        """Where one motor alone has lost its cable's pull for disturbance_window_cycles,
+        whether the cables left explain the end-effector's balance without it (a break),
+        or leave a force above fdi.disturbance_force_n (a push): weighed once a run."""
+        unloaded = np.flatnonzero(self.unloaded_since >= 0)
+        if unloaded.size != 1:
+            return
+        cable, since = int(unloaded[0]), int(self.unloaded_since[unloaded[0]])
+        if tick - since != self.fdi.disturbance_window_cycles or not self.placed_by(self.robot.cable_mask([cable])):
+            return
+        try:
+            force = self.balance.unexplained_force_n({cable: since})
+        except KinematicsError:
+            return
+        if force is not None and float(np.linalg.norm(force)) <= self.fdi.disturbance_force_n:
+            self.unloaded_alone = (cable, since)
+
+    def unloaded_first(self) -> int | None:
+        """Of several candidates too few cables are left to place the end-effector beside,
+        the one whose motor lost its cable's pull (residual above δ) at least
+        identification_confirm_cycles before every other's and has not had it back since:
+        a cable that parted, the end-effector then falling away from it and off the cables
+        that it leaves slack (a light point mass on four cables, hanging from the two
+        either side of the broken one) — where, while it alone had lost its pull, the
+        others explained the end-effector's balance (weigh_unloaded_alone): a push that
+        unloads one cable before another leaves its force unexplained. None where none
+        went first so."""
+        since = self.unloaded_since[self.candidates]
+        if np.any(since < 0):
+            return None
+        order = np.argsort(since, kind='stable')
+        if since[order[1]] - since[order[0]] < self.fdi.identification_confirm_cycles:
+            return None
+        first = self.candidates[int(order[0])]
+        # and the balance weighed while it alone had lost its pull was a break's
+        return first if self.unloaded_alone == (first, int(since[order[0]])) else None
 
     def leading(self, stretch: np.ndarray | None) -> list[int]:
         """Of several candidates none of which spans identification_stretch_m beyond its
