@@ -257,6 +257,7 @@ def row_of(run: Run, run_dir: Path, outcome: dict | None) -> dict:
         return {**row, 'error': error, 'wall_time_s': outcome['wall_time_s'] if outcome else None}
     metrics = json.loads(metrics_path.read_text())
     recovery = metrics.get('recovery') or {}
+    under = recovery.get('ticks_under_tension_min') or {}
     identified = sorted(metrics.get('identified_cables') or [])
     detected = metrics.get('detection_time_s') is not None
     failure = run.cable is not None
@@ -277,8 +278,8 @@ def row_of(run: Run, run_dir: Path, outcome: dict | None) -> dict:
         final_orientation_error_deg=recovery.get('final_orientation_error_deg'),
         min_tension_n=recovery.get('min_tension_n'),
         max_tension_n=recovery.get('max_tension_n'),
-        ticks_under_tension_min_jolt=(recovery.get('ticks_under_tension_min') or {}).get('jolt'),
-        ticks_under_tension_min_after_jolt=(recovery.get('ticks_under_tension_min') or {}).get('after_jolt'),
+        ticks_under_tension_min_jolt=under.get('jolt'),
+        ticks_under_tension_min_after_jolt=under.get('after_jolt'),
         min_height_m=recovery.get('min_height_m'),
         duration_s=recovery.get('duration_s'),
         cycles=metrics.get('cycles'),

@@ -13,15 +13,13 @@ import numpy as np
 from cdpr_control.model.dynamics import inverse_dynamics
 from cdpr_control.tension_distribution import InfeasibleTensionError
 from cdpr_msgs_py.contract import FAULT
-from cdpr_twin.models.run_figures import JOLT_S
+from cdpr_twin.models.run_figures import JOLT_S, UNDER_TOLERANCE_N
 
 from ..campaigns.campaign import CSV_COLUMNS, _fmt
 from ..runs.settle import NO_CALIBRATION, ScenarioOptions, build_scenario
 
 OUTCOMES = ('right', 'wrong', 'missed', 'not completed')
 COLUMNS = ('robot', 'body', 'robot_file', *CSV_COLUMNS, 'outcome', 'cables_could_hold', 'tension_min_bound_n')
-# a remaining cable's tension this far (N) under τ_min is under it (the plant's rounding)
-TENSION_TOLERANCE_N = 1e-6
 # docs/recovery-tensions.md's allowance: a cable left may be under τ_min for at most this
 # many control periods within the break's jolt (run_figures.JOLT_S), and this many after
 ALLOWED_TICKS_IN_JOLT = 5
@@ -107,7 +105,7 @@ def figures(rows: list[dict]) -> dict:
         'delay_max_ms': max(delays) if delays else None,
         'least_tension_n': min(tensions) if tensions else None,
         'least_margin_n': min(margins) if margins else None,
-        'under_tension_min': sum(margin < -TENSION_TOLERANCE_N for margin in margins),
+        'under_tension_min': sum(margin < -UNDER_TOLERANCE_N for margin in margins),
         'beyond_allowance': sum(beyond_allowance(row) for row in done),
         'failure_free_runs': len(free),
         'false_alarms': sum(bool(row['false_alarm']) for row in free if row['error'] is None),

@@ -1,6 +1,8 @@
 """Another method's tensions where they exist; elsewhere the most margin the pose allows."""
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N, FreeDirection, InfeasibleTensionError, TensionDistribution, minimum_norm
@@ -122,10 +124,12 @@ class LoweredFloor(TensionDistribution):
             return None
 
 
+@lru_cache(maxsize=16)
 def _bisection_floors(low: float, high: float) -> np.ndarray:
     """The floors (N) a bisection of [low, high] in FLOOR_BISECTIONS steps can end at, in
     increasing order: the value of index j as the bisection's own arithmetic reaches it
-    (the midpoints taken, kept where j lies at or above them)."""
+    (the midpoints taken, kept where j lies at or above them). Made once per bounds (a
+    few tens of ms) and only read."""
     floors = np.empty(2 ** FLOOR_BISECTIONS)
     for index in range(len(floors)):
         value, top, lower_index, upper_index = low, high, 0, len(floors)

@@ -165,9 +165,8 @@ class Supervisor:
                                                 self.previous_speed, speed, self.period_s, tension, low, high)
             self.tension_bounds_n = low, high
             self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
-            if not self.broken:
-                self.weigh_unloaded_alone(tick)
             if not self.broken:   # once a cable is named, nothing more is looked for
+                self.weigh_unloaded_alone(tick, unloaded)
                 collapsed = self.collapse.update(low, high, self.reference_tensions(reference))
         events: list[str] = []
         alarm = False
@@ -365,14 +364,14 @@ class Supervisor:
             return sorted(proven or self.leading(stretch) or self.candidates)
         return []
 
-    def weigh_unloaded_alone(self, tick: int) -> None:
+    def weigh_unloaded_alone(self, tick: int, unloaded: np.ndarray) -> None:
         """Where one motor alone has lost its cable's pull for disturbance_window_cycles,
         whether the cables left explain the end-effector's balance without it (a break),
         or leave a force above fdi.disturbance_force_n (a push): weighed once a run."""
-        unloaded = np.flatnonzero(self.unloaded_since >= 0)
-        if unloaded.size != 1:
+        if np.count_nonzero(unloaded) != 1:
             return
-        cable, since = int(unloaded[0]), int(self.unloaded_since[unloaded[0]])
+        cable = int(np.argmax(unloaded))
+        since = int(self.unloaded_since[cable])
         if tick - since != self.fdi.disturbance_window_cycles or not self.placed_by(self.robot.cable_mask([cable])):
             return
         try:

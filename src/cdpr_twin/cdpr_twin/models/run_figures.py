@@ -72,7 +72,7 @@ class _Window:
             self.after += int(np.count_nonzero(after))
             if tension_min_n is not None and remaining.any():
                 under = (tension_n[after][:, remaining] < tension_min_n - UNDER_TOLERANCE_N).any(axis=1)
-                in_jolt = ticks[after] < event + jolt_ticks if event is not None else np.zeros(under.size, dtype=bool)
+                in_jolt = ticks[after] < event + jolt_ticks
                 self.under['jolt'] += int(np.count_nonzero(under & in_jolt))
                 self.under['after_jolt'] += int(np.count_nonzero(under & ~in_jolt))
 
