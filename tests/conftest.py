@@ -350,6 +350,25 @@ LIGHT_TALL_FDI = {
               'limit': 13.8, 'epsilon_nm': 0.07443}}
 
 
+# A drawn 1.4 kg point mass on six cables (cdpr-bench robots --seed 2, its second robot;
+# τ_min 2.11 N), none of the shipped robots: once cable 1 parts, the five left hold the
+# end-effector with little more than τ_min near where it broke.
+LIGHT_SIX_CABLE_ROBOT = {'robot': {
+    'name': 'light_six_cable_robot', 'gravity_m_s2': [0.0, 0.0, -9.81],
+    'end_effector': {'mass_kg': 1.441, 'radius_m': 0.05},
+    'exit_points_m': [[4.419, 2.386, 3.399], [2.907, 5.342, 2.894], [0.0, 5.282, 2.857],
+                      [0.0, 3.369, 3.507], [0.173, 0.0, 3.13], [2.795, 0.0, 3.04]],
+    'workspace_m': {'min': [0.663, 0.801, 0.0], 'max': [3.757, 4.541, 2.152]},
+    'home_position_m': [2.21, 2.671, 1.076],
+    'motor': {'inertia_kg_m2': 0.000859, 'drum_radius_m': 0.05, 'viscous_friction_nm_s_rad': 0.0029,
+              'static_friction_nm': 0.073, 'nominal_torque_nm': 2.723, 'nominal_speed_rpm': 3378,
+              'torque_limit_nm': 8.49},
+    'cables': {'tension_min_n': 2.11, 'tension_max_n': 87.8}}}
+LIGHT_SIX_CABLE_MOTIONS = {
+    'motion_defaults': {'peak_speed_m_s': 0.4, 'rest_before_s': 0.5, 'rest_after_s': 1.0},
+    'motions': {'down': {'type': 'line', 'start': [2.3887, 2.8874, 1.4898], 'goal': [2.0313, 2.4546, 0.6622]}}}
+
+
 @pytest.fixture
 def light_tall_robot_files(tmp_path):
     """(robot file, motions file) of LIGHT_TALL_ROBOT, written to the test's folder."""

@@ -58,6 +58,16 @@ def test_a_calibration_that_never_sees_the_sum_grow_still_gives_the_sum_a_level(
     assert result.cusum_threshold >= result.cusum_limit - result.cusum_drift > 0.0
 
 
+def test_a_limit_below_the_drift_still_gives_the_sum_a_positive_level(rng):
+    """Short runs of bounded noise (quantised angles): the limit on z falls below ν,
+    limit − ν is negative, and the level the detector refuses (0) must not come out."""
+    runs = [FailureFreeRun(rng.uniform(-0.01, 0.01, (300, 8)), rng.uniform(-2.0, 2.0, (300, 8)))
+            for _ in range(6)]
+    result = calibrate(runs, PERIOD_S, 0.1, cusum_drift=5.0, false_alarms_per_hour=0.1)
+    assert result.cusum_limit < result.cusum_drift
+    assert result.cusum_threshold == pytest.approx(result.cusum_limit)
+
+
 def test_calibration_of_white_noise_gives_thresholds_above_every_failure_free_run(rng):
     runs = synthetic_runs(rng)
     result = calibrate(runs, PERIOD_S, 0.1, cusum_drift=5.0, false_alarms_per_hour=0.1)

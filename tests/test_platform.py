@@ -329,6 +329,26 @@ def test_a_lowered_floor_keeps_the_least_tension_as_high_as_any_tensions_allow(r
             assert best < robot.tension_min_n + 1e-7
 
 
+def test_a_lowered_floor_answers_a_stack_one_of_whose_rows_spans_too_few_directions(robot, rng):
+    """Six cables left on six degrees (no null space): a row whose cables span five
+    directions has no tensions, and the stack's other rows are still answered, each as on
+    its own (a break where the platform swings onto such a pose ended in a TypeError)."""
+    within = make_tension_distribution('bounded_minimum_norm', 2.0 * robot.tension_min_n, robot.tension_max_n)
+    lowered = LoweredFloor(within, robot.tension_min_n)
+    structures, wrenches = seven_cable_stack(robot, rng, 20, 1.0)
+    structures = structures[:, :, 1:].copy()   # cables 1 and 2 gone
+    structures[3][:, 1] = structures[3][:, 0]
+    tensions = lowered.distribute_each(structures, wrenches)
+    assert np.isnan(tensions[3]).all()
+    alone = np.array([lowered.distribute_each(structure[None], wrench[None])[0]
+                      for structure, wrench in zip(structures, wrenches)])
+    np.testing.assert_array_equal(tensions, alone)
+    assert (~np.isnan(tensions).any(axis=1)).sum() >= 5
+    with pytest.raises(InfeasibleTensionError) as raised:
+        lowered.distribute_rows(structures, wrenches)
+    assert raised.value.row == np.flatnonzero(np.isnan(tensions).any(axis=1))[0]   # its pose can be named
+
+
 def test_a_braked_turn_takes_over_the_spin_and_a_turn_from_its_rest_reaches_the_goal():
     """From q_0 turning at ω_0: ω and α are the derivatives of the orientation (finite
     differences), ω(0) = ω_0, rest after `brake_s` turned on by ω_0 brake_s / 2 and at

@@ -89,7 +89,9 @@ class LoweredFloor(TensionDistribution):
         try:
             floors, at_floor = largest_floors(structures[lowered], wrenches_n[lowered], self.tension_max_n,
                                               None if free is None else free.rows(lowered))
-        except np.linalg.LinAlgError:
+        except (np.linalg.LinAlgError, InfeasibleTensionError):
+            # no closed form for this null space, or a row whose cables span too few
+            # directions fails the stacked solve as a whole: row by row, that row NaN
             floors, at_floor = self._bisected(structures[lowered], wrenches_n[lowered])
         tensions[lowered] = np.where((floors >= self.tension_min_n - BOUND_TOLERANCE_N)[:, None], at_floor, np.nan)
         return tensions

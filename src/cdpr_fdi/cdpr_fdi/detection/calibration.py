@@ -81,7 +81,8 @@ def calibrate(runs: list[FailureFreeRun], period_s: float, smoothing_rad_s: floa
     given, its three tests (the sum's level h, the limit on z, ε on |r|) each get a third
     of the budget. The sum never alarms on a single sample the limit lets pass: h is at
     least limit − ν (a smooth robot's calibration may never see z above ν, and give no
-    sum to fit).
+    sum to fit). Where the limit lies below ν, a sample that grows the sum has already
+    alarmed on the limit: h then only needs to be positive, and is the limit itself.
     """
     coulomb = fit_coulomb_friction(runs, smoothing_rad_s)
     friction = FrictionModel(coulomb, smoothing_rad_s)
@@ -101,7 +102,8 @@ def calibrate(runs: list[FailureFreeRun], period_s: float, smoothing_rad_s: floa
         epsilon_nm=gumbel_threshold(raw_maxima, block_s, false_alarms_per_hour),
         cusum_sigma_nm=[float(s) for s in sigma],
         cusum_drift=cusum_drift,
-        cusum_threshold=max(gumbel_threshold(cusum_maxima, block_s, third), limit - cusum_drift),
+        cusum_threshold=max(gumbel_threshold(cusum_maxima, block_s, third),
+                            limit - cusum_drift if limit > cusum_drift else limit),
         cusum_limit=limit,
         cusum_epsilon_nm=gumbel_threshold(raw_maxima, block_s, third),
         hours=ticks * period_s / 3600.0,

@@ -75,11 +75,14 @@ def initial_tensions(robot: Robot, position_m: np.ndarray, attached: np.ndarray,
 
 def taut_tension_n(robot: Robot, config, attached: np.ndarray) -> float:
     """How taut (N) recovery keeps the remaining cables: `taut_fraction` of an equal share
-    of the weight among them, at least tension_min_n. Scaled by the load, not fixed: a
-    floor tuned for one robot lifts a lighter end-effector (three cables at 5 N already
-    carry 1.5 kg under near-vertical cables)."""
+    of the weight among them, at least `plan_tension_margin_n` above tension_min_n. Scaled
+    by the load, not fixed: a floor tuned for one robot lifts a lighter end-effector (three
+    cables at 5 N already carry 1.5 kg under near-vertical cables). The margin is phase
+    2's: what a drive takes off a commanded tension — its drum's inertia as the
+    end-effector swings about the entry point, its friction — phase 1's torques take off
+    too (a light end-effector held at τ_min itself carried up to 0.5 N less for a second)."""
     share = robot.mass_kg * float(np.linalg.norm(robot.gravity_m_s2)) / np.count_nonzero(attached)
-    return max(robot.tension_min_n, config.taut_fraction * share)
+    return max(robot.tension_min_n + config.plan_tension_margin_n, config.taut_fraction * share)
 
 
 def least_static_tension_n(robot: Robot, attached: np.ndarray, position_m) -> float:
