@@ -12,7 +12,9 @@ from cdpr_fdi.detection.calibration import (FailureFreeRun, calibrate, cusum_tra
                                   gumbel_threshold)
 from cdpr_fdi.settings.config import load_fdi_config
 
-from conftest import CONFIG_DIR, PAPER_ROBOT
+import copy
+
+from conftest import CONFIG_DIR, LIGHT_TALL_MOTIONS, LIGHT_TALL_ROBOT, PAPER_ROBOT, written_robot
 
 PERIOD_S = 0.002
 
@@ -92,3 +94,21 @@ def test_a_new_robot_calibrates_from_nothing_and_its_calibration_is_bound_to_it(
     assert 0.0 < config.epsilon_nm < 1.0
     with pytest.raises(ConfigError, match='robot_fingerprint'):
         load_fdi_config(PAPER_ROBOT, paper_robot, out)
+
+
+def test_a_robot_whose_failure_free_runs_reach_the_torque_limit_is_not_calibrated(tmp_path, capsys):
+    """The light tall robot with motors that barely hold it (0.087 N·m, its cables' peak
+    is 0.084 N·m): on the elastic plant the failure-free motion drives them to the limit,
+    where the residual shows the saturation and not the robot: one line naming the key
+    and the file, and no calibration written (a drawn robot at its PD's edge gave ε/ρ
+    above τ_max that way, and the detector never saw a break)."""
+    weak = copy.deepcopy(LIGHT_TALL_ROBOT)
+    weak['robot']['motor'].update(torque_limit_nm=0.087, nominal_torque_nm=0.087)
+    weak['robot']['cables']['tension_max_n'] = 0.087 / weak['robot']['motor']['drum_radius_m']
+    robot, motions, _ = written_robot(tmp_path, weak, LIGHT_TALL_MOTIONS)
+    out = tmp_path / 'calibration.yaml'
+    assert cdpr_calibrate.main(['--config', str(robot), '--motions', str(motions), '--seeds', '0',
+                                '--jobs', '2', '--out', str(out)]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and f"{robot}: 'robot.motor.torque_limit_nm'" in error[0] and 'reached' in error[0]
+    assert not out.exists()

@@ -23,7 +23,8 @@ from pathlib import Path
 
 import yaml
 
-from cdpr_control.config import load_section
+from cdpr_control.config import load_config, load_section
+from cdpr_control.control.controller import PdGains
 from cdpr_control.geometry.motions import motion_names
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_fdi.detection.calibration import FailureFreeRun, calibrate
@@ -60,10 +61,29 @@ def scenario_of(job):
                                           fidelity=fidelity, seed=seed, calibration=NO_CALIBRATION))
 
 
-def failure_free_run(job) -> FailureFreeRun:
+def failure_free_run(job) -> tuple[FailureFreeRun, float]:
+    """The run's residuals and the largest torque (N·m) its motors were commanded."""
     recording = run_inprocess(scenario_of(job), supervised=False)
-    return FailureFreeRun(recording.command_nm - recording.twin_torque_nm,
-                          recording.twin_angular_velocity_rad_s)
+    return (FailureFreeRun(recording.command_nm - recording.twin_torque_nm, recording.twin_angular_velocity_rad_s),
+            float(abs(recording.command_nm).max()))
+
+
+def check_held(config: Path, robot, work: list, peaks_nm: list[float]) -> None:
+    """ConfigError where a failure-free run drove a motor to its torque limit: the
+    controller does not hold the robot on that plant (a drawn 8.3 kg point mass at the
+    stable PD's edge, 11 Hz, rang on the elastic cables: tensions 0–62 N, τ_max 49), and
+    thresholds measured on such runs would lie above any break (ε/ρ 83 N)."""
+    limit = robot.motor.torque_limit_nm
+    saturated = [job for job, peak in zip(work, peaks_nm) if peak >= limit]
+    if saturated:
+        _, _, motion, reverse, fidelity, seed = saturated[0]
+        config_data = load_config(config)
+        _, frequency_hz, _ = PdGains.settled(robot, config_data.section('control'))
+        raise config_data.section('robot').section('motor').error('torque_limit_nm', (
+            f'({limit:g} N·m) is reached on the failure-free motion {motion}{" reversed" if reverse else ""} '
+            f'(seed {seed}, {fidelity} plant; {len(saturated)} of {len(work)} runs): the controller does not '
+            f'hold this robot there, and thresholds measured so would hide its breaks; a lower '
+            f'control.pd_natural_frequency_hz (now {frequency_hz:.2f} Hz) or stronger motors'))
 
 
 def write_calibration(out: Path, document: dict) -> None:
@@ -136,14 +156,17 @@ def calibrate_robot(config: Path, motions: Path, fidelity: str, seeds: list[int]
     """The core of cdpr-calibrate: every motion of `motions` (or those of `motion_set`), both
     directions, each seed, run failure-free on the `fidelity` plant in `jobs` processes, and
     the thresholds fitted to them; every run settled first, so that a refused robot or
-    motion is said (ConfigError, UsageError) before a worker starts."""
+    motion is said (ConfigError, UsageError) before a worker starts, and a robot the
+    controller does not hold on the plant after them (check_held)."""
     work = [(str(config), str(motions), motion, reverse, fidelity, seed)
              for motion in (motion_set or motion_names(motions)) for reverse in (False, True) for seed in seeds]
     robot = load_robot(config)
     friction = [scenario_of(job) for job in work][0].twin_friction
     twin_friction_nm = 0.0 if friction is None else friction.coulomb_nm
     with ProcessPoolExecutor(max(jobs, 1)) as pool:
-        runs = list(pool.map(failure_free_run, work))
+        runs, peaks = zip(*pool.map(failure_free_run, work))
+    check_held(config, robot, work, peaks)
+    runs = list(runs)
     control = load_section(config, 'control')
     drift = (drift if drift is not None
              else load_section(config, 'fdi').section('cusum').number('drift', non_negative=True))

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cdpr_control.config import ConfigError
 from cdpr_control.model.robot import Robot
 from cdpr_control.setup.robot_file import load_robot
 
@@ -94,7 +95,9 @@ class Member:
 
 def draw_family(options: FamilyOptions, out: Path) -> tuple[list[Member], dict]:
     """`options.count` robots the project accepts, each with at least one wrench-feasible
-    motion, drawn from `options.seed`; and the drawing's tally (draws, refusals by why)."""
+    motion and, on the elastic plant, calibrated (calibrate_member: refused where the
+    controller does not hold it), drawn from `options.seed`; and the drawing's tally
+    (draws, refusals by why)."""
     rng = np.random.default_rng(options.seed)
     members, refused, draws = [], Counter(), 0
     # absolute: a Dask worker (--scheduler) reads them from its own working folder
@@ -110,14 +113,21 @@ def draw_family(options: FamilyOptions, out: Path) -> tuple[list[Member], dict]:
         draws += 1
         error = refusal(path)
         drawn = None if error else draw_motions(rng, path, motions, f'{draws - 1:03d}')
-        if error or not drawn.names:
-            refused[f"'{error.key}'" if error else 'no wrench-feasible motion'] += 1
+        why = f"'{error.key}'" if error else None if drawn.names else 'no wrench-feasible motion'
+        member = None if why else Member(name, load_robot(path), path, motions, drawn.names, drawn.shrinks)
+        if member is not None and 'elastic' in options.fidelities:
+            try:
+                calibrate_member(member, options)
+            except ConfigError as err:   # check_held: the controller does not hold it
+                why, member = f"'{err.key}' (calibration)", None
+        if member is None:
+            refused[why] += 1
             rejected.mkdir(parents=True, exist_ok=True)
             for kept in (path, motions):
                 if kept.exists():
                     shutil.move(kept, rejected / kept.name)
             continue
-        members.append(Member(name, load_robot(path), path, motions, drawn.names, drawn.shrinks))
+        members.append(member)
     return members, {'draws': draws, 'refused': dict(refused)}
 
 
@@ -165,8 +175,6 @@ def bench_robots(options: FamilyOptions, heading: str = '', show_progress: bool 
     members, drawing = draw_family(options, out)
     rng = np.random.default_rng([options.seed, 1])
     for member in members:
-        if 'elastic' in options.fidelities:
-            calibrate_member(member, options)
         member.runs = member_runs(member, options, rng)
     runs = [run for member in members for run in member.runs]
     try:
