@@ -141,6 +141,9 @@ class Supervisor:
         # per motor, the first tick of its residual's run above δ, on every tick (alarm or
         # not; -1: not above now): the order in which motors lost their cables' pull
         self.unloaded_since = np.full(robot.cable_count, -1)
+        # of the candidates watched now, the first such tick seen while watched: a freed
+        # motor's residual swings back under δ now and then, and its run starts again
+        self.candidate_onsets: dict[int, int] = {}
         # of a motor that lost its pull alone, weighed once disturbance_window_cycles on:
         # (cable, since) whose balance the cables left explained (no push)
         self.unloaded_alone: tuple[int, int] | None = None
@@ -336,7 +339,8 @@ class Supervisor:
         where the others place the end-effector (wrench_balance.overstretch_m), else all.
         None is named while the motors free now leave too few cables to place the
         end-effector (a push's slack cables, disturbed()), unless they stay so for
-        disturbance_hold_cycles.
+        disturbance_hold_cycles: then the one that lost its pull first
+        (unloaded_before_all), else all.
 
         Right after a failure a loaded motor can look free for a while (its cable
         unloaded); the broken cables' motors stay free. On a redundant robot an intact
@@ -348,11 +352,17 @@ class Supervisor:
         if self.candidates:
             self.candidates = [cable for cable in self.candidates if cable in found]
         if not self.candidates:
-            self.candidates, self.candidates_since = found, tick
+            self.candidates, self.candidates_since, self.candidate_onsets = found, tick, {}
+        for cable in self.candidates:
+            if cable not in self.candidate_onsets and self.unloaded_since[cable] >= 0:
+                self.candidate_onsets[cable] = int(self.unloaded_since[cable])
         watched = tick - self.candidates_since + 1
         placed = self.placed_by(self.robot.cable_mask(found))
         if (not placed and len(self.candidates) > 1 and watched >= self.fdi.identification_confirm_cycles
                 and (first := self.unloaded_first()) is not None):
+            return [first]
+        if (not placed and len(self.candidates) > 1 and watched >= self.fdi.disturbance_hold_cycles
+                and (first := self.unloaded_before_all()) is not None):
             return [first]
         if (self.candidates and (len(self.candidates) == 1
                                  or watched >= self.fdi.identification_confirm_cycles)
@@ -400,6 +410,19 @@ class Supervisor:
         first = self.candidates[int(order[0])]
         # and the balance weighed while it alone had lost its pull was a break's
         return first if self.unloaded_alone == (first, int(since[order[0]])) else None
+
+    def unloaded_before_all(self) -> int | None:
+        """Of several candidates too few cables are left to place the end-effector beside,
+        still so after disturbance_hold_cycles, the one whose motor lost its cable's pull
+        a tick or more before every other's: the break comes first, the cables its
+        end-effector then falls off after (a platform the six cables left cannot hold at
+        the pose of the break: one of them slack within 2–20 ms). None where two lost it
+        on the same tick (two parted at once) or one never lost it while watched (its
+        first tick then: candidate_onsets)."""
+        if any(cable not in self.candidate_onsets for cable in self.candidates):
+            return None
+        onsets = sorted((self.candidate_onsets[cable], cable) for cable in self.candidates)
+        return onsets[0][1] if onsets[1][0] > onsets[0][0] else None
 
     def leading(self, stretch: np.ndarray | None) -> list[int]:
         """Of several candidates none of which spans identification_stretch_m beyond its
