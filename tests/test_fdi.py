@@ -13,7 +13,7 @@ from cdpr_control.point_mass.kinematics import cable_vectors, inverse_kinematics
 from cdpr_control.model.reference_table import ReferenceTable
 from cdpr_control.point_mass.statics import static_tensions
 from cdpr_control.tension_distribution import make_tension_distribution
-from cdpr_control.point_mass.workspace import polygon_centroid, safe_point, sew_cross_section
+from cdpr_control.point_mass.workspace import holding_tensions_each, polygon_centroid, safe_point, sew_cross_section
 from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config
 from cdpr_fdi.detectors import CusumDetector, ThresholdDetector
 from cdpr_fdi.detection.identification import identify_broken_cables
@@ -187,6 +187,22 @@ def test_safe_point_is_the_sew_barycentre_unless_configured(paper_robot, recover
     # the paper's SP for cable 4 (§5.3) as a per-cable override
     configured = dataclasses.replace(recovery_config, safe_points_m={4: np.array([0.62, 1.28, 1.2])})
     np.testing.assert_allclose(safe_point_for(paper_robot, configured, attached), [0.62, 1.28, 1.2])
+
+
+def test_safe_point_moves_where_the_cables_left_cannot_hold_the_barycentre(paper_robot, recovery_config):
+    # cable 4 broken, the SEW barycentre needs 14.5 N of cable 1: with τ_max 14 N no move
+    # ends there; SP is the barycentre of where the cables hold it within the bounds
+    attached = paper_robot.cable_mask([3])
+    weak = dataclasses.replace(paper_robot, tension_max_n=14.0)
+    paper = safe_point(weak, attached, recovery_config.safe_height_m)
+    assert np.isnan(holding_tensions_each(weak, paper, attached)).any()
+    sp = safe_point_for(weak, recovery_config, attached)
+    assert sp[2] == recovery_config.safe_height_m and np.linalg.norm(sp - paper) > 0.05
+    held = holding_tensions_each(weak, sp, attached)[0, attached]
+    assert np.all(held >= weak.tension_min_n - 1e-9) and np.all(held <= 14.0 + 1e-9)
+    # where the cables hold it nowhere at that height within the bounds, no SP
+    with pytest.raises(RecoveryInfeasible, match='nowhere'):
+        safe_point_for(dataclasses.replace(paper_robot, tension_max_n=13.0), recovery_config, attached)
 
 
 def test_initial_tensions_keep_the_force_when_the_remaining_cables_can(paper_robot):

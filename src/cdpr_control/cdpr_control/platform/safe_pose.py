@@ -21,23 +21,19 @@ that holds best is kept:
 """
 from __future__ import annotations
 
-import hashlib
-import pickle
 from dataclasses import dataclass
 
 import numpy as np
 
 from cdpr_control.platform.statics import static_tensions_each
 from cdpr_control.model.robot import Robot
+from cdpr_control.model.searches import found_once
 from cdpr_control.geometry.rotation import from_axis_angle, normalised, product
 
 AXES = np.eye(3)
-# Safe poses already found (~0.2 s each on the shipped platform), or why there is none:
-# by what the robot is (the digest of its pickled form, so that a robot loaded anew for
-# each run of a campaign is found again), the remaining cables and the settings. A
-# supervisor finds every single break's when it starts (cdpr_fdi.recovery_planning.recovery.find_safe_poses),
-# a run's length and the naming ask again. The oldest goes first.
-KEPT_SAFE_POSES = 64
+# Safe poses already found (~0.2 s each on the shipped platform), or why there is none
+# (model.searches): a supervisor finds every single break's when it starts
+# (cdpr_fdi.recovery_planning.recovery.find_safe_targets), a run's length and the naming ask again.
 _found: dict[tuple, 'SafePose | str'] = {}
 
 
@@ -92,18 +88,11 @@ def residual_section(robot: Robot, attached, orientation, height_m: float, spaci
 def safe_pose(robot: Robot, attached, height_m: float, turns_deg, spacing_m: float) -> SafePose:
     """The safe pose of the module docstring for the `attached` cables (boolean mask) at
     `height_m`; ValueError when no candidate orientation has a residual workspace there.
-    Found once per robot, cables and settings (KEPT_SAFE_POSES are kept)."""
+    Found once per robot, cables and settings (model.searches)."""
     attached = np.asarray(attached, dtype=bool)
-    key = (hashlib.sha256(pickle.dumps(robot)).digest(), attached.tobytes(), float(height_m),
-           tuple(map(float, turns_deg)), float(spacing_m))
-    if key not in _found:
-        if len(_found) >= KEPT_SAFE_POSES:
-            del _found[next(iter(_found))]
-        _found[key] = _search(robot, attached, height_m, turns_deg, spacing_m)
-    found = _found[key]
-    if isinstance(found, str):
-        raise ValueError(found)
-    return found
+    return found_once(_found, robot, (attached.tobytes(), float(height_m), tuple(map(float, turns_deg)),
+                                      float(spacing_m)),
+                      lambda: _search(robot, attached, height_m, turns_deg, spacing_m))
 
 
 def _search(robot: Robot, attached: np.ndarray, height_m: float, turns_deg, spacing_m: float) -> 'SafePose | str':

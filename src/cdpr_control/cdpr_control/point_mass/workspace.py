@@ -4,6 +4,13 @@ from __future__ import annotations
 import numpy as np
 
 from cdpr_control.model.robot import Robot
+from cdpr_control.model.searches import found_once
+from cdpr_control.point_mass.kinematics import cable_vectors
+from cdpr_control.tension_distribution import BoundedMinimumNorm
+
+# Held safe points already found (a grid of the workspace box's section where the paper's
+# SP is not held: ~0.1 s, more than a tick), or why there is none (model.searches)
+_found: dict[tuple, 'np.ndarray | str'] = {}
 
 
 def sew_cross_section(robot: Robot, attached, height_m: float) -> np.ndarray:
@@ -67,6 +74,57 @@ def safe_point(robot: Robot, attached, height_m: float) -> np.ndarray:
     """SP: barycentre of the residual SEW cross-section at `height_m` (paper §3.2)."""
     centre = polygon_centroid(sew_cross_section(robot, attached, height_m))
     return np.array([centre[0], centre[1], height_m])
+
+
+def holding_tensions_each(robot: Robot, positions_m, attached) -> np.ndarray:
+    """Tensions (n × cables, N, 0 for a detached cable) of the `attached` cables within
+    [tension_min_n, tension_max_n] that hold the end-effector at rest at each of the
+    positions (n × 3, m), the minimum-norm ones; NaN for the attached cables of a row
+    where there are none."""
+    attached = np.asarray(attached, dtype=bool)
+    positions_m = np.atleast_2d(np.asarray(positions_m, dtype=float))
+    structures = np.stack([cable_vectors(robot.exit_points_m[attached], position)[0].T for position in positions_m])
+    wrenches = np.broadcast_to(-robot.weight_wrench_n, (len(positions_m), 3)).copy()
+    tensions = np.zeros((len(positions_m), robot.cable_count))
+    tensions[:, attached] = BoundedMinimumNorm(robot.tension_min_n, robot.tension_max_n).distribute_each(structures, wrenches)
+    return tensions
+
+
+def held_safe_point(robot: Robot, attached, height_m: float, spacing_m: float) -> np.ndarray:
+    """SP (m) where the `attached` cables hold the end-effector within [tension_min_n,
+    tension_max_n]: the paper's (`safe_point`) where they do there, else the barycentre
+    of the residual wrench-feasible workspace's section at `height_m` — the mean of the
+    points of a grid `spacing_m` apart over the workspace box's x-y extent where they do,
+    as a platform's safe pose (docs/design.md §5). The paper's SEW asks only for tensions
+    that are not negative: with a heavy end-effector under cables far from vertical its
+    barycentre can need more than τ_max of a cable, and no move ends there. The bounds,
+    not the plan's margin above τ_min: a light end-effector on many cables is held
+    nowhere with it (the recovery lowers it where a pose needs, LoweredFloor). ValueError
+    where there is no such section, or its barycentre is not held (a section that is not
+    convex). Found once per robot, cables and settings (model.searches)."""
+    attached = np.asarray(attached, dtype=bool)
+    return found_once(_found, robot, (attached.tobytes(), float(height_m), float(spacing_m)),
+                      lambda: _held_safe_point(robot, attached, height_m, spacing_m)).copy()
+
+
+def _held_safe_point(robot: Robot, attached: np.ndarray, height_m: float, spacing_m: float) -> 'np.ndarray | str':
+    """`held_safe_point`'s search, or why it found none."""
+    paper = safe_point(robot, attached, height_m)
+    if not np.isnan(holding_tensions_each(robot, paper, attached)).any():
+        return paper
+    axes = [np.linspace(low, high, max(2, int(round((high - low) / spacing_m)) + 1))
+            for low, high in zip(robot.workspace_min_m[:2], robot.workspace_max_m[:2])]
+    grid = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 2)
+    positions = np.column_stack([grid, np.full(len(grid), height_m)])
+    held = ~np.isnan(holding_tensions_each(robot, positions, attached)).any(axis=1)
+    bounds = f'[{robot.tension_min_n:g}, {robot.tension_max_n:g}] N'
+    if not held.any():
+        return f'the remaining cables hold the end-effector nowhere at z = {height_m} m within {bounds}'
+    barycentre = positions[held].mean(axis=0)
+    if np.isnan(holding_tensions_each(robot, barycentre, attached)).any():
+        return (f'the barycentre {np.round(barycentre, 4).tolist()} m of where the remaining cables hold the '
+                f'end-effector at z = {height_m} m within {bounds} is not held itself')
+    return barycentre
 
 
 def contains(polygon: np.ndarray, point_xy) -> bool:

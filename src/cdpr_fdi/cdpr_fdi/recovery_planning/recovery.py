@@ -4,8 +4,10 @@ the run reports share.
 
 The safe target of a point mass is SP, the barycentre of the residual static-equilibrium
 workspace's cross-section at recovery.safe_height_m (or recovery.safe_points_m per
-cable); a platform's is its safe pose (cdpr_control.platform.safe_pose), found ahead of time for
-every single break by the strategies that steer or brake one (find_safe_poses).
+cable), or where the remaining cables cannot hold it within their bounds, the barycentre
+of the section where they can (held_safe_point); a platform's is
+its safe pose (cdpr_control.platform.safe_pose). Both are found ahead of time for every
+single break by the strategies (find_safe_targets).
 """
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ import numpy as np
 
 from cdpr_control.model.robot import Robot
 from cdpr_control.platform.safe_pose import SafePose, safe_pose
-from cdpr_control.point_mass.workspace import safe_point, sew_cross_section
+from cdpr_control.point_mass.workspace import held_safe_point, sew_cross_section
 
 
 class RecoveryInfeasible(RuntimeError):
@@ -70,9 +72,12 @@ def safe_point_for(robot: Robot, config, attached: np.ndarray) -> np.ndarray:
 
 
 def residual_barycentre(robot: Robot, config, attached: np.ndarray) -> np.ndarray:
-    """A point mass's SP: the barycentre of the residual SEW's section at the safe height."""
+    """A point mass's SP: the barycentre of the residual SEW's section at the safe height,
+    or where the remaining cables cannot hold the end-effector there within [τ_min,
+    τ_max], of the section where they can, sampled on a platform's grid
+    (`safe_pose_grid_m`; held_safe_point): no move ends at a point no tensions hold."""
     try:
-        return safe_point(robot, attached, config.safe_height_m)
+        return held_safe_point(robot, attached, config.safe_height_m, config.safe_pose_grid_m)
     except ValueError as err:
         raise RecoveryInfeasible(f'no residual workspace at z = {config.safe_height_m} m: {err}') from None
 
@@ -92,14 +97,15 @@ SAFE_POINTS = {'point_mass': residual_barycentre,
                'platform': lambda robot, config, attached: safe_pose_for(robot, config, attached).position_m}
 
 
-def find_safe_poses(robot: Robot, config) -> None:
-    """A platform's safe pose after each single break, found now (cdpr_control.platform.safe_pose
-    keeps them, or why there is none), so that naming a cable does not search: ~0.2 s a
-    cable on the shipped platform, which a realtime supervisor cannot spend between two
-    ticks."""
+def find_safe_targets(robot: Robot, config) -> None:
+    """The safe target after each single break, found now (cdpr_control.platform.safe_pose
+    and cdpr_control.point_mass.workspace keep them, or why there is none), so that naming
+    a cable does not search: ~0.2 s a cable on the shipped platform, ~0.1 s a point mass's
+    grid where the paper's SP is not held, which a realtime supervisor cannot spend
+    between two ticks."""
     for cable in range(robot.cable_count):
         try:
-            safe_pose_for(robot, config, robot.cable_mask([cable]))
+            safe_target(robot, config, robot.cable_mask([cable]))
         except RecoveryInfeasible:
             pass     # said when that cable is named
 

@@ -41,7 +41,7 @@ from cdpr_control.tension_distribution import TensionDistribution
 from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 
-from ..recovery_planning.recovery import RecoveryInfeasible
+from ..recovery_planning.recovery import RecoveryInfeasible, find_safe_targets
 
 
 class HeldOffSafePose(RecoveryInfeasible):
@@ -261,7 +261,9 @@ class RecoveryStrategy:
 
     def prepare(self, robot: Robot, config) -> None:
         """Make ready, when the supervisor is built, what `start` would not have the time
-        for on the naming tick."""
+        for on the naming tick: the safe target after each single break (a point mass's
+        SP searched on a grid where the paper's is not held)."""
+        find_safe_targets(robot, config)
 
     def start(self, naming: Naming) -> StartedRecovery:
         """The recovery from the naming tick on; RecoveryInfeasible (or ValueError) where

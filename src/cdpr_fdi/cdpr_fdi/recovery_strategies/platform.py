@@ -15,7 +15,7 @@ from cdpr_control.geometry.rotation import normalised
 from cdpr_control.tension_distribution import LoweredFloor, TensionDistribution, make_tension_distribution
 from cdpr_msgs_py.contract import RECOVERY_MOVE, VERDICT_DELAY_TICKS
 
-from ..recovery_planning.recovery import find_safe_poses, safe_pose_for
+from ..recovery_planning.recovery import find_safe_targets, safe_pose_for
 from ..detection.wrench_balance import placement
 from .base import Naming, StartedRecovery
 
@@ -23,9 +23,9 @@ from .base import Naming, StartedRecovery
 def prepare_platform(robot: Robot, config) -> None:
     """What a platform's recovery needs from the naming on, when there is no time to load
     (or compile) or search: the kernels its steps run on, and the safe pose after each
-    single break (find_safe_poses)."""
+    single break (find_safe_targets)."""
     platform_substeps.kernel().load_all()
-    find_safe_poses(robot, config)
+    find_safe_targets(robot, config)
 
 
 def named_state(naming: Naming):
