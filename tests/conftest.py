@@ -369,6 +369,33 @@ LIGHT_SIX_CABLE_MOTIONS = {
     'motions': {'down': {'type': 'line', 'start': [2.3887, 2.8874, 1.4898], 'goal': [2.0313, 2.4546, 0.6622]}}}
 
 
+# A drawn suspended 7.2 kg platform on seven cables at mixed heights (cdpr-bench robots
+# --seed 2, family2_039), none of the shipped robots: after cable 5 parts, the six left
+# hold its safe pose, but not the safe orientation anywhere near where the cable broke.
+DRAWN_SEVEN_CABLE_PLATFORM = {'robot': {
+    'name': 'drawn_seven_cable_platform', 'gravity_m_s2': [0.0, 0.0, -9.81],
+    'end_effector': {'mass_kg': 7.241, 'radius_m': 0.215},
+    'platform': {
+        'attachment_points_m': [[0.1361, 0.0852, 0.0815], [0.18, 0.0573, 0.0815], [-0.0676, 0.0852, 0.0815],
+                                [-0.0438, 0.0852, 0.0815], [-0.1154, -0.0852, 0.0815],
+                                [-0.0693, -0.0852, 0.0815], [0.1161, -0.0852, 0.0815]],
+        'centre_of_mass_m': [0.0, 0.0, 0.0],
+        'inertia_kg_m2': [[0.033527, 0.0, 0.0], [0.0, 0.0942323, 0.0], [0.0, 0.0, 0.0957226]],
+        'home_orientation': [1.0, 0.0, 0.0, 0.0]},
+    'exit_points_m': [[5.18, 2.404, 2.85], [4.831, 4.234, 2.338], [2.111, 4.234, 2.389], [0.0, 4.073, 2.864],
+                      [0.0, 1.627, 2.469], [2.085, 0.0, 2.681], [3.716, 0.0, 2.343]],
+    'workspace_m': {'min': [0.992, 0.85, 0.215], 'max': [4.188, 3.384, 1.542]},
+    'home_position_m': [2.59, 2.117, 0.879],
+    'motor': {'inertia_kg_m2': 0.00135, 'drum_radius_m': 0.0548, 'viscous_friction_nm_s_rad': 0.0018,
+              'static_friction_nm': 0.116, 'nominal_torque_nm': 2.12, 'nominal_speed_rpm': 3043,
+              'torque_limit_nm': 7.085},
+    'cables': {'tension_min_n': 2.61, 'tension_max_n': 115.7}}}
+DRAWN_SEVEN_CABLE_PLATFORM_MOTIONS = {
+    'motion_defaults': {'peak_speed_m_s': 0.4, 'rest_before_s': 0.5, 'rest_after_s': 1.0},
+    'motions': {'climb': {'type': 'line', 'start': [2.5639, 1.9694, 0.6191], 'goal': [2.6161, 2.2646, 1.1389],
+                          'turn': {'axis': [0.3836, 0.6726, -0.6328], 'angle_deg': 7.624}}}}
+
+
 @pytest.fixture
 def light_tall_robot_files(tmp_path):
     """(robot file, motions file) of LIGHT_TALL_ROBOT, written to the test's folder."""

@@ -29,7 +29,7 @@ from cdpr_control.point_mass.workspace import contains, sew_cross_section
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 from cdpr_twin.nodes.run_length import RunLength
 
-from conftest import (CONFIG_DIR, DRAWN_EIGHT_CABLE_FDI, DRAWN_EIGHT_CABLE_MOTIONS, DRAWN_EIGHT_CABLE_ROBOT,
+from conftest import (CONFIG_DIR, DRAWN_EIGHT_CABLE_FDI, DRAWN_SEVEN_CABLE_PLATFORM, DRAWN_SEVEN_CABLE_PLATFORM_MOTIONS, DRAWN_EIGHT_CABLE_MOTIONS, DRAWN_EIGHT_CABLE_ROBOT,
                       LIGHT_SIX_CABLE_MOTIONS, LIGHT_SIX_CABLE_ROBOT, LIGHT_TALL_FDI, LIGHT_TALL_MOTIONS,
                       LIGHT_TALL_ROBOT, MOTIONS,
                       PAPER_ROBOT, every_tick_scenario, written_robot)
@@ -522,6 +522,20 @@ def test_phase_1_keeps_a_light_end_effectors_cables_above_tau_min_while_it_swing
     assert_recovered(scenario, metrics)
     under = metrics['recovery']['ticks_under_tension_min']
     assert under['jolt'] <= ALLOWED_TICKS_IN_JOLT and under['after_jolt'] <= ALLOWED_TICKS_AFTER_JOLT, under
+
+
+def test_a_platform_far_from_where_its_safe_orientation_is_held_turns_as_it_comes_in(tmp_path):
+    """The drawn seven-cable platform (conftest), rigid plant: cable 5 parts 38 % into the
+    climb. The six cables left hold the safe pose, but not the safe orientation at the
+    pose of the break: pulled to it at once, the platform was flung across the frame and
+    turned 36° (FAULT). Turned as its position comes in, it reaches the safe pose, its
+    cables within [τ_min, τ_max]."""
+    robot, motions, _ = written_robot(tmp_path, DRAWN_SEVEN_CABLE_PLATFORM, DRAWN_SEVEN_CABLE_PLATFORM_MOTIONS)
+    scenario, _, metrics = run('climb', cables=[5], config=robot, motions=motions, fail_at_s=1.726)
+    assert metrics['identified_cables'] == [5]
+    assert metrics['mode'] == 'SAFE_HOLD' and metrics['recovery']['reached_safe_point'], metrics['fault']
+    recovery = metrics['recovery']
+    assert scenario.robot.tension_min_n <= recovery['min_tension_n'] <= recovery['max_tension_n'] <= scenario.robot.tension_max_n
 
 
 def test_a_break_at_rest_whose_end_effector_falls_off_a_second_cable_names_the_first_alone(tmp_path):

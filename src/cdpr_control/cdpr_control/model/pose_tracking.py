@@ -6,7 +6,8 @@ a bounded number of steps: from home, the lengths of a platform turned far from 
 the cables left after a break, may not converge in them. A recovery that ended on that
 (FAULT) gave up a robot whose cables still hold it. `PoseTracker.pose` tries, in order:
 
-1. the body's forward kinematics from the last pose it found (home before any), in the
+1. the body's forward kinematics from the last pose it found (home before any), or the
+   pose a plan the drives track has put the end-effector at since (`expect`), in the
    body's own step count;
 2. where that does not converge, `fallback_iterations` steps from each of the better
    starts it knows: the last pose found, the `hint` the caller gives (the reference pose
@@ -55,6 +56,13 @@ class PoseTracker:
             found = self.retry(angles, hint)
         self.last = found
         return found
+
+    def expect(self, position_m, orientation) -> None:
+        """The pose (position m, orientation) a plan the drives track has put the
+        end-effector at: the next call's start. From a pose long past (the naming's, a
+        steered approach later), Gauss–Newton can find another pose of the six cables'
+        lengths: a platform at its safe pose was read 0.1 m and 65° from it."""
+        self.last = (np.array(position_m, dtype=float), np.array(orientation, dtype=float))
 
     def retry(self, angles: np.ndarray, hint):
         """More steps from each better start; else the last pose found."""

@@ -7,10 +7,19 @@ platform's rigid-body model is stepped under the tensions that come nearest (in 
 that weighs moments `moment_weight` times a force's N, platform_substeps.nearest_wrench) the wrench of a
 critically damped pull towards the target,
 
-    a_d = ω_p² (p* − p) − 2 ω_p v,   α_d = ω_q² φ(q*, q) − 2 ω_q ω,
+    a_d = ω_p² (p* − p) − 2 ω_p v,   α_d = ω_q² φ(q_c, q) − 2 ω_q ω,
     w_d = M s(t) (a_d, α_d) − (w_g − h),
 
-the pull eased in by s(t), a smoothstep from 0 at the first row to 1 at `ease_in_s` (the
+the orientation pulled towards q_c = exp(c(s) φ(q*, q_0)) q_0, on the turn from the
+start's q_0 to the target's q*, s = 1 − |p* − p| / |p* − p_0| (within [0, 1]) the share
+of the start's distance covered: the orientations the cables left hold the platform at
+shift with its position. c(s) is chosen before the first row (`aim_schedule`), at
+`aim_samples` points of the straight way from p_0 to p*, as the share of the turn whose
+holding tensions keep the largest margin there (as the safe pose's orientation is
+chosen), 1 at p*: a platform turned to its safe orientation at once, far from its safe
+point, was held there by no tensions (flung across the frame, turned 36°), and one kept
+at its start's was held nowhere on its way by another break's cables. The pull is
+eased in by s(t), a smoothstep from 0 at the first row to 1 at `ease_in_s` (the
 first tensions, nearest those that would hold the platform as it moves, step least from
 what the drives pulled before: a step rings elastic cables below τ_min). The motion those
 tensions give, M (a, α) = W τ + w_g − h, is the plan: a motion the
@@ -34,7 +43,8 @@ from cdpr_control.platform import substeps as platform_substeps
 from cdpr_control.platform.substeps import ROW_POSE, ROW_RATE, ROW_TWIST, ROW_WIDTH
 from cdpr_control.geometry.pose_trajectories import PoseSample
 from cdpr_control.model.robot import Robot
-from cdpr_control.geometry.rotation import difference, normalised
+from cdpr_control.geometry.rotation import difference, from_axis_angle, normalised, product
+from cdpr_control.platform.safe_pose import tension_margins_n
 
 # Rows are kept in an array grown this many rows at a time (10 s of a 2 ms period).
 ROWS_PER_GROWTH = 5000
@@ -43,13 +53,37 @@ ROWS_PER_GROWTH = 5000
 @dataclass(frozen=True)
 class ApproachGains:
     """The pull towards the target: natural frequencies (rad/s) of the position's and the
-    orientation's critically damped pulls, how many N a moment's N·m counts as, and over
-    how long (s) the pull is eased in from none."""
+    orientation's critically damped pulls, how many N a moment's N·m counts as, over
+    how long (s) the pull is eased in from none, and at how many points of its way the
+    orientation it turns through is chosen (aim_schedule)."""
 
     position_frequency_rad_s: float
     orientation_frequency_rad_s: float
     moment_weight: float
     ease_in_s: float
+    aim_samples: int
+
+
+def aim_schedule(robot: Robot, attached, start_pose, target_m, target_orientation, samples: int) -> np.ndarray:
+    """c at `samples` shares s of the straight way from the pose `start_pose` (p_0, q_0) to
+    the target (module docstring): the share of the turn from q_0 to the target's
+    orientation whose holding tensions at p_0 + s (p* − p_0) keep the largest margin
+    (safe_pose.tension_margins_n), among as many shares; 1 at the target; where no share
+    holds the platform, interpolated from the points where one does."""
+    start_pose = np.asarray(start_pose, dtype=float)
+    shares = np.linspace(0.0, 1.0, samples)
+    positions = start_pose[:3] + shares[:, None] * (np.asarray(target_m, dtype=float) - start_pose[:3])
+    turn = difference(target_orientation, start_pose[3:])
+    angle = np.linalg.norm(turn)
+    axis = turn / angle if angle > 0.0 else turn
+    margins = np.column_stack([tension_margins_n(robot, positions, product(from_axis_angle(axis, share * angle),
+                                                                            start_pose[3:]), attached)
+                               for share in shares])
+    aim = shares[np.argmax(margins, axis=1)]
+    aim[-1] = 1.0
+    held = np.isfinite(margins.max(axis=1))
+    held[-1] = True
+    return np.interp(shares, shares[held], aim[held])
 
 
 class SteeredApproach:
@@ -72,6 +106,9 @@ class SteeredApproach:
         self.bounds_n = np.array([tension_min_n, tension_max_n], dtype=float)
         self.period_s = period_s
         self.pose = np.concatenate([np.asarray(start.position_m, dtype=float), normalised(start.orientation)])
+        self.origin = self.pose.copy()
+        self.aim = aim_schedule(robot, np.asarray(attached, dtype=bool), self.origin, self.target_m,
+                                self.target_orientation, gains.aim_samples)
         self.twist = np.concatenate([np.asarray(start.velocity_m_s, dtype=float),
                                      np.asarray(start.angular_velocity_rad_s, dtype=float)])
         self.table = np.empty((0, ROW_WIDTH))
@@ -85,9 +122,9 @@ class SteeredApproach:
             grown = np.empty((max(rows, len(self.table) + ROWS_PER_GROWTH), ROW_WIDTH))
             grown[:self.count] = self.table[:self.count]
             self.table = grown
-        status = self.kernel.steered_rows(self.constants, self.exits, self.attachments, self.attached, self.target,
-                                          self.gains, self.bounds_n, self.period_s, self.count, self.pose,
-                                          self.twist, self.table[self.count:rows])
+        status = self.kernel.steered_rows(self.constants, self.exits, self.attachments, self.attached, self.origin,
+                                          self.aim, self.target, self.gains, self.bounds_n, self.period_s, self.count,
+                                          self.pose, self.twist, self.table[self.count:rows])
         if status < 0:
             raise RuntimeError(f'steered approach: the nearest wrench failed ({status}) at row {self.count}')
         self.count = rows

@@ -481,13 +481,16 @@ def nearest_wrench(columns, wrench, weights, tension_min_n, tension_max_n, tensi
     return -1
 
 
-def steered_rows(constants, exits, attachments, attached, target, gains, bounds, h, first_row, pose, twist,
-                 rows) -> int:
+def steered_rows(constants, exits, attachments, attached, origin, aim, target, gains, bounds, h, first_row,
+                 pose, twist, rows) -> int:
     """Rows `first_row`, `first_row` + 1, … of a steered approach (cdpr_control.
     steered_approach) into `rows` (k × ROW_WIDTH: the pose, the twist and the twist rate
     (a, α) the tensions give there), the state (`pose`, `twist`) moved one period `h` on
-    after each. `target` is the target pose, `gains` (ω_p, ω_q in rad/s, the moment's
-    weight, the ease-in in s), `bounds` the tensions' (N). 0, or nearest_wrench's failure."""
+    after each. `origin` is the approach's first pose, `aim` the shares c of the turn
+    from its orientation to the target's at evenly spaced shares of the way
+    (steered_approach.aim_schedule), `target` the target pose, `gains`
+    (ω_p, ω_q in rad/s, the moment's weight, the ease-in in s), `bounds` the tensions'
+    (N). 0, or nearest_wrench's failure."""
     m = exits.shape[0]
     count = 0
     for i in range(m):
@@ -501,6 +504,10 @@ def steered_rows(constants, exits, attachments, attached, target, gains, bounds,
     position_gain, orientation_gain, ease_in_s = gains[0], gains[1], gains[3]
     for a in range(6):
         weights[a] = 1.0 if a < 3 else gains[2]
+    # the turn φ_0 from the origin's orientation to the target's, and the origin's distance
+    turn_to_target, aimed = np.empty(3), np.empty(7)
+    rotation_towards(target[3:], origin, turn_to_target)
+    distance_m = sqrt((target[0] - origin[0]) ** 2 + (target[1] - origin[1]) ** 2 + (target[2] - origin[2]) ** 2)
     for k in range(rows.shape[0]):
         rotation_of(pose, rotation)
         cables_at(pose, rotation, exits, attachments, columns, lengths, arms)
@@ -508,7 +515,20 @@ def steered_rows(constants, exits, attachments, attached, target, gains, bounds,
         # the pull eased in (smoothstep) from none at the first row
         share = 1.0 if ease_in_s <= 0.0 else min(1.0, (first_row + k) * h / ease_in_s)
         share = share * share * (3.0 - 2.0 * share)
-        rotation_towards(target[3:], pose, phi)
+        # the orientation aimed at, on the turn from the origin's to the target's, by the
+        # share of the origin's distance covered: the orientations the cables left hold
+        # the platform at shift with its position (steered_approach's docstring)
+        progress = 1.0
+        if distance_m > 0.0:
+            left = sqrt((target[0] - pose[0]) ** 2 + (target[1] - pose[1]) ** 2 + (target[2] - pose[2]) ** 2)
+            progress = min(1.0, max(0.0, 1.0 - left / distance_m))
+        place = progress * (aim.shape[0] - 1)
+        below = min(int(place), aim.shape[0] - 2)
+        turned = aim[below] + (place - below) * (aim[below + 1] - aim[below])
+        for a in range(7):
+            aimed[a] = origin[a]
+        turn(aimed, turned * turn_to_target[0], turned * turn_to_target[1], turned * turn_to_target[2])
+        rotation_towards(aimed[3:], pose, phi)
         for a in range(3):
             pull[a] = share * (position_gain * position_gain * (target[a] - pose[a]) - 2.0 * position_gain * twist[a])
             pull[3 + a] = share * (orientation_gain * orientation_gain * phi[a]
@@ -652,7 +672,7 @@ def signatures(types) -> dict:
             elastic_substeps: types.void(count, types.float64, *geometry, rows, row, row, row, flag, *(row,) * 5),
             move: types.void(row, row, row, types.float64),
             nearest_wrench: count(rows, row, row, types.float64, types.float64, row),
-            steered_rows: count(row, rows, rows, row, row, row, row, types.float64, count, row, row, rows)}
+            steered_rows: count(row, rows, rows, row, row, row, row, row, row, types.float64, count, row, row, rows)}
 
 
 @cache

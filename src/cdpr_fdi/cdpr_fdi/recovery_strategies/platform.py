@@ -94,6 +94,7 @@ class PlatformRecovery(StartedRecovery):
         self.attached = np.asarray(attached, dtype=bool).copy()
         self.safe_point_m = safe.position_m
         self.safe_orientation = safe.orientation
+        self.safe_margin_n = safe.tension_margin_n
         self.margin = make_tension_distribution(
             distribution.name, distribution.tension_min_n + config.plan_tension_margin_n, distribution.tension_max_n)
         self.lowered = LoweredFloor(self.margin, robot.tension_min_n)

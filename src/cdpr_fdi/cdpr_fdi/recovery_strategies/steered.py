@@ -4,7 +4,8 @@ docs/platform.md): after every break, the default of every platform robot; and w
 platform at its pose at the naming, so that it cannot be braked to rest there.
 
 The platform is steered by cdpr_control.platform.steered_approach, under tensions kept
-`approach_tension_margin_n` above τ_min, its orientation pulled hard, its position let
+`approach_tension_margin_n` above τ_min (at most `approach_safe_margin_share` of the safe
+pose's own tension margin), its orientation pulled hard, its position let
 move as those tensions allow. The steered motion is tabulated per tick for the drives
 (its wrench shared again by the recovery's distribution), stepped as the ticks ask for
 it, so that a realtime supervisor plans a few rows at a time; from where the naming
@@ -113,9 +114,13 @@ class PoseApproach(PlatformRecovery):
 
     def steered(self, start: PoseSample, gains: ApproachGains) -> SteeredApproach:
         """A try from `start` to the safe pose with the pull `gains`."""
+        # the margin lowered below the safe pose's own: tensions kept further above τ_min
+        # than those that hold the platform there cannot hold it there (a light platform's
+        # cables pulled it up, past its safe pose, to the frame)
+        config = self.config
+        margin_n = min(config.approach_tension_margin_n, config.approach_safe_margin_share * self.safe_margin_n)
         return SteeredApproach(self.robot, self.attached, start, self.safe_point_m, self.safe_orientation, gains,
-                               self.robot.tension_min_n + self.config.approach_tension_margin_n,
-                               self.robot.tension_max_n, self.period_s)
+                               self.robot.tension_min_n + margin_n, self.robot.tension_max_n, self.period_s)
 
     def turns_too_far(self, start: PoseSample, gains: ApproachGains, first_row: int) -> bool:
         """Whether the try from `start` (the recovery's row `first_row`) with `gains`, stepped
@@ -203,6 +208,8 @@ class PoseApproach(PlatformRecovery):
             rest = inverse_dynamics(self.robot, self.distribution, sample.pose[offset], zero, zero,
                                     attached=self.attached)
             self.hold = JointReference(rest.joint_angle_rad, rest.joint_velocity_rad_s, rest.torque_nm)
+            # the arrival is where the motors' pose is judged from (base.step)
+            self.kinematics.expect(sample.position_m[offset], sample.orientation[offset])
 
     def reference_at(self, tick: int) -> JointReference | None:
         """The joint reference of `tick`: the approach's row; None after the arrival."""

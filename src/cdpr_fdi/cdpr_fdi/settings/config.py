@@ -190,6 +190,7 @@ class RecoveryConfig:
     strategy: str
     approach_gains: ApproachGains
     approach_tension_margin_n: float
+    approach_safe_margin_share: float
     approach_turn_limit_deg: float
     approach_limit_s: float
     approach_arrival_m: float
@@ -291,9 +292,11 @@ class RecoveryConfig:
                 position_frequency_rad_s=recovery.number('approach_frequency_rad_s', positive=True),
                 orientation_frequency_rad_s=recovery.number('approach_turn_frequency_rad_s', positive=True),
                 moment_weight=recovery.number('approach_moment_weight', positive=True),
-                ease_in_s=recovery.number('approach_ease_in_s', non_negative=True)),
+                ease_in_s=recovery.number('approach_ease_in_s', non_negative=True),
+                aim_samples=recovery.integer('approach_aim_samples', minimum=2)),
             approach_tension_margin_n=recovery.number('approach_tension_margin_share', non_negative=True)
             * robot.tension_min_n,
+            approach_safe_margin_share=recovery.number('approach_safe_margin_share', non_negative=True, maximum=1.0),
             approach_turn_limit_deg=recovery.number('approach_turn_limit_deg', positive=True, maximum=180.0),
             approach_limit_s=recovery.number('approach_limit_s', positive=True),
             approach_arrival_m=recovery.number('approach_arrival_m', positive=True),
