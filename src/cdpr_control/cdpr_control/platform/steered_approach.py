@@ -93,7 +93,10 @@ class SteeredApproach:
     k periods, with the acceleration the tensions give it there."""
 
     def __init__(self, robot: Robot, attached: np.ndarray, start: PoseSample, target_m, target_orientation,
-                 gains: ApproachGains, tension_min_n: float, tension_max_n: float, period_s: float):
+                 gains: ApproachGains, tension_min_n: float, tension_max_n: float, period_s: float,
+                 aim: np.ndarray | None = None):
+        """`aim`: the schedule aim_schedule gives from `start`, where an approach from it
+        has made it already (a look-ahead's copy); made here where None."""
         self.kernel = platform_substeps.kernel()
         self.constants = platform_substeps.constants_of(robot)
         self.exits, self.attachments, _ = platform_substeps.geometry_of(robot)
@@ -107,8 +110,8 @@ class SteeredApproach:
         self.period_s = period_s
         self.pose = np.concatenate([np.asarray(start.position_m, dtype=float), normalised(start.orientation)])
         self.origin = self.pose.copy()
-        self.aim = aim_schedule(robot, np.asarray(attached, dtype=bool), self.origin, self.target_m,
-                                self.target_orientation, gains.aim_samples)
+        self.aim = (aim_schedule(robot, np.asarray(attached, dtype=bool), self.origin, self.target_m,
+                                 self.target_orientation, gains.aim_samples) if aim is None else aim)
         self.twist = np.concatenate([np.asarray(start.velocity_m_s, dtype=float),
                                      np.asarray(start.angular_velocity_rad_s, dtype=float)])
         self.table = np.empty((0, ROW_WIDTH))

@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from cdpr_control.model.dynamics import inverse_dynamics
 from cdpr_control.model.robot import Robot
 from cdpr_control.model.searches import found_once
-from cdpr_control.point_mass.kinematics import cable_vectors
-from cdpr_control.tension_distribution import BoundedMinimumNorm
+from cdpr_control.tension_distribution import make_tension_distribution
 
 # Held safe points already found (a grid of the workspace box's section where the paper's
 # SP is not held: ~0.1 s, more than a tick), or why there is none (model.searches)
@@ -80,14 +80,12 @@ def holding_tensions_each(robot: Robot, positions_m, attached) -> np.ndarray:
     """Tensions (n × cables, N, 0 for a detached cable) of the `attached` cables within
     [tension_min_n, tension_max_n] that hold the end-effector at rest at each of the
     positions (n × 3, m), the minimum-norm ones; NaN for the attached cables of a row
-    where there are none."""
-    attached = np.asarray(attached, dtype=bool)
+    where there are none (the inverse dynamics at rest, as the platform's statics)."""
     positions_m = np.atleast_2d(np.asarray(positions_m, dtype=float))
-    structures = np.stack([cable_vectors(robot.exit_points_m[attached], position)[0].T for position in positions_m])
-    wrenches = np.broadcast_to(-robot.weight_wrench_n, (len(positions_m), 3)).copy()
-    tensions = np.zeros((len(positions_m), robot.cable_count))
-    tensions[:, attached] = BoundedMinimumNorm(robot.tension_min_n, robot.tension_max_n).distribute_each(structures, wrenches)
-    return tensions
+    still = np.zeros(positions_m.shape)
+    distribution = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
+    return inverse_dynamics(robot, distribution, positions_m, still, still, attached=np.asarray(attached, dtype=bool),
+                            nan_where_infeasible=True).tension_n
 
 
 def held_safe_point(robot: Robot, attached, height_m: float, spacing_m: float) -> np.ndarray:

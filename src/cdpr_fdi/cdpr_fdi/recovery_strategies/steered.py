@@ -93,7 +93,7 @@ class PoseApproach(PlatformRecovery):
                                + math.radians(config.approach_turn_limit_deg))
         self.slowdowns = 0
         # whether the try under way, stepped ahead to its end, turns too far (a Future)
-        self.look_ahead = self.planner.submit(self.turns_too_far, start, self.gains, 0, urgent=True)
+        self.look_ahead = self.planner.submit(self.turns_too_far, start, self.gains, 0, self.approach.aim, urgent=True)
         self.tables: list[ReferenceTable] = []
         self.arrival_row: int | None = None
         self.hold: JointReference | None = None
@@ -112,21 +112,22 @@ class PoseApproach(PlatformRecovery):
                                    zero, zero))
         self.mode = RECOVERY_MOVE
 
-    def steered(self, start: PoseSample, gains: ApproachGains) -> SteeredApproach:
-        """A try from `start` to the safe pose with the pull `gains`."""
+    def steered(self, start: PoseSample, gains: ApproachGains, aim: np.ndarray | None = None) -> SteeredApproach:
+        """A try from `start` to the safe pose with the pull `gains` (and the aim schedule
+        an approach from `start` made, where one has)."""
         # the margin lowered below the safe pose's own: tensions kept further above τ_min
         # than those that hold the platform there cannot hold it there (a light platform's
         # cables pulled it up, past its safe pose, to the frame)
         config = self.config
         margin_n = min(config.approach_tension_margin_n, config.approach_safe_margin_share * self.safe_margin_n)
         return SteeredApproach(self.robot, self.attached, start, self.safe_point_m, self.safe_orientation, gains,
-                               self.robot.tension_min_n + margin_n, self.robot.tension_max_n, self.period_s)
+                               self.robot.tension_min_n + margin_n, self.robot.tension_max_n, self.period_s, aim)
 
-    def turns_too_far(self, start: PoseSample, gains: ApproachGains, first_row: int) -> bool:
-        """Whether the try from `start` (the recovery's row `first_row`) with `gains`, stepped
-        ahead on a copy of its own, turns the platform further than the limit before it
-        arrives (or the time limit ends it)."""
-        probe = self.steered(start, gains)
+    def turns_too_far(self, start: PoseSample, gains: ApproachGains, first_row: int, aim: np.ndarray) -> bool:
+        """Whether the try from `start` (the recovery's row `first_row`) with `gains` and the
+        aim schedule `aim` its approach made, stepped ahead on a copy of its own, turns the
+        platform further than the limit before it arrives (or the time limit ends it)."""
+        probe = self.steered(start, gains, aim)
         for row in range(0, self.row_limit - first_row, ROWS_PER_LOOK_AHEAD):
             sample = probe.samples(row, row + ROWS_PER_LOOK_AHEAD)
             turned = np.flatnonzero(probe.errors(sample)[1] > self.turn_limit_rad)
@@ -169,7 +170,8 @@ class PoseApproach(PlatformRecovery):
         self.notes.append(f'the steered approach would turn the platform more than approach_turn_limit_deg: '
                           f'steered again from tick {self.first_tick + row}, the position pulled at '
                           f'{self.gains.position_frequency_rad_s:.3g} rad/s')
-        self.look_ahead = self.planner.submit(self.turns_too_far, start, self.gains, row, urgent=True)
+        self.look_ahead = self.planner.submit(self.turns_too_far, start, self.gains, row, self.approach.aim,
+                                              urgent=True)
 
     def tabulate_to(self, row: int) -> None:
         """Step and tabulate the approach until row `row` is planned or the platform has

@@ -401,15 +401,9 @@ class Supervisor:
         others explained the end-effector's balance (weigh_unloaded_alone): a push that
         unloads one cable before another leaves its force unexplained. None where none
         went first so."""
-        since = self.unloaded_since[self.candidates]
-        if np.any(since < 0):
-            return None
-        order = np.argsort(since, kind='stable')
-        if since[order[1]] - since[order[0]] < self.fdi.identification_confirm_cycles:
-            return None
-        first = self.candidates[int(order[0])]
+        first = self.lost_first(self.unloaded_since[self.candidates], self.fdi.identification_confirm_cycles)
         # and the balance weighed while it alone had lost its pull was a break's
-        return first if self.unloaded_alone == (first, int(since[order[0]])) else None
+        return first[0] if first is not None and self.unloaded_alone == first else None
 
     def unloaded_before_all(self) -> int | None:
         """Of several candidates too few cables are left to place the end-effector beside,
@@ -419,10 +413,20 @@ class Supervisor:
         the pose of the break: one of them slack within 2–20 ms). None where two lost it
         on the same tick (two parted at once) or one never lost it while watched (its
         first tick then: candidate_onsets)."""
-        if any(cable not in self.candidate_onsets for cable in self.candidates):
+        first = self.lost_first([self.candidate_onsets.get(cable, -1) for cable in self.candidates], 1)
+        return None if first is None else first[0]
+
+    def lost_first(self, onsets, lead: int) -> tuple[int, int] | None:
+        """(cable, tick) of the candidate whose motor lost its pull `lead` ticks or more
+        before every other's, by `onsets` (each candidate's first tick above δ, in their
+        order; -1: not lost); None where one is -1 or none leads so."""
+        onsets = np.asarray(onsets)
+        if np.any(onsets < 0):
             return None
-        onsets = sorted((self.candidate_onsets[cable], cable) for cable in self.candidates)
-        return onsets[0][1] if onsets[1][0] > onsets[0][0] else None
+        order = np.argsort(onsets, kind='stable')
+        if onsets[order[1]] - onsets[order[0]] < lead:
+            return None
+        return self.candidates[int(order[0])], int(onsets[order[0]])
 
     def leading(self, stretch: np.ndarray | None) -> list[int]:
         """Of several candidates none of which spans identification_stretch_m beyond its
