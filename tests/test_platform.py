@@ -164,6 +164,64 @@ def test_forward_kinematics_of_lengths_no_pose_has_says_so(robot):
         pose_kinematics.forward_kinematics(robot, angles, np.arange(8) < 5)
 
 
+# A drawn crossed platform on 7 cables (cdpr-bench robots, seed 3, robot 072) whose
+# rotation about x is barely held there (W's singular values 1.9 … 0.0034).
+CROSSED_SEVEN_CABLE_PLATFORM = {'robot': {
+    'name': 'crossed_seven', 'gravity_m_s2': [0.0, 0.0, -9.81],
+    'end_effector': {'mass_kg': 2.879, 'radius_m': 0.254},
+    'platform': {
+        'attachment_points_m': [[0.1857, -0.1287, 0.1166], [-0.1857, 0.1287, -0.1166], [-0.1857, -0.1287, 0.1166],
+                                [0.1857, 0.1287, -0.1166], [-0.1857, 0.1287, 0.1166], [0.1857, -0.1287, -0.1166],
+                                [0.1857, 0.1287, 0.1166]],
+        'centre_of_mass_m': [0.0, 0.0, 0.0],
+        'inertia_kg_m2': [[0.0289396, 0.0, 0.0], [0.0, 0.0461265, 0.0], [0.0, 0.0, 0.0489729]]},
+    'exit_points_m': [[0.0, 0.123, 3.756], [0.123, 0.0, 3.756], [2.337, 0.0, 3.751], [2.46, 0.123, 3.751],
+                      [2.46, 5.649, 4.144], [2.337, 5.772, 4.144], [0.123, 5.772, 3.743]],
+    'workspace_m': {'min': [0.623, 1.12, 0.254], 'max': [1.837, 4.652, 2.629]},
+    'home_position_m': [1.23, 2.886, 1.442],
+    'motor': {'inertia_kg_m2': 0.00129, 'drum_radius_m': 0.0489, 'viscous_friction_nm_s_rad': 0.0024,
+              'static_friction_nm': 0.135, 'nominal_torque_nm': 2.881, 'nominal_speed_rpm': 2870,
+              'torque_limit_nm': 9.233},
+    'cables': {'tension_min_n': 2.64, 'tension_max_n': 150.1}}}
+
+
+# Its motor angles (rad) on 12 ticks of an elastic run, failure-free (ticks 26-37 of the
+# bench's run 072-line-3, seed 2): the stretch moves the least-squares pose millimetres
+# and milliradians a tick about the weak axis.
+CROSSED_SEVEN_ELASTIC_ANGLES_RAD = np.array([
+    [0.33498305455452687, 0.44044423372166475, 0.9274831338753557, 0.955286535655783, 3.5326618807013888, 3.5244167339665036, 2.8182103287436515],
+    [0.33507892835376973, 0.4400607385246933, 0.9277707552730844, 0.9549989142580545, 3.533237123496846, 3.524704355364232, 2.8180185811451657],
+    [0.3353665497514983, 0.4403483599224219, 0.9275790076745987, 0.9549989142580545, 3.5329495020991173, 3.524608481564989, 2.81849795014138],
+    [0.33488718075528406, 0.4398689909262076, 0.9277707552730844, 0.9550947880572973, 3.5326618807013888, 3.5249919767619606, 2.818402076342137],
+    [0.33507892835376973, 0.4403483599224219, 0.9276748814738415, 0.9549989142580545, 3.5329495020991173, 3.524704355364232, 2.818306202542894],
+    [0.3353665497514983, 0.440252486123179, 0.9280583766708129, 0.955286535655783, 3.53304537589836, 3.5250878505612033, 2.8182103287436515],
+    [0.3347913069560412, 0.440252486123179, 0.9277707552730844, 0.9553824094550258, 3.5329495020991173, 3.524800229163475, 2.8181144549444084],
+    [0.3351748021530126, 0.4403483599224219, 0.9278666290723272, 0.9549030404588116, 3.5335247448945744, 3.5249919767619606, 2.818306202542894],
+    [0.3351748021530126, 0.4406359813201504, 0.9276748814738415, 0.9550947880572973, 3.5334288710953317, 3.5249919767619606, 2.81849795014138],
+    [0.33527067595225546, 0.4403483599224219, 0.9275790076745987, 0.9551906618565402, 3.533237123496846, 3.524800229163475, 2.818402076342137],
+    [0.33546242355074113, 0.4403483599224219, 0.92796250287157, 0.9551906618565402, 3.5333329972960885, 3.5250878505612033, 2.818306202542894],
+    [0.33527067595225546, 0.44044423372166475, 0.9276748814738415, 0.9548071666595688, 3.5335247448945744, 3.5249919767619606, 2.8181144549444084],
+])
+
+
+def test_a_recorded_run_whose_pose_gauss_newton_follows_slowly_is_still_read():
+    """Followed tick by tick from the first row's pose, the last row's pose needs more than
+    FK_ITERATIONS Gauss–Newton steps (34); reading the run falls back to more steps and
+    finds the pose that meets the last row's lengths to the stretch's micrometres."""
+    robot = robot_from_section(Section(CROSSED_SEVEN_CABLE_PLATFORM['robot'], 'drawn', 'robot'))
+    angles = CROSSED_SEVEN_ELASTIC_ANGLES_RAD
+    pose = None
+    for row in angles[:-1]:
+        pose = pose_kinematics.forward_kinematics(robot, row, start=pose)
+    with pytest.raises(KinematicsError, match=f'did not converge in {pose_kinematics.FK_ITERATIONS}'):
+        pose_kinematics.forward_kinematics(robot, angles[-1], start=pose)
+    positions, orientations = pose_kinematics.forward_kinematics_rows(robot, angles)
+    lengths = robot.cable_length_offset_m + robot.motor.drum_radius_m * angles[-1]
+    misfit = pose_kinematics.cable_vectors(robot, positions[-1], orientations[-1])[1] - lengths
+    assert np.max(np.abs(misfit)) < 2e-5
+    assert np.linalg.norm(positions[-1] - positions[-2]) < 1e-3
+
+
 def test_the_wrench_matrix_is_minus_the_jacobian_of_the_cable_lengths(robot, rng):
     """d(x ⊕ δ) − d(x ⊖ δ) = −2 Wᵀ δ + O(δ³), for each of the six directions."""
     step = 1e-6

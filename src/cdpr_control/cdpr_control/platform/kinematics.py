@@ -15,6 +15,7 @@ import numpy as np
 
 from cdpr_control.platform import substeps as platform_substeps
 from cdpr_control.model.body import KinematicsError
+from cdpr_control.model.pose_tracking import PoseTracker
 from cdpr_control.model.robot import Robot
 from cdpr_control.geometry.rotation import cross_rows, normalised, rotation_matrix
 
@@ -28,6 +29,9 @@ FK_STEP_TOLERANCE = 1e-11
 # lengths of no pose: they are inconsistent (a stale angle, a broken cable counted).
 # Resolver noise and the cables' stretch leave up to a few tenths of a millimetre.
 FK_RESIDUAL_LIMIT_M = 1e-3
+# A recorded run read offline has no tick's budget: a row that does not converge in
+# FK_ITERATIONS steps from the row before gets this many from each better start.
+FK_READ_ITERATIONS = 200
 
 
 def cable_vectors(robot: Robot, position_m, orientation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -141,11 +145,16 @@ def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None,
 def forward_kinematics_rows(robot: Robot, angles_rad, cables=None) -> tuple[np.ndarray, np.ndarray]:
     """`forward_kinematics` of each row of a stack of angles (n × m), as a recorded run is
     read: (positions n × 3, orientations n × 4), each row started from the row before's pose
-    (the first from home), as a node follows the platform tick by tick."""
+    (the first from home), as a node follows the platform tick by tick. A row that does not
+    converge there falls back as a recovery's pose does (model.pose_tracking), on
+    FK_READ_ITERATIONS steps: near a pose where one direction is barely held (the smallest
+    singular value of W a five-hundredth of the largest), the cables' stretch moves the
+    least-squares pose millimetres a tick, and from the row before Gauss–Newton may need
+    more than FK_ITERATIONS steps."""
     angles = np.asarray(angles_rad, dtype=float)
+    used = np.ones(robot.cable_count, dtype=bool) if cables is None else cables
+    tracker = PoseTracker(robot, used, FK_READ_ITERATIONS)
     positions, orientations = np.empty((len(angles), 3)), np.empty((len(angles), 4))
-    pose = None
     for row, row_angles in enumerate(angles):
-        pose = forward_kinematics(robot, row_angles, cables, start=pose)
-        positions[row], orientations[row] = pose
+        positions[row], orientations[row] = tracker.pose(row_angles)
     return positions, orientations
