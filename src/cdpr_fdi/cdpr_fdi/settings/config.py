@@ -38,6 +38,7 @@ class FdiConfig:
     late_command_burst: int
     late_command_window_cycles: int
     identification_confirm_cycles: int
+    identification_freed_lead_cycles: int
     identification_window_cycles: int
     collapse_window_cycles: int
     collapse_band_n: float
@@ -81,6 +82,7 @@ class FdiConfig:
             late_command_burst=fdi.integer('late_command_burst', minimum=1),
             late_command_window_cycles=fdi.integer('late_command_window_cycles', minimum=1),
             identification_confirm_cycles=fdi.integer('identification_confirm_cycles', minimum=1),
+            identification_freed_lead_cycles=fdi.integer('identification_freed_lead_cycles', minimum=1),
             identification_window_cycles=fdi.integer('identification_window_cycles', minimum=1),
             collapse_window_cycles=fdi.integer('collapse_window_cycles', minimum=1),
             # both in proportion to the least tension the robot keeps its cables at

@@ -141,6 +141,9 @@ class Supervisor:
         # per motor, the first tick of its residual's run above δ, on every tick (alarm or
         # not; -1: not above now): the order in which motors lost their cables' pull
         self.unloaded_since = np.full(robot.cable_count, -1)
+        # per motor, the first tick of that run on which it looked free (its sensorless
+        # tension's lower bound under δ/ρ, as identify_broken_cables judges); -1: not yet
+        self.freed_since = np.full(robot.cable_count, -1)
         # of the candidates watched now, the first such tick seen while watched: a freed
         # motor's residual swings back under δ now and then, and its run starts again
         self.candidate_onsets: dict[int, int] = {}
@@ -167,6 +170,9 @@ class Supervisor:
             self.arithmetic.sensorless_tensions(self.motor_constants, self.felt_torque_nm(applied),
                                                 self.previous_speed, speed, self.period_s, tension, low, high)
             self.tension_bounds_n = low, high
+            free = low * self.robot.motor.drum_radius_m < self.fdi.delta_nm
+            self.freed_since = np.where(self.unloaded_since < 0, -1,
+                                        np.where((self.freed_since < 0) & free, tick, self.freed_since))
             self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
             if not self.broken:   # once a cable is named, nothing more is looked for
                 self.weigh_unloaded_alone(tick, unloaded)
@@ -207,6 +213,9 @@ class Supervisor:
                                                self.robot.motor.drum_radius_m, self.fdi.delta_nm)
                 # a collapsed cable is free whatever the sign of a residual too small to judge
                 found += [cable for cable in collapsed if cable not in found]
+                if (len(found) > 1 and self.disturbed_since is None and not self.settling(tick)
+                        and (first := self.freed_first(found)) is not None):
+                    found = [first]
                 if self.disturbed(tick, found, events) or self.settling(tick):
                     found = self.overstretched(tick, found, angle_rad)
                 confirmed = self.confirm(tick, found, angle_rad)
@@ -401,7 +410,8 @@ class Supervisor:
         others explained the end-effector's balance (weigh_unloaded_alone): a push that
         unloads one cable before another leaves its force unexplained. None where none
         went first so."""
-        first = self.lost_first(self.unloaded_since[self.candidates], self.fdi.identification_confirm_cycles)
+        first = self.lost_first(self.candidates, self.unloaded_since[self.candidates],
+                                self.fdi.identification_confirm_cycles)
         # and the balance weighed while it alone had lost its pull was a break's
         return first[0] if first is not None and self.unloaded_alone == first else None
 
@@ -413,12 +423,24 @@ class Supervisor:
         the pose of the break: one of them slack within 2–20 ms). None where two lost it
         on the same tick (two parted at once) or one never lost it while watched (its
         first tick then: candidate_onsets)."""
-        first = self.lost_first([self.candidate_onsets.get(cable, -1) for cable in self.candidates], 1)
+        first = self.lost_first(self.candidates, [self.candidate_onsets.get(cable, -1) for cable in self.candidates], 1)
         return None if first is None else first[0]
 
-    def lost_first(self, onsets, lead: int) -> tuple[int, int] | None:
-        """(cable, tick) of the candidate whose motor lost its pull `lead` ticks or more
-        before every other's, by `onsets` (each candidate's first tick above δ, in their
+    def freed_first(self, found: list[int]) -> int | None:
+        """Of several motors that look free, the one that looked so
+        fdi.identification_freed_lead_cycles or more before every other, each since its
+        residual's run above δ began (freed_since): a cable that parts frees its motor
+        within a period; a cable the break unloads (a crossed platform's partner of it)
+        slackens over tens of periods as the end-effector falls towards its exit point
+        (19 N to none in 12 periods on a drawn 8-cable platform). None where none leads so.
+        Asked outside a disturbance only: a push slackens one cable after another as
+        gradually, and its first is weighed alone before the next (disturbed())."""
+        first = self.lost_first(found, self.freed_since[found], self.fdi.identification_freed_lead_cycles)
+        return None if first is None else first[0]
+
+    def lost_first(self, cables: list[int], onsets, lead: int) -> tuple[int, int] | None:
+        """(cable, tick) of the one of `cables` whose motor lost its pull `lead` ticks or
+        more before every other's, by `onsets` (each one's first tick of the loss, in their
         order; -1: not lost); None where one is -1 or none leads so."""
         onsets = np.asarray(onsets)
         if np.any(onsets < 0):
@@ -426,7 +448,7 @@ class Supervisor:
         order = np.argsort(onsets, kind='stable')
         if onsets[order[1]] - onsets[order[0]] < lead:
             return None
-        return self.candidates[int(order[0])], int(onsets[order[0]])
+        return cables[int(order[0])], int(onsets[order[0]])
 
     def leading(self, stretch: np.ndarray | None) -> list[int]:
         """Of several candidates none of which spans identification_stretch_m beyond its
