@@ -418,6 +418,14 @@ def test_of_motors_that_look_free_the_one_freed_periods_before_the_others_is_the
     assert first([-1, -1, 100, 100 + lead]) == 2
     assert first([-1, -1, 100, 100 + lead - 1]) is None
     assert first([-1, -1, 100, -1]) is None
+    # candidates named with nothing else to tell them apart (two of four, held for
+    # disturbance_hold_cycles): the first freed alone, not both
+    angles = np.zeros(paper_robot.cable_count)
+    for freed, want in (([-1, -1, 100, 100 + lead], [2]), ([-1, -1, 100, 100], [2, 3])):
+        held = Supervisor(paper_robot, fdi, recovery_config, distribution, PERIOD_S)
+        held.freed_since = np.array(freed)
+        named = [held.confirm(200 + k, [2, 3], angles) for k in range(fdi.disturbance_hold_cycles)]
+        assert named[-1] == want and not any(named[:-1])
 
 
 def test_phase_1_damps_the_swing_with_a_force_against_the_velocity(paper_robot, recovery_config):

@@ -380,7 +380,8 @@ class Supervisor:
                        if len(self.candidates) > 1 and placed else None)
             proven = [] if stretch is None else [cable for cable in self.candidates
                                                  if stretch[cable] > self.fdi.identification_stretch_m]
-            return sorted(proven or self.leading(stretch) or self.candidates)
+            freed = self.freed_first(self.candidates) if len(self.candidates) > 1 else None
+            return sorted(proven or self.leading(stretch) or ([freed] if freed is not None else self.candidates))
         return []
 
     def weigh_unloaded_alone(self, tick: int, unloaded: np.ndarray) -> None:
