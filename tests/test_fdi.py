@@ -428,6 +428,24 @@ def test_of_motors_that_look_free_the_one_freed_periods_before_the_others_is_the
         assert named[-1] == want and not any(named[:-1])
 
 
+def test_a_motor_that_carried_less_than_delta_all_along_is_not_named_beside_one_that_lost_its_pull(
+        paper_robot, recovery_config):
+    """Of the motors that look free on an alarm, those whose residual rose above δ in its
+    episode: a cable carrying less than δ/ρ before the break looked as free then (a drawn
+    7-cable platform's cable 7 at 1.4 N, δ/ρ 1.7 N, named in cable 4's place in cdpr-bench
+    robots --seed 3, rigid plant); one whose residual dipped back under δ still counts, and
+    where none rose yet, every free-looking motor stays a candidate."""
+    fdi = load_fdi_config(PAPER_ROBOT, paper_robot)
+    distribution = make_tension_distribution('pseudo_inverse', paper_robot.tension_min_n,
+                                             paper_robot.tension_max_n)
+    supervisor = Supervisor(paper_robot, fdi, recovery_config, distribution, PERIOD_S)
+    assert supervisor.losing([1]) == [1]
+    supervisor.unloaded_since = np.array([-1, -1, 547, -1])
+    assert supervisor.losing([1, 2]) == [2]
+    supervisor.unloaded_since = np.array([-1, -1, -1, -1])   # its residual swings under δ
+    assert supervisor.losing([1]) == [] and supervisor.losing([2, 1]) == [2]
+
+
 def test_phase_1_damps_the_swing_with_a_force_against_the_velocity(paper_robot, recovery_config):
     """S_R Δt = −c ṗ, c = 2 ζ m √(g / d̄): a pendulum on the remaining cables damped at ζ."""
     robot = paper_robot

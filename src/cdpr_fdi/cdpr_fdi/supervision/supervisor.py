@@ -141,6 +141,11 @@ class Supervisor:
         # per motor, the first tick of its residual's run above δ, on every tick (alarm or
         # not; -1: not above now): the order in which motors lost their cables' pull
         self.unloaded_since = np.full(robot.cable_count, -1)
+        # per motor, whether its residual rose above δ in the alarm's episode: of the motors
+        # that look free, those that lost their pull; one that merely carries less than
+        # δ/ρ all along (a drawn 7-cable platform's cable at 1.4 N, δ/ρ 1.7 N) looked as
+        # free before the break
+        self.lost_in_episode = np.zeros(robot.cable_count, dtype=bool)
         # per motor, the first tick of that run on which it looked free (its sensorless
         # tension's lower bound under δ/ρ, as identify_broken_cables judges); -1: not yet
         self.freed_since = np.full(robot.cable_count, -1)
@@ -208,9 +213,9 @@ class Supervisor:
             # break unloads goes slack and leaves two motors free (a push's signature).
             episode = alarm or self.evidence.ticks > 0
             if episode and self.previous_speed is not None:
-                found = identify_broken_cables(self.evidence.tension_low_n(),
-                                               self.evidence.residual_nm(),
-                                               self.robot.motor.drum_radius_m, self.fdi.delta_nm)
+                found = self.losing(identify_broken_cables(self.evidence.tension_low_n(),
+                                                           self.evidence.residual_nm(),
+                                                           self.robot.motor.drum_radius_m, self.fdi.delta_nm))
                 # a collapsed cable is free whatever the sign of a residual too small to judge
                 found += [cable for cable in collapsed if cable not in found]
                 if (len(found) > 1 and self.disturbed_since is None and not self.settling(tick)
@@ -225,6 +230,7 @@ class Supervisor:
             elif not episode:
                 self.disturbed_since = None
                 self.free_since = {}
+                self.lost_in_episode[:] = False
             if not episode and self.alarm_tick is not None:
                 # counted, not an event: under load such alarms come by the hundred
                 self.unidentified_alarms += 1
@@ -426,6 +432,15 @@ class Supervisor:
         first tick then: candidate_onsets)."""
         first = self.lost_first(self.candidates, [self.candidate_onsets.get(cable, -1) for cable in self.candidates], 1)
         return None if first is None else first[0]
+
+    def losing(self, found: list[int]) -> list[int]:
+        """Of the motors that look free, those whose residual rose above δ in the alarm's
+        episode (lost_in_episode), where any did: a motor that merely carries less than δ/ρ
+        all along looked as free before the break. All of them where none did yet."""
+        self.lost_in_episode |= self.unloaded_since >= 0
+        if not self.lost_in_episode.any():
+            return found
+        return [cable for cable in found if self.lost_in_episode[cable]]
 
     def freed_first(self, found: list[int]) -> int | None:
         """Of several motors that look free, the one that looked so
