@@ -395,6 +395,34 @@ DRAWN_SEVEN_CABLE_PLATFORM_MOTIONS = {
     'motions': {'climb': {'type': 'line', 'start': [2.5639, 1.9694, 0.6191], 'goal': [2.6161, 2.2646, 1.1389],
                           'turn': {'axis': [0.3836, 0.6726, -0.6328], 'angle_deg': 7.624}}}}
 
+# A suspended 5.6 kg platform on eight cables, drawn by `cdpr-bench robots --seed 3`
+# (family3_017_suspended), and its first motion: named 16 cm from its safe pose, where the
+# seven cables left hold it 1.4 N above τ_min, a platform whose steered approach keeps its
+# tensions 4 N above τ_min (0.8 of the safe pose's margin) is pulled up to the frame's top.
+DRAWN_SUSPENDED_PLATFORM = {'robot': {
+    'name': 'family3_017_suspended', 'gravity_m_s2': [0.0, 0.0, -9.81],
+    'end_effector': {'mass_kg': 5.554, 'radius_m': 0.298},
+    'platform': {
+        'attachment_points_m': [[0.1911, 0.134, 0.1474], [0.1911, 0.0768, 0.1474], [-0.075, 0.1754, 0.1474],
+                                [-0.0341, 0.1754, 0.1474], [-0.1911, -0.0658, 0.1474],
+                                [-0.1911, -0.1287, 0.1474], [0.0366, -0.1754, 0.1474],
+                                [0.0396, -0.1754, 0.1474]],
+        'centre_of_mass_m': [0.0, 0.0, 0.0],
+        'inertia_kg_m2': [[0.09714, 0.0, 0.0], [0.0, 0.1078245, 0.0], [0.0, 0.0, 0.1245467]],
+        'home_orientation': [1.0, 0.0, 0.0, 0.0]},
+    'exit_points_m': [[2.787, 2.589, 2.854], [2.787, 3.643, 3.181], [1.368, 4.557, 3.257], [0.0, 4.384, 3.207],
+                      [0.0, 2.364, 3.452], [0.0, 0.176, 3.312], [0.963, 0.0, 3.281], [2.787, 0.304, 3.257]],
+    'workspace_m': {'min': [0.716, 0.982, 0.298], 'max': [2.071, 3.575, 1.848]},
+    'home_position_m': [1.393, 2.279, 1.073],
+    'motor': {'inertia_kg_m2': 0.00128, 'drum_radius_m': 0.0322, 'viscous_friction_nm_s_rad': 0.0027,
+              'static_friction_nm': 0.091, 'nominal_torque_nm': 1.267, 'nominal_speed_rpm': 3959,
+              'torque_limit_nm': 3.805},
+    'cables': {'tension_min_n': 2.93, 'tension_max_n': 74.2}}}
+DRAWN_SUSPENDED_PLATFORM_MOTIONS = {
+    'motion_defaults': {'peak_speed_m_s': 0.4, 'rest_before_s': 0.5, 'rest_after_s': 1.0},
+    'motions': {'017-line-1': {'type': 'line', 'start': [1.4586, 2.4412, 1.0306], 'goal': [1.3274, 2.1168, 1.1154],
+                               'turn': {'axis': [0.7757, 0.5802, 0.2483], 'angle_deg': 3.959}}}}
+
 
 @pytest.fixture
 def light_tall_robot_files(tmp_path):

@@ -29,7 +29,9 @@ from cdpr_control.point_mass.workspace import contains, sew_cross_section
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 from cdpr_twin.nodes.run_length import RunLength
 
-from conftest import (CONFIG_DIR, DRAWN_EIGHT_CABLE_FDI, DRAWN_SEVEN_CABLE_PLATFORM, DRAWN_SEVEN_CABLE_PLATFORM_MOTIONS, DRAWN_EIGHT_CABLE_MOTIONS, DRAWN_EIGHT_CABLE_ROBOT,
+from conftest import (CONFIG_DIR, DRAWN_EIGHT_CABLE_FDI, DRAWN_SEVEN_CABLE_PLATFORM, DRAWN_SEVEN_CABLE_PLATFORM_MOTIONS,
+                      DRAWN_EIGHT_CABLE_MOTIONS, DRAWN_EIGHT_CABLE_ROBOT, DRAWN_SUSPENDED_PLATFORM,
+                      DRAWN_SUSPENDED_PLATFORM_MOTIONS,
                       LIGHT_SIX_CABLE_MOTIONS, LIGHT_SIX_CABLE_ROBOT, LIGHT_TALL_FDI, LIGHT_TALL_MOTIONS,
                       LIGHT_TALL_ROBOT, MOTIONS,
                       PAPER_ROBOT, every_tick_scenario, written_robot)
@@ -534,6 +536,21 @@ def test_a_platform_far_from_where_its_safe_orientation_is_held_turns_as_it_come
     scenario, _, metrics = run('climb', cables=[5], config=robot, motions=motions, fail_at_s=1.726)
     assert metrics['identified_cables'] == [5]
     assert metrics['mode'] == 'SAFE_HOLD' and metrics['recovery']['reached_safe_point'], metrics['fault']
+    recovery = metrics['recovery']
+    assert scenario.robot.tension_min_n <= recovery['min_tension_n'] <= recovery['max_tension_n'] <= scenario.robot.tension_max_n
+
+
+def test_a_platform_steered_in_keeps_its_tensions_no_further_above_the_floor_than_its_way_holds_it(tmp_path):
+    """The drawn suspended platform (conftest), rigid plant: cable 3 parts 70 % into its
+    first line, 16 cm from the safe pose, where the seven cables left hold the platform
+    only 1.4 N above τ_min. Steered under tensions 4 N above τ_min (0.8 of the safe pose's
+    margin), it was pulled up to the frame's top and turned 30°, and so at every slower
+    pull it was steered again with (FAULT); steered again under tensions no further above
+    τ_min than the poses on its way are held, it reaches the safe pose."""
+    robot, motions, _ = written_robot(tmp_path, DRAWN_SUSPENDED_PLATFORM, DRAWN_SUSPENDED_PLATFORM_MOTIONS)
+    scenario, _, metrics = run('017-line-1', cables=[3], config=robot, motions=motions, fail_at_s=1.5292433624398734)
+    assert metrics['identified_cables'] == [3]
+    assert_recovered(scenario, metrics)
     recovery = metrics['recovery']
     assert scenario.robot.tension_min_n <= recovery['min_tension_n'] <= recovery['max_tension_n'] <= scenario.robot.tension_max_n
 

@@ -18,7 +18,9 @@ shift with its position. c(s) is chosen before the first row (`aim_schedule`), a
 holding tensions keep the largest margin there (as the safe pose's orientation is
 chosen), 1 at p*: a platform turned to its safe orientation at once, far from its safe
 point, was held there by no tensions (flung across the frame, turned 36°), and one kept
-at its start's was held nowhere on its way by another break's cables. The pull is
+at its start's was held nowhere on its way by another break's cables. The least margin
+of the poses so aimed at, where the cables hold the platform at all, bounds how far
+above τ_min a re-steered try keeps its tensions (recovery_strategies.steered). The pull is
 eased in by s(t), a smoothstep from 0 at the first row to 1 at `ease_in_s` (the
 first tensions, nearest those that would hold the platform as it moves, step least from
 what the drives pulled before: a step rings elastic cables below τ_min). The motion those
@@ -64,12 +66,24 @@ class ApproachGains:
     aim_samples: int
 
 
-def aim_schedule(robot: Robot, attached, start_pose, target_m, target_orientation, samples: int) -> np.ndarray:
+@dataclass(frozen=True)
+class AimSchedule:
+    """The orientation's aim on a steered way (aim_schedule): the shares c of the turn at
+    evenly spaced shares s of the way, and the least tension margin (N) of the poses they
+    aim at, among those where the remaining cables hold the platform (the target's
+    among them)."""
+
+    shares: np.ndarray
+    least_margin_n: float
+
+
+def aim_schedule(robot: Robot, attached, start_pose, target_m, target_orientation, samples: int) -> AimSchedule:
     """c at `samples` shares s of the straight way from the pose `start_pose` (p_0, q_0) to
     the target (module docstring): the share of the turn from q_0 to the target's
     orientation whose holding tensions at p_0 + s (p* − p_0) keep the largest margin
     (safe_pose.tension_margins_n), among as many shares; 1 at the target; where no share
-    holds the platform, interpolated from the points where one does."""
+    holds the platform, interpolated from the points where one does. With it, the least
+    of the margins the points where one does keep."""
     start_pose = np.asarray(start_pose, dtype=float)
     shares = np.linspace(0.0, 1.0, samples)
     positions = start_pose[:3] + shares[:, None] * (np.asarray(target_m, dtype=float) - start_pose[:3])
@@ -80,10 +94,11 @@ def aim_schedule(robot: Robot, attached, start_pose, target_m, target_orientatio
                                                                             start_pose[3:]), attached)
                                for share in shares])
     aim = shares[np.argmax(margins, axis=1)]
-    aim[-1] = 1.0
-    held = np.isfinite(margins.max(axis=1))
+    aimed_n = margins.max(axis=1)
+    aim[-1], aimed_n[-1] = 1.0, margins[-1, -1]
+    held = np.isfinite(aimed_n)
     held[-1] = True
-    return np.interp(shares, shares[held], aim[held])
+    return AimSchedule(np.interp(shares, shares[held], aim[held]), float(aimed_n[held].min()))
 
 
 class SteeredApproach:
@@ -94,9 +109,10 @@ class SteeredApproach:
 
     def __init__(self, robot: Robot, attached: np.ndarray, start: PoseSample, target_m, target_orientation,
                  gains: ApproachGains, tension_min_n: float, tension_max_n: float, period_s: float,
-                 aim: np.ndarray | None = None):
-        """`aim`: the schedule aim_schedule gives from `start`, where an approach from it
-        has made it already (a look-ahead's copy); made here where None."""
+                 aim: AimSchedule | None = None):
+        """`aim`: the schedule aim_schedule gives from `start`, where it has been made
+        already (by the caller, for its margin, or for a look-ahead's copy); made here
+        where None."""
         self.kernel = platform_substeps.kernel()
         self.constants = platform_substeps.constants_of(robot)
         self.exits, self.attachments, _ = platform_substeps.geometry_of(robot)
@@ -126,8 +142,8 @@ class SteeredApproach:
             grown[:self.count] = self.table[:self.count]
             self.table = grown
         status = self.kernel.steered_rows(self.constants, self.exits, self.attachments, self.attached, self.origin,
-                                          self.aim, self.target, self.gains, self.bounds_n, self.period_s, self.count,
-                                          self.pose, self.twist, self.table[self.count:rows])
+                                          self.aim.shares, self.target, self.gains, self.bounds_n, self.period_s,
+                                          self.count, self.pose, self.twist, self.table[self.count:rows])
         if status < 0:
             raise RuntimeError(f'steered approach: the nearest wrench failed ({status}) at row {self.count}')
         self.count = rows

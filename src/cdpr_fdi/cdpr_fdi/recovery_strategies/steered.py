@@ -14,15 +14,24 @@ eased in from them (ease_in). Once the platform is within `approach_arrival_m` a
 `approach_arrival_deg` of the safe pose, nearly at rest, it is held there (SAFE_HOLD).
 
 A steered motion that turns the platform more than `approach_turn_limit_deg` further from
-the safe orientation than it was at the naming (its cables would wind about it) is not
-waited for: the approach is stepped ahead to its end by the recovery's planner (at once
-where it has none; on a realtime supervisor's planning thread, while the rows are sent),
-and where it would turn too far it is steered again from the row then under way, its
-position pulled `replan_slowdown` times slower (a platform spun by the break turns
-further while it is pulled fast across the frame: the loop of a drawn 12 kg platform,
-cable 3 at 19 %, turned 25° and reached its safe pose pulled at 1 rad/s, not 1.5), at
-most `replan_attempts` times, each try stepped ahead in turn; a note says so. One that
-still turns too far, or has not arrived within `approach_limit_s`, is given up:
+the safe orientation than it was at the naming (its cables would wind about it), or does
+not arrive within `approach_limit_s`, is not waited for: the approach is stepped ahead
+to its end by the recovery's planner (at once where it has none; on a realtime
+supervisor's planning thread, while the rows are sent), and where it would fail it is
+steered again from the row then under way, at most `replan_attempts` times, each try
+stepped ahead in turn; a note says so. A try steered again keeps its tensions above
+τ_min by at most `approach_safe_margin_share` of the least margin of the poses its own
+aim schedule turns the platform to on its way: tensions further above τ_min than those
+that hold the platform on its way cannot hold it there (a drawn 5.6 kg platform named
+16 cm from its safe pose, held there 1.4 N above τ_min, was pulled up to the frame's
+top by tensions 4 N above and turned 30°, pulled at any speed; a drawn 2.9 kg crossed
+one was swung about the frame for 15 s). The first try keeps the safe pose's share (its
+way's, on the shipped platform, left elastic cables ringing below τ_min). Each try is
+pulled `replan_slowdown` times slower than the one before (a platform spun by the break
+turns further while it is pulled fast across the frame: the loop of a drawn 12 kg
+platform, cable 3 at 19 %, turned 25° and reached its safe pose pulled at 1 rad/s, not
+1.5), but the first whose margin that lowers, pulled as fast (slow_down). One that still
+turns too far, or has not arrived within `approach_limit_s`, is given up:
 RecoveryInfeasible, so the supervisor holds the drums (FAULT) and says why.
 """
 from __future__ import annotations
@@ -38,7 +47,7 @@ from cdpr_control.model.reference_table import ReferenceTable, table_of
 from cdpr_control.geometry.pose_trajectories import PoseSample
 from cdpr_control.model.robot import Robot
 from cdpr_control.geometry.rotation import normalised
-from cdpr_control.platform.steered_approach import ApproachGains, SteeredApproach
+from cdpr_control.platform.steered_approach import AimSchedule, ApproachGains, SteeredApproach, aim_schedule
 from cdpr_control.tension_distribution import FlooredLeastSquares, TensionDistribution
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 
@@ -86,14 +95,18 @@ class PoseApproach(PlatformRecovery):
         """The approach from the state `start` on the row first_tick, with the configured
         pull, stepped ahead by the planner, tabulated as asked."""
         config = self.config
-        # the try under way, the row of the recovery its first row is, and its gains
+        # the try under way, the row of the recovery its first row is, its gains and the
+        # margin (N) above τ_min its tensions keep
         self.gains, self.approach_row = config.approach_gains, 0
-        self.approach = self.steered(start, self.gains)
+        self.margin_n = self.margin_within(self.safe_margin_n)
+        self.approach = self.steered(start, self.gains, self.margin_n)
         self.turn_limit_rad = (self.approach.errors(self.approach.samples(0, 1))[1][0]
                                + math.radians(config.approach_turn_limit_deg))
-        self.slowdowns = 0
-        # whether the try under way, stepped ahead to its end, turns too far (a Future)
-        self.look_ahead = self.planner.submit(self.turns_too_far, start, self.gains, 0, self.approach.aim, urgent=True)
+        # tries steered again, and whether one of them lowered the margin (slow_down)
+        self.slowdowns, self.lowered = 0, False
+        # whether the try under way, stepped ahead to its end, fails (a Future)
+        self.look_ahead = self.planner.submit(self.fails, start, self.gains, self.margin_n, 0, self.approach.aim,
+                                              urgent=True)
         self.tables: list[ReferenceTable] = []
         self.arrival_row: int | None = None
         self.hold: JointReference | None = None
@@ -112,22 +125,29 @@ class PoseApproach(PlatformRecovery):
                                    zero, zero))
         self.mode = RECOVERY_MOVE
 
-    def steered(self, start: PoseSample, gains: ApproachGains, aim: np.ndarray | None = None) -> SteeredApproach:
-        """A try from `start` to the safe pose with the pull `gains` (and the aim schedule
-        an approach from `start` made, where one has)."""
-        # the margin lowered below the safe pose's own: tensions kept further above τ_min
-        # than those that hold the platform there cannot hold it there (a light platform's
-        # cables pulled it up, past its safe pose, to the frame)
+    def margin_within(self, held_n: float) -> float:
+        """The margin (N) above τ_min a try keeps its tensions at, where the poses it is to
+        hold the platform at are held `held_n` above τ_min: approach_tension_margin_n, at
+        most approach_safe_margin_share of `held_n` (tensions kept further above τ_min
+        than those that hold the platform there cannot hold it there: a light platform's
+        cables pulled it up, past its safe pose, to the frame)."""
         config = self.config
-        margin_n = min(config.approach_tension_margin_n, config.approach_safe_margin_share * self.safe_margin_n)
+        return min(config.approach_tension_margin_n, config.approach_safe_margin_share * held_n)
+
+    def steered(self, start: PoseSample, gains: ApproachGains, margin_n: float,
+                aim: AimSchedule | None = None) -> SteeredApproach:
+        """A try from `start` to the safe pose with the pull `gains`, its tensions kept
+        `margin_n` above τ_min (and the aim schedule made from `start`, where it has been)."""
         return SteeredApproach(self.robot, self.attached, start, self.safe_point_m, self.safe_orientation, gains,
                                self.robot.tension_min_n + margin_n, self.robot.tension_max_n, self.period_s, aim)
 
-    def turns_too_far(self, start: PoseSample, gains: ApproachGains, first_row: int, aim: np.ndarray) -> bool:
-        """Whether the try from `start` (the recovery's row `first_row`) with `gains` and the
-        aim schedule `aim` its approach made, stepped ahead on a copy of its own, turns the
-        platform further than the limit before it arrives (or the time limit ends it)."""
-        probe = self.steered(start, gains, aim)
+    def fails(self, start: PoseSample, gains: ApproachGains, margin_n: float, first_row: int,
+              aim: AimSchedule) -> bool:
+        """Whether the try from `start` (the recovery's row `first_row`) with `gains`, its
+        tensions `margin_n` above τ_min and the aim schedule `aim` its approach made,
+        stepped ahead on a copy of its own, turns the platform further than the limit
+        before it arrives, or does not arrive before the time limit."""
+        probe = self.steered(start, gains, margin_n, aim)
         for row in range(0, self.row_limit - first_row, ROWS_PER_LOOK_AHEAD):
             sample = probe.samples(row, row + ROWS_PER_LOOK_AHEAD)
             turned = np.flatnonzero(probe.errors(sample)[1] > self.turn_limit_rad)
@@ -136,7 +156,7 @@ class PoseApproach(PlatformRecovery):
                 return True
             if arrived.size:
                 return False
-        return False
+        return True
 
     def arrivals(self, approach: SteeredApproach, sample: PoseSample) -> np.ndarray:
         """The rows of `sample` (offsets) where the platform has arrived at the safe pose."""
@@ -151,27 +171,38 @@ class PoseApproach(PlatformRecovery):
         return len(self.tables) * ROWS_PER_STEP
 
     def slow_down(self, row: int) -> None:
-        """Where the look ahead found the try under way to turn too far: steer again from
-        the recovery's row `row`, the position pulled `replan_slowdown` times slower, and
-        step that try ahead in turn (none after `replan_attempts`: the try under way
-        goes on, and its check gives the recovery up)."""
+        """Where the look ahead found the try under way to fail: steer again from the
+        recovery's row `row`, the tensions kept no further above τ_min than the poses on
+        the new try's way allow (margin_within), the position pulled `replan_slowdown`
+        times slower than the try before, but for the first try whose margin that lowers:
+        pulled as fast (a drawn 9.8 kg platform's approach, kept 2.2 N above τ_min instead
+        of 4.3, reached its safe pose pulled at 1.5 rad/s, and was flung across the frame
+        at 1, 0.67 and 0.44); and step that try ahead in turn (none after
+        `replan_attempts`: the try under way goes on, and its check gives the recovery
+        up)."""
         if (self.look_ahead is None or not self.look_ahead.done() or not self.look_ahead.result()
                 or self.slowdowns >= self.config.replan_attempts):
             return
         self.slowdowns += 1
-        base = self.config.approach_gains
-        self.gains = dataclasses.replace(base, position_frequency_rad_s=base.position_frequency_rad_s
-                                         / self.config.replan_slowdown ** self.slowdowns)
         sample = self.approach.samples(row - self.approach_row, row - self.approach_row + 1)
         start = PoseSample(*(np.array(figure[0]) for figure in (
             sample.position_m, sample.orientation, sample.velocity_m_s, sample.angular_velocity_rad_s,
             sample.acceleration_m_s2, sample.angular_acceleration_rad_s2)))
-        self.approach, self.approach_row = self.steered(start, self.gains), row
-        self.notes.append(f'the steered approach would turn the platform more than approach_turn_limit_deg: '
-                          f'steered again from tick {self.first_tick + row}, the position pulled at '
-                          f'{self.gains.position_frequency_rad_s:.3g} rad/s')
-        self.look_ahead = self.planner.submit(self.turns_too_far, start, self.gains, row, self.approach.aim,
-                                              urgent=True)
+        aim = aim_schedule(self.robot, self.attached, np.concatenate([start.position_m, normalised(start.orientation)]),
+                           self.safe_point_m, self.safe_orientation, self.config.approach_gains.aim_samples)
+        margin_n = self.margin_within(aim.least_margin_n)
+        # the first try whose margin this lowers is pulled as fast as the one before
+        self.lowered = self.lowered or margin_n < self.margin_n
+        self.margin_n = min(self.margin_n, margin_n)
+        base = self.config.approach_gains
+        self.gains = dataclasses.replace(base, position_frequency_rad_s=base.position_frequency_rad_s
+                                         / self.config.replan_slowdown ** (self.slowdowns - self.lowered))
+        self.approach, self.approach_row = self.steered(start, self.gains, self.margin_n, aim), row
+        self.notes.append(f'the steered approach would turn the platform more than approach_turn_limit_deg or not '
+                          f'arrive within approach_limit_s: steered again from tick {self.first_tick + row}, the '
+                          f'position pulled at {self.gains.position_frequency_rad_s:.3g} rad/s, the tensions '
+                          f'{self.margin_n:.3g} N above tension_min_n')
+        self.look_ahead = self.planner.submit(self.fails, start, self.gains, self.margin_n, row, aim, urgent=True)
 
     def tabulate_to(self, row: int) -> None:
         """Step and tabulate the approach until row `row` is planned or the platform has
