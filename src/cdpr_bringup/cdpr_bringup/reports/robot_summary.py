@@ -19,11 +19,10 @@ from cdpr_control.point_mass.statics import closed_form_coverage
 from cdpr_control.tension_distribution import InfeasibleTensionError, configured_tension_distribution
 from cdpr_control.platform.statics import workspace_grid, wrench_feasible_share
 from cdpr_control.geometry.rotation import conjugate, from_axis_angle, product, to_rotation_vector
-from cdpr_control.point_mass.workspace import safe_point
 from cdpr_fdi.detection.visibility import hidden_below_n, hidden_spans
 from cdpr_fdi.detectors import make_detector
 from cdpr_fdi.settings.config import load_fdi_config, load_recovery_config
-from cdpr_fdi.recovery_planning.recovery import RecoveryInfeasible, safe_pose_for
+from cdpr_fdi.recovery_planning.recovery import RecoveryInfeasible, safe_point_for, safe_pose_for
 from cdpr_fdi.recovery_strategies import STRATEGIES
 
 from ..cli import command
@@ -220,12 +219,19 @@ def print_point_mass(robot, config, distribution, motions, period: float, safe_h
     print(f'robot {robot.name} ({config}): {robot.cable_count} cables, '
           f'end-effector {robot.mass_kg} kg')
     recovery, delta_n, detectors = print_settings(config, robot)
-    safe_height = recovery.safe_height_m if safe_height is None else safe_height
+    if safe_height is not None:
+        recovery = dataclasses.replace(recovery, safe_height_m=safe_height)
     for i, point in enumerate(robot.exit_points_m):
         print(f'  A{i + 1} = ({point[0]:.3f}, {point[1]:.3f}, {point[2]:.3f}) m')
-    print(f'safe points at z = {safe_height} m (barycentre of the residual SEW):')
+    print(f'safe points at z = {recovery.safe_height_m} m (the supervisor\'s: recovery.safe_points_m, else the '
+          f'barycentre of the residual SEW where the cables left hold it within [τ_min, τ_max], else of the '
+          f'section where they do, docs/design.md):')
     for i in range(robot.cable_count):
-        point = safe_point(robot, robot.cable_mask([i]), safe_height)
+        try:
+            point = safe_point_for(robot, recovery, robot.cable_mask([i]))
+        except RecoveryInfeasible as err:
+            print(f'  cable {i + 1} broken: none ({err})')
+            continue
         print(f'  cable {i + 1} broken: SP = ({point[0]:.4f}, {point[1]:.4f}, {point[2]:.4f}) m')
     print(f'named motions ({motions}), tensions along each ({type(distribution).__name__}), and where a break '
           'would leave the residual below what the detector sees (fractions of the motion):')
