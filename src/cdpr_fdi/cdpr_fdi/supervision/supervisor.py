@@ -146,8 +146,9 @@ class Supervisor:
         # δ/ρ all along (a drawn 7-cable platform's cable at 1.4 N, δ/ρ 1.7 N) looked as
         # free before the break
         self.lost_in_episode = np.zeros(robot.cable_count, dtype=bool)
-        # per motor, the first tick of that run on which it looked free (its sensorless
-        # tension's lower bound under δ/ρ, as identify_broken_cables judges); -1: not yet
+        # per motor, the first tick it looked free (its sensorless tension's lower bound
+        # under δ/ρ, as identify_broken_cables judges) with its residual above δ, until it
+        # does neither (its pull back); -1: not so
         self.freed_since = np.full(robot.cable_count, -1)
         # of the candidates watched now, the first such tick seen while watched: a freed
         # motor's residual swings back under δ now and then, and its run starts again
@@ -175,9 +176,12 @@ class Supervisor:
             self.arithmetic.sensorless_tensions(self.motor_constants, self.felt_torque_nm(applied),
                                                 self.previous_speed, speed, self.period_s, tension, low, high)
             self.tension_bounds_n = low, high
+            # kept while the motor looks free or its residual stays above δ: a slack
+            # cable's residual swings about δ period by period, its pull does not return
             free = low * self.robot.motor.drum_radius_m < self.fdi.delta_nm
-            self.freed_since = np.where(self.unloaded_since < 0, -1,
-                                        np.where((self.freed_since < 0) & free, tick, self.freed_since))
+            lost = self.unloaded_since >= 0
+            self.freed_since = np.where((self.freed_since < 0) & free & lost, tick,
+                                        np.where(~free & ~lost, -1, self.freed_since))
             self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
             if not self.broken:   # once a cable is named, nothing more is looked for
                 self.weigh_unloaded_alone(tick, unloaded)
@@ -317,17 +321,20 @@ class Supervisor:
 
     def overstretched(self, tick: int, found: list[int], angle_rad) -> list[int]:
         """Of the free motors `found`, the cables proven broken (wrench_balance.overstretch_m
-        above fdi.identification_stretch_m for disturbance_window_cycles), the others taken
-        taut; all while those are too few to place the end-effector (confirm() then holds
+        above fdi.identification_stretch_m for disturbance_window_cycles; the one freed
+        first only, where one did so), the others taken taut; all while those are too few to place the end-effector (confirm() then holds
         them for disturbance_hold_cycles). Called on the ticks a disturbance is judged."""
         stretch = self.stretch_where_placed(self.robot.cable_mask(found), angle_rad)
         if stretch is None:
             return found   # confirm() holds them
         # for disturbance_window_cycles on end: a slack cable snapping taut again can
-        # overshoot for a period, a broken one only draws further away
+        # overshoot for a period, a broken one only draws further away. Where one of them
+        # freed well before the others (freed_first), only it: placed by the rest along a
+        # direction they barely hold, a cable the break slackened can read millimetres long
+        leader = self.freed_first(found) if len(found) > 1 else None
         self.overstretched_since = {
             cable: self.overstretched_since.get(cable, tick) for cable in found
-            if stretch[cable] > self.fdi.identification_stretch_m}
+            if stretch[cable] > self.fdi.identification_stretch_m and leader in (None, cable)}
         return [cable for cable, since in self.overstretched_since.items()
                 if tick - since + 1 >= self.fdi.disturbance_window_cycles]
 
@@ -444,8 +451,7 @@ class Supervisor:
 
     def freed_first(self, found: list[int]) -> int | None:
         """Of several motors that look free, the one that looked so
-        fdi.identification_freed_lead_cycles or more before every other, each since its
-        residual's run above δ began (freed_since): a cable that parts frees its motor
+        fdi.identification_freed_lead_cycles or more before every other (freed_since): a cable that parts frees its motor
         within a period; a cable the break unloads (a crossed platform's partner of it)
         slackens over tens of periods as the end-effector falls towards its exit point
         (19 N to none in 12 periods on a drawn 8-cable platform). None where none leads so.
