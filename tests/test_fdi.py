@@ -386,9 +386,10 @@ def test_of_candidates_held_too_long_to_place_the_one_that_lost_its_pull_first_i
     angles = np.zeros(paper_robot.cable_count)
     hold = fdi.disturbance_hold_cycles
 
-    def named(onsets, resets_at=None):
+    def named(onsets, resets_at=None, freed=(-1, -1, -1, -1)):
         supervisor = Supervisor(paper_robot, fdi, recovery_config, distribution, PERIOD_S)
         supervisor.unloaded_since = np.array(onsets)
+        supervisor.freed_since = np.array(freed)
         for k in range(hold):
             if k == resets_at:   # a freed motor's residual dips under δ: its run starts again
                 supervisor.unloaded_since[2] = 100 + k
@@ -402,6 +403,9 @@ def test_of_candidates_held_too_long_to_place_the_one_that_lost_its_pull_first_i
     assert named([-1, -1, 98, 99], resets_at=700) == (hold - 1, [2])   # its first tick watched counts
     assert named([-1, -1, 98, 98]) == (hold - 1, [2, 3])
     assert named([-1, -1, 98, -1]) == (hold - 1, [2, 3])   # one never lost its pull: not ordered
+    # the residual of the cable a break slackens rose a tick before the break's, but the
+    # broken one freed first: that one
+    assert named([-1, -1, 98, 99], freed=[-1, -1, 110, 100]) == (hold - 1, [3])
 
 
 def test_of_motors_that_look_free_the_one_freed_periods_before_the_others_is_the_break(paper_robot,

@@ -436,7 +436,12 @@ class Supervisor:
         end-effector then falls off after (a platform the six cables left cannot hold at
         the pose of the break: one of them slack within 2–20 ms). None where two lost it
         on the same tick (two parted at once) or one never lost it while watched (its
-        first tick then: candidate_onsets)."""
+        first tick then: candidate_onsets). Where one freed first (freed_first), that one:
+        a residual can rise above δ a tick before the break's on the cable it is to
+        slacken (a drawn 6 kg point mass on four cables, its diagonal)."""
+        freed = self.freed_first(self.candidates)
+        if freed is not None:
+            return freed
         first = self.lost_first(self.candidates, [self.candidate_onsets.get(cable, -1) for cable in self.candidates], 1)
         return None if first is None else first[0]
 
