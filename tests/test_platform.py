@@ -222,6 +222,41 @@ def test_a_recorded_run_whose_pose_gauss_newton_follows_slowly_is_still_read():
     assert np.linalg.norm(positions[-1] - positions[-2]) < 1e-3
 
 
+def test_gauss_newton_that_would_jump_between_two_poses_halves_its_step_and_ends():
+    """A drawn crossed 7-cable platform (cdpr-bench robots --seed 4, robot 041; W's least
+    singular value 1.6e-3 there) on its first elastic tick: stretched lengths no pose meets
+    within 0.13 mm. Full Gauss–Newton steps jumped between two poses 0.8 mm apart in any
+    number of steps; halved where they would raise the misfit, the least-squares pose is
+    found from the twin's pose and from home alike."""
+    robot = robot_from_section(Section({
+        **CROSSED_SEVEN_CABLE_PLATFORM['robot'], 'name': 'crossed_seven_041',
+        'end_effector': {'mass_kg': 2.142, 'radius_m': 0.205},
+        'platform': {'attachment_points_m': [[0.1237, -0.1161, 0.1152], [-0.1237, 0.1161, -0.1152],
+                                             [-0.1237, -0.1161, 0.1152], [0.1237, 0.1161, -0.1152],
+                                             [-0.1237, 0.1161, 0.1152], [0.1237, -0.1161, -0.1152],
+                                             [0.1237, 0.1161, 0.1152]],
+                     'centre_of_mass_m': [0.0, 0.0, 0.0],
+                     'inertia_kg_m2': [[0.0190903, 0.0, 0.0], [0.0, 0.0204006, 0.0], [0.0, 0.0, 0.0205549]]},
+        'exit_points_m': [[0.0, 0.212, 3.706], [0.212, 0.0, 3.706], [4.037, 0.0, 3.857], [4.249, 0.212, 3.857],
+                          [4.249, 6.17, 4.29], [4.037, 6.382, 4.29], [0.212, 6.382, 4.305]],
+        'workspace_m': {'min': [0.842, 1.162, 0.205], 'max': [3.407, 5.22, 2.638]},
+        'home_position_m': [2.124, 3.191, 1.421],
+        'motor': {'inertia_kg_m2': 0.00102, 'drum_radius_m': 0.0556, 'viscous_friction_nm_s_rad': 0.0029,
+                  'static_friction_nm': 0.107, 'nominal_torque_nm': 3.72, 'nominal_speed_rpm': 3732,
+                  'torque_limit_nm': 11.006},
+        'cables': {'tension_min_n': 1.07, 'tension_max_n': 107.6}}, 'drawn', 'robot'))
+    twin = (np.array([2.1743, 2.9367, 0.9934]), IDENTITY)
+    measured = np.array([1.8348327699097124, 1.5968740001889525, 0.9549989142580545, 1.3052259028921949,
+                         7.233965774270955, 7.717073848655689, 8.151957402021269])
+    lengths = robot.cable_length_offset_m + robot.motor.drum_radius_m * measured
+    found = [pose_kinematics.forward_kinematics(robot, measured, start=start, iterations=200)
+             for start in (twin, None)]
+    for position, orientation in found:
+        misfit = pose_kinematics.cable_vectors(robot, position, orientation)[1] - lengths
+        assert np.max(np.abs(misfit)) < 2e-4 and np.linalg.norm(position - twin[0]) < 5e-3
+    assert np.allclose(found[0][0], found[1][0], atol=1e-6)
+
+
 def test_the_wrench_matrix_is_minus_the_jacobian_of_the_cable_lengths(robot, rng):
     """d(x ⊕ δ) − d(x ⊖ δ) = −2 Wᵀ δ + O(δ³), for each of the six directions."""
     step = 1e-6

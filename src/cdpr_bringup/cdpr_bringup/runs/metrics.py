@@ -32,8 +32,9 @@ def twin_kpis(robot: Robot, recording, ticks: slice = slice(None)) -> dict:
     ticks before it.
     """
     angles = recording.angle_rad[ticks]
-    measured = robot.body.poses_of_angles(robot, angles)[0]
-    twin = robot.body.poses_of_angles(robot, recording.twin_angle_rad[ticks])[0]
+    twin_poses = robot.body.poses_of_angles(robot, recording.twin_angle_rad[ticks])
+    measured = robot.body.poses_of_angles(robot, angles, hints=twin_poses)[0]
+    twin = twin_poses[0]
     return {
         'K_c_m': float(np.max(np.linalg.norm(measured - twin, axis=1))),
         'K_j_rad': float(np.max(np.abs(angles - recording.twin_angle_rad[ticks]))),

@@ -66,9 +66,11 @@ class Body(ABC):
         without one)."""
 
     @abstractmethod
-    def poses_of_angles(self, robot, angles_rad, cables=None):
+    def poses_of_angles(self, robot, angles_rad, cables=None, hints=None):
         """(positions n × 3, orientations n × 4 or None) of each row of a stack of motor
-        angles (n × m), as a recorded run is read."""
+        angles (n × m), as a recorded run is read; `hints` (positions, orientations) a
+        pose per row to fall back on where a body's iteration needs a better start (the
+        twin's, for the measured angles)."""
 
     @abstractmethod
     def motion_terms(self, robot, poses, twists, twist_rates):

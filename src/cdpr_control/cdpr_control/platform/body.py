@@ -69,8 +69,8 @@ class Platform(Body):
     def orientation_error_rad(self, orientation, target) -> float:
         return float(np.linalg.norm(difference(target, orientation)))
 
-    def poses_of_angles(self, robot, angles_rad, cables=None):
-        return forward_kinematics_rows(robot, np.asarray(angles_rad, dtype=float), cables)
+    def poses_of_angles(self, robot, angles_rad, cables=None, hints=None):
+        return forward_kinematics_rows(robot, np.asarray(angles_rad, dtype=float), cables, hints)
 
     def motion_terms(self, robot, poses, twists, twist_rates):
         return motion_terms(robot, poses, twists, twist_rates)

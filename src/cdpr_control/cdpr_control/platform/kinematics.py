@@ -142,7 +142,7 @@ def forward_kinematics(robot: Robot, angles_rad, cables=None, start=None,
     return position, orientation
 
 
-def forward_kinematics_rows(robot: Robot, angles_rad, cables=None) -> tuple[np.ndarray, np.ndarray]:
+def forward_kinematics_rows(robot: Robot, angles_rad, cables=None, hints=None) -> tuple[np.ndarray, np.ndarray]:
     """`forward_kinematics` of each row of a stack of angles (n × m), as a recorded run is
     read: (positions n × 3, orientations n × 4), each row started from the row before's pose
     (the first from home), as a node follows the platform tick by tick. A row that does not
@@ -150,11 +150,14 @@ def forward_kinematics_rows(robot: Robot, angles_rad, cables=None) -> tuple[np.n
     FK_READ_ITERATIONS steps: near a pose where one direction is barely held (the smallest
     singular value of W a five-hundredth of the largest), the cables' stretch moves the
     least-squares pose millimetres a tick, and from the row before Gauss–Newton may need
-    more than FK_ITERATIONS steps."""
+    more than FK_ITERATIONS steps; `hints` (positions n × 3, orientations n × 4), a pose
+    per row to retry from too (the twin's: a drawn platform's first measured row, far
+    from home, was met from home in no number of steps)."""
     angles = np.asarray(angles_rad, dtype=float)
     used = np.ones(robot.cable_count, dtype=bool) if cables is None else cables
     tracker = PoseTracker(robot, used, FK_READ_ITERATIONS)
     positions, orientations = np.empty((len(angles), 3)), np.empty((len(angles), 4))
     for row, row_angles in enumerate(angles):
-        positions[row], orientations[row] = tracker.pose(row_angles)
+        hint = None if hints is None else (hints[0][row], hints[1][row])
+        positions[row], orientations[row] = tracker.pose(row_angles, hint)
     return positions, orientations

@@ -35,6 +35,11 @@ MOTOR_ROW_INERTIA, MOTOR_ROW_VISCOUS, MOTOR_ROW_COULOMB = range(3)
 # Forward kinematics' Levenberg–Marquardt damping where W Wᵀ is singular, a share of its
 # largest diagonal entry.
 LEVENBERG_DAMPING = 1e-6
+# Forward kinematics halves a Gauss–Newton step that would raise the lengths' squared
+# misfit, at most this many times: on lengths no pose meets (stretched elastic cables)
+# along a direction W barely holds, full steps jumped between two poses 0.8 mm apart for
+# ever (a drawn crossed 7-cable platform, W's least singular value 1.6e-3).
+FK_STEP_HALVINGS = 30
 # The nearest wrench's tie-break between tensions that pull the same wrench (the free
 # directions of more cables than degrees of freedom): this share of the problem's scale
 # times |τ|² is added, so the lowest such tensions are taken, as the bounded minimum norm
@@ -331,14 +336,19 @@ def forward_kinematics(exits, attachments, lengths, used, pose, iterations, tole
     solves the normal equations W Wᵀ δ = W (d − l) for δ = (δp, δφ), damped where W Wᵀ is
     singular. The steps taken when every length is met to `tolerance` or the step is
     below `step_tolerance`; −1 when `iterations` steps did not do it, −2 when not even the
-    damped equations could be solved (lengths that are not numbers)."""
+    damped equations could be solved (lengths that are not numbers). A step that would
+    raise the squared misfit Σ (d − l)² is halved until it does not (FK_STEP_HALVINGS);
+    where none of them lowers it, the pose is the least-squares one to round-off, and
+    the steps taken are returned."""
     m = exits.shape[0]
     rotation, columns, d, arms = np.empty((3, 3)), np.empty((m, 6)), np.empty(m), np.empty((m, 3))
     normal, system, rhs, step = np.empty((6, 6)), np.empty((6, 6)), np.empty(6), np.empty(6)
+    trial = np.empty(7)
     for taken in range(iterations):
         rotation_of(pose, rotation)
         cables_at(pose, rotation, exits, attachments, columns, d, arms)
         worst = 0.0
+        misfit = 0.0
         for a in range(6):
             rhs[a] = 0.0
             for b in range(6):
@@ -347,6 +357,7 @@ def forward_kinematics(exits, attachments, lengths, used, pose, iterations, tole
             if used[i] != 0.0:
                 residual = d[i] - lengths[i]
                 worst = max(worst, abs(residual))
+                misfit += residual * residual
                 for a in range(6):
                     rhs[a] += columns[i, a] * residual
                     for b in range(6):
@@ -368,12 +379,31 @@ def forward_kinematics(exits, attachments, lengths, used, pose, iterations, tole
                 system[a, a] += LEVENBERG_DAMPING * largest
             if not solve_symmetric(system, rhs, step):
                 return -2
+        scale, lowered = 1.0, False
+        for _ in range(FK_STEP_HALVINGS):
+            for k in range(7):
+                trial[k] = pose[k]
+            for k in range(3):
+                trial[k] += scale * step[k]
+            turn(trial, scale * step[3], scale * step[4], scale * step[5])
+            rotation_of(trial, rotation)
+            cables_at(trial, rotation, exits, attachments, columns, d, arms)
+            raised = 0.0
+            for i in range(m):
+                if used[i] != 0.0:
+                    residual = d[i] - lengths[i]
+                    raised += residual * residual
+            if raised <= misfit:
+                lowered = True
+                break
+            scale *= 0.5
+        if not lowered:
+            return taken
         largest = 0.0
         for a in range(6):
-            largest = max(largest, abs(step[a]))
-        for k in range(3):
-            pose[k] += step[k]
-        turn(pose, step[3], step[4], step[5])
+            largest = max(largest, abs(scale * step[a]))
+        for k in range(7):
+            pose[k] = trial[k]
         if largest < step_tolerance:
             return taken + 1
     return -1

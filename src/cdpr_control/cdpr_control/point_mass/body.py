@@ -49,7 +49,7 @@ class PointMass(Body):
         # closed form, then a few refining steps: no start or step count to choose
         return forward_kinematics(robot, np.asarray(angles_rad, dtype=float), cables), None
 
-    def poses_of_angles(self, robot, angles_rad, cables=None):
+    def poses_of_angles(self, robot, angles_rad, cables=None, hints=None):
         # forward_kinematics takes one set of angles or a stack of them alike
         return forward_kinematics(robot, np.asarray(angles_rad, dtype=float), cables), None
 
