@@ -25,7 +25,10 @@ from cdpr_fdi.detectors import make_detector
 from cdpr_control.control.controller import PdGains
 from cdpr_control.point_mass.kinematics import forward_kinematics
 from cdpr_control.geometry.motions import motion_names
-from cdpr_control.point_mass.workspace import contains, sew_cross_section
+from cdpr_control.point_mass.workspace import contains, safe_point, sew_cross_section
+from cdpr_control.setup.robot_file import load_robot
+from cdpr_fdi.recovery_planning.recovery import safe_point_for
+from cdpr_fdi.settings.config import load_recovery_config
 from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 from cdpr_twin.nodes.run_length import RunLength
 
@@ -356,6 +359,21 @@ def test_cdpr_robot_warns_where_a_loaded_cable_carries_less_than_the_identificat
              if line.startswith('  ') and line.split()[0] in ('along-4', 'circle')}
     assert 'below the identification δ 2.78 N' in lines['along-4']
     assert 'identification δ' not in lines['circle']
+
+
+def test_cdpr_robot_prints_the_safe_point_the_supervisor_moves_to(tmp_path, capsys):
+    """With τ_max 14 N the paper robot's cables left by cable 4 cannot hold the SEW
+    barycentre (14.5 N of cable 1): cdpr-robot prints the SP held within the bounds, the
+    one the supervisor moves to (safe_point_for), not the paper's."""
+    weak_file = tmp_path / 'weak_robot.yaml'
+    weak_file.write_text(PAPER_ROBOT.read_text().replace('tension_max_n: 100.0', 'tension_max_n: 14.0'))
+    robot = load_robot(weak_file)
+    sp = safe_point_for(robot, load_recovery_config(weak_file, robot), robot.cable_mask([3]))
+    robot_summary.main(['--config', str(weak_file)])
+    out = capsys.readouterr().out
+    assert f'cable 4 broken: SP = ({sp[0]:.4f}, {sp[1]:.4f}, {sp[2]:.4f}) m' in out
+    paper = safe_point(robot, robot.cable_mask([3]), load_recovery_config(weak_file, robot).safe_height_m)
+    assert f'({paper[0]:.4f}, {paper[1]:.4f}' not in out
 
 
 def test_cdpr_robot_says_where_a_break_would_leave_the_residual_below_epsilon(capsys):
