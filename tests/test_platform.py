@@ -229,7 +229,7 @@ def test_gauss_newton_that_would_jump_between_two_poses_halves_its_step_and_ends
     number of steps; halved where they would raise the misfit, the least-squares pose is
     found from the twin's pose and from home alike."""
     robot = robot_from_section(Section({
-        **CROSSED_SEVEN_CABLE_PLATFORM['robot'], 'name': 'crossed_seven_041',
+        'name': 'crossed_seven_041', 'gravity_m_s2': [0.0, 0.0, -9.81],
         'end_effector': {'mass_kg': 2.142, 'radius_m': 0.205},
         'platform': {'attachment_points_m': [[0.1237, -0.1161, 0.1152], [-0.1237, 0.1161, -0.1152],
                                              [-0.1237, -0.1161, 0.1152], [0.1237, 0.1161, -0.1152],

@@ -344,9 +344,10 @@ def forward_kinematics(exits, attachments, lengths, used, pose, iterations, tole
     rotation, columns, d, arms = np.empty((3, 3)), np.empty((m, 6)), np.empty(m), np.empty((m, 3))
     normal, system, rhs, step = np.empty((6, 6)), np.empty((6, 6)), np.empty(6), np.empty(6)
     trial = np.empty(7)
+    # the geometry at the pose; after a step, the accepted trial's is the pose's
+    rotation_of(pose, rotation)
+    cables_at(pose, rotation, exits, attachments, columns, d, arms)
     for taken in range(iterations):
-        rotation_of(pose, rotation)
-        cables_at(pose, rotation, exits, attachments, columns, d, arms)
         worst = 0.0
         misfit = 0.0
         for a in range(6):

@@ -222,7 +222,7 @@ class Supervisor:
                                                            self.robot.motor.drum_radius_m, self.fdi.delta_nm))
                 # a collapsed cable is free whatever the sign of a residual too small to judge
                 found += [cable for cable in collapsed if cable not in found]
-                if (len(found) > 1 and self.disturbed_since is None and not self.settling(tick)
+                if (self.disturbed_since is None and not self.settling(tick)
                         and (first := self.freed_first(found)) is not None):
                     found = [first]
                 if self.disturbed(tick, found, events) or self.settling(tick):
@@ -321,9 +321,10 @@ class Supervisor:
 
     def overstretched(self, tick: int, found: list[int], angle_rad) -> list[int]:
         """Of the free motors `found`, the cables proven broken (wrench_balance.overstretch_m
-        above fdi.identification_stretch_m for disturbance_window_cycles; the one freed
-        first only, where one did so), the others taken taut; all while those are too few to place the end-effector (confirm() then holds
-        them for disturbance_hold_cycles). Called on the ticks a disturbance is judged."""
+        above fdi.identification_stretch_m for disturbance_window_cycles; only the one
+        freed first, where one did so), the others taken taut; all while those are too few
+        to place the end-effector (confirm() then holds them for disturbance_hold_cycles).
+        Called on the ticks a disturbance is judged."""
         stretch = self.stretch_where_placed(self.robot.cable_mask(found), angle_rad)
         if stretch is None:
             return found   # confirm() holds them
@@ -331,7 +332,7 @@ class Supervisor:
         # overshoot for a period, a broken one only draws further away. Where one of them
         # freed well before the others (freed_first), only it: placed by the rest along a
         # direction they barely hold, a cable the break slackened can read millimetres long
-        leader = self.freed_first(found) if len(found) > 1 else None
+        leader = self.freed_first(found)
         self.overstretched_since = {
             cable: self.overstretched_since.get(cable, tick) for cable in found
             if stretch[cable] > self.fdi.identification_stretch_m and leader in (None, cable)}
@@ -393,7 +394,7 @@ class Supervisor:
                        if len(self.candidates) > 1 and placed else None)
             proven = [] if stretch is None else [cable for cable in self.candidates
                                                  if stretch[cable] > self.fdi.identification_stretch_m]
-            freed = self.freed_first(self.candidates) if len(self.candidates) > 1 else None
+            freed = self.freed_first(self.candidates)
             return sorted(proven or self.leading(stretch) or ([freed] if freed is not None else self.candidates))
         return []
 
@@ -456,21 +457,23 @@ class Supervisor:
 
     def freed_first(self, found: list[int]) -> int | None:
         """Of several motors that look free, the one that looked so
-        fdi.identification_freed_lead_cycles or more before every other (freed_since): a cable that parts frees its motor
-        within a period; a cable the break unloads (a crossed platform's partner of it)
-        slackens over tens of periods as the end-effector falls towards its exit point
-        (19 N to none in 12 periods on a drawn 8-cable platform). None where none leads so.
-        Asked outside a disturbance only: a push slackens one cable after another as
-        gradually, and its first is weighed alone before the next (disturbed())."""
+        fdi.identification_freed_lead_cycles or more before every other (freed_since): a
+        cable that parts frees its motor within a period; a cable the break unloads (a
+        crossed platform's partner of it) slackens over tens of periods as the end-effector
+        falls towards its exit point (19 N to none in 12 periods on a drawn 8-cable
+        platform). None where none leads so, or fewer than two look free. Taken alone only
+        outside a disturbance (update): a push slackens one cable after another as
+        gradually, and its first is weighed alone before the next (disturbed()); within
+        one, only it can be proven broken (overstretched)."""
         first = self.lost_first(found, self.freed_since[found], self.fdi.identification_freed_lead_cycles)
         return None if first is None else first[0]
 
     def lost_first(self, cables: list[int], onsets, lead: int) -> tuple[int, int] | None:
         """(cable, tick) of the one of `cables` whose motor lost its pull `lead` ticks or
         more before every other's, by `onsets` (each one's first tick of the loss, in their
-        order; -1: not lost); None where one is -1 or none leads so."""
+        order; -1: not lost); None where fewer than two, one is -1 or none leads so."""
         onsets = np.asarray(onsets)
-        if np.any(onsets < 0):
+        if onsets.size < 2 or np.any(onsets < 0):
             return None
         order = np.argsort(onsets, kind='stable')
         if onsets[order[1]] - onsets[order[0]] < lead:
