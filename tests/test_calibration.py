@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 from cdpr_bringup.campaigns import calibrate as cdpr_calibrate
-from cdpr_control.config import ConfigError
+from cdpr_control.config import ConfigError, load_section
 from cdpr_control.model.friction import FrictionModel
 from cdpr_control.setup.robot_file import load_robot
-from cdpr_fdi.detection.calibration import (FailureFreeRun, calibrate, cusum_trace, fit_coulomb_friction,
-                                  gumbel_threshold)
+from cdpr_fdi.detection.calibration import (FailureFreeRun, calibrate, collapse_reference_level, cusum_trace,
+                                           fit_coulomb_friction, gumbel_threshold)
 from cdpr_fdi.settings.config import load_fdi_config
 
 import copy
@@ -82,9 +82,32 @@ def test_calibration_of_white_noise_gives_thresholds_above_every_failure_free_ru
     assert result.hours == pytest.approx(40 * 2000 * PERIOD_S / 3600.0)
 
 
+def test_the_collapse_floor_lies_above_what_failure_free_runs_read_free_and_higher_the_more_runs_do():
+    """Runs that never read a loaded motor free (None) lower the odds that a run does: of
+    nine runs, three reading free at 1.9–2.1 N give a lower floor than nine that do alike;
+    both above every value seen; one run: its value; none: no floor."""
+    seen = [1.9, 2.0, 2.1]
+    rare, often = (collapse_reference_level(values, 6.0, 0.1) for values in ([None] * 6 + seen, seen * 3))
+    assert 2.1 <= rare < often
+    assert collapse_reference_level([None, 1.7], 6.0, 0.1) == 1.7
+    assert collapse_reference_level([None, None], 6.0, 0.1) is None
+
+
+def test_a_calibrated_collapse_floor_is_a_share_of_tension_min_just_above_the_level(paper_robot):
+    """A thousandth of τ_min above the level (the test alarms from the floor on), never
+    below the robot file's share; nothing where no run read a motor free."""
+    fdi = load_section(PAPER_ROBOT, 'fdi')
+    configured = fdi.number('collapse_reference_share')
+    level = 7.0 * paper_robot.tension_min_n
+    share = cdpr_calibrate.collapse_reference_share(level, paper_robot, fdi)
+    assert share * paper_robot.tension_min_n > level and share == pytest.approx(7.001)
+    assert cdpr_calibrate.collapse_reference_share(0.1, paper_robot, fdi) == configured
+    assert cdpr_calibrate.collapse_reference_share(None, paper_robot, fdi) is None
+
+
 def test_a_new_robot_calibrates_from_nothing_and_its_calibration_is_bound_to_it(tmp_path,
                                                                               paper_robot):
-    """cdpr-calibrate needs no thresholds to start from (its runs have no supervisor),
+    """cdpr-calibrate needs no thresholds to start from (its runs' supervisor acts on nothing),
     writes the robot's fingerprint, and the file then loads for that robot only."""
     tall = CONFIG_DIR / 'tall_frame_robot.yaml'
     out = tmp_path / 'calibration.yaml'

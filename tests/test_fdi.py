@@ -90,6 +90,8 @@ def test_a_tension_collapse_is_a_motor_feeling_nothing_while_the_reference_asks_
     assert [collapse.update(low, high, reference) for _ in range(3)] == [[], [], []], \
         'not before the window is full'
     assert collapse.update(low, high, reference) == [0]
+    # what a calibration sets the floor above: the most asked of a motor that read free
+    assert collapse.largest_free_reference_n == 1.6
     # a swinging free motor reads far from zero period by period, about zero on average
     swinging = TensionCollapse(window=4, band_n=0.5, reference_min_n=1.5)
     readings = [-6.0, 8.0, -9.0, 7.2]

@@ -420,11 +420,12 @@ def test_the_figures_from_every_tick_are_those_of_a_full_rate_bag(robot, motions
     assert_close_figures(ticked, full_rate)
 
 
-def test_the_ticks_a_cable_left_is_under_tension_min_are_counted_in_the_jolt_and_after():
-    """Of three cables (τ_min 1 N), cable 1 parts at 0.1 s (2 ms ticks): its own slack is
-    not counted; cable 2 under τ_min on 3 ticks of the first JOLT_S and 2 later ones, cable
-    3 on one tick before the parting (not counted) — row by row as the plant node adds them,
-    and as one stack, alike."""
+def test_the_ticks_a_cable_left_is_under_tension_min_are_counted_before_the_detection_in_its_jolt_and_after():
+    """Of three cables (τ_min 1 N), cable 1 parts at 0.1 s (2 ms ticks) and is named on the
+    next tick: its own slack is not counted; cable 2 under τ_min on the parting's tick
+    (undetected), on 3 ticks of the JOLT_S from the naming and on 1 later one, cable 3 on
+    one tick before the parting (not counted) — row by row as the plant node adds them, and
+    as one stack, alike."""
     from cdpr_twin.models.run_figures import JOLT_S, RunFigures
     period, ticks = 0.002, 400
     parting = round(0.1 / period)
@@ -438,11 +439,12 @@ def test_the_ticks_a_cable_left_is_under_tension_min_are_counted_in_the_jolt_and
     by_row, stacked = (RunFigures(3, period, False, tension_min_n=1.0) for _ in range(2))
     for figures in (by_row, stacked):
         figures.failure_at(parting * period, 0)
+        figures.detection_at(parting + 1)
     for tick in range(ticks):
         by_row.add(tick, position[tick], None, tension[tick])
     stacked.add_rows(np.arange(ticks), position, None, tension)
     for figures in (by_row, stacked):
         window = figures.summary()['failure']
-        assert window['ticks_under_tension_min'] == {'jolt': 3, 'after_jolt': 2}
+        assert window['ticks_under_tension_min'] == {'undetected': 1, 'jolt': 3, 'after_jolt': 1}
         assert window['min_tension_n'] == 0.5
     assert RunFigures(3, period, False).summary()['failure']['ticks_under_tension_min'] is None

@@ -2,8 +2,10 @@
 
 Runs every named motion (both directions, each seed) without a failure on the chosen
 plant fidelity, in-process and in parallel; fits the motors' Coulomb friction and the
-nominal residual spread; and writes the thresholds of both detectors into a YAML file
-the supervisor loads (`cdpr-scenario --calibration FILE`, ROS parameter calibration_file).
+nominal residual spread; runs them again with a supervisor watching on the fitted
+friction, every alarm out of reach, for the tension-collapse test's floor; and writes the
+thresholds of both detectors (and that floor, where a run read a loaded motor free) into
+a YAML file the supervisor loads (`cdpr-scenario --calibration FILE`, ROS parameter calibration_file).
 
 --from-far FAR_CSV runs nothing: from a `cdpr-bench far` run's false alarms it takes, for
 each detector on the plant, the most sensitive swept thresholds whose 95 % upper bound
@@ -13,6 +15,7 @@ the calibration they were scaled from with those thresholds.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import datetime
 import math
 import os
@@ -27,7 +30,7 @@ from cdpr_control.config import load_config, load_section
 from cdpr_control.control.controller import PdGains
 from cdpr_control.geometry.motions import motion_names
 from cdpr_control.setup.robot_file import load_robot
-from cdpr_fdi.detection.calibration import FailureFreeRun, calibrate
+from cdpr_fdi.detection.calibration import FailureFreeRun, calibrate, collapse_reference_level
 from cdpr_twin.models.plant import FIDELITIES
 
 from ..cli import command
@@ -66,6 +69,26 @@ def failure_free_run(job) -> tuple[FailureFreeRun, float]:
     recording = run_inprocess(scenario_of(job), supervised=False)
     return (FailureFreeRun(recording.command_nm - recording.twin_torque_nm, recording.twin_angular_velocity_rad_s),
             float(abs(recording.command_nm).max()))
+
+
+def free_reference(job_and_friction) -> float | None:
+    """The most a reference asked (N) of a motor whose τ̂, with the Coulomb friction (N·m)
+    fitted, read free in the job's failure-free run: a supervisor watches it, every alarm
+    out of reach (None: none did)."""
+    job, coulomb_friction_nm = job_and_friction
+    scenario = scenario_of(job)
+    fdi = scenario.fdi.with_overrides(coulomb_friction_nm=coulomb_friction_nm).watching()
+    return run_inprocess(dataclasses.replace(scenario, fdi=fdi)).fdi['collapse_free_reference_n']
+
+
+def collapse_reference_share(level_n: float | None, robot, fdi) -> float | None:
+    """fdi.collapse_reference_share for a calibrated level (N): a thousandth of τ_min
+    above it (the test alarms from the floor on), at least the robot file's; None where no
+    run read a loaded motor free."""
+    if level_n is None:
+        return None
+    configured = fdi.number('collapse_reference_share', positive=True)
+    return max(configured, (math.floor(level_n / robot.tension_min_n * 1000.0) + 1) / 1000.0)
 
 
 def check_held(config: Path, robot, work: list, peaks_nm: list[float]) -> None:
@@ -148,6 +171,8 @@ class Calibrated:
     document: dict
     result: object
     twin_friction_nm: float
+    # collapse_reference_level's (N; None: no run read a loaded motor free)
+    collapse_level_n: float | None = None
 
 
 def calibrate_robot(config: Path, motions: Path, fidelity: str, seeds: list[int], jobs: int,
@@ -163,16 +188,17 @@ def calibrate_robot(config: Path, motions: Path, fidelity: str, seeds: list[int]
     robot = load_robot(config)
     friction = [scenario_of(job) for job in work][0].twin_friction
     twin_friction_nm = 0.0 if friction is None else friction.coulomb_nm
+    control, fdi = load_section(config, 'control'), load_section(config, 'fdi')
+    drift = drift if drift is not None else fdi.section('cusum').number('drift', non_negative=True)
     with ProcessPoolExecutor(max(jobs, 1)) as pool:
         runs, peaks = zip(*pool.map(failure_free_run, work))
-    check_held(config, robot, work, peaks)
-    runs = list(runs)
-    control = load_section(config, 'control')
-    drift = (drift if drift is not None
-             else load_section(config, 'fdi').section('cusum').number('drift', non_negative=True))
-    result = calibrate(runs, control.number('period_s', positive=True),
-                       control.number('coulomb_smoothing_rad_s', positive=True), drift,
-                       false_alarms_per_hour, twin_friction_nm)
+        check_held(config, robot, work, peaks)
+        runs = list(runs)
+        result = calibrate(runs, control.number('period_s', positive=True),
+                           control.number('coulomb_smoothing_rad_s', positive=True), drift,
+                           false_alarms_per_hour, twin_friction_nm)
+        seen = list(pool.map(free_reference, [(job, result.coulomb_friction_nm) for job in work]))
+    collapse_level_n = collapse_reference_level(seen, result.hours * 3600.0 / result.runs, false_alarms_per_hour)
     document = {
         'fdi': {
             'coulomb_friction_nm': round(result.coulomb_friction_nm, 5),
@@ -193,7 +219,10 @@ def calibrate_robot(config: Path, motions: Path, fidelity: str, seeds: list[int]
             'largest_cusum': round(result.largest_cusum, 3),
         },
     }
-    return Calibrated(document, result, twin_friction_nm)
+    share = collapse_reference_share(collapse_level_n, robot, fdi)
+    if share is not None:
+        document['fdi']['collapse_reference_share'] = share
+    return Calibrated(document, result, twin_friction_nm, collapse_level_n)
 
 
 @command('cdpr-calibrate')
@@ -218,6 +247,10 @@ def main(argv=None):
           f'ν = {result.cusum_drift:.2f}, h = {result.cusum_threshold:.2f} (largest sum seen '
           f'{result.largest_cusum:.2f}), z limit = {result.cusum_limit:.2f}, '
           f'ε = {result.cusum_epsilon_nm:.4f} N·m')
+    if calibrated.collapse_level_n is not None:
+        print(f'  tension collapse: a loaded motor read free where the reference asked up to '
+              f'{calibrated.collapse_level_n:.3f} N: the floor is '
+              f'{document["fdi"]["collapse_reference_share"]:g} × τ_min')
     print(f'written: {out}')
     return 0
 

@@ -89,8 +89,8 @@ CSV_COLUMNS = (
     'fail_at_fraction', 'failure_time_s', 'detection_delay_ms', 'detection_delay_from_signal_ms',
     'late_detection_expected', 'identified_cables', 'correct_identification',
     'false_alarm', 'mode', 'fault', 'reached_safe_point', 'final_error_m', 'final_orientation_error_deg',
-    'min_tension_n', 'max_tension_n', 'ticks_under_tension_min_jolt', 'ticks_under_tension_min_after_jolt',
-    'min_height_m',
+    'min_tension_n', 'max_tension_n', 'ticks_under_tension_min_undetected', 'ticks_under_tension_min_jolt',
+    'ticks_under_tension_min_after_jolt', 'min_height_m',
     'duration_s', 'cycles', 'control_period_s', 'wall_time_s', 'worker', 'error',
 )
 
@@ -278,6 +278,7 @@ def row_of(run: Run, run_dir: Path, outcome: dict | None) -> dict:
         final_orientation_error_deg=recovery.get('final_orientation_error_deg'),
         min_tension_n=recovery.get('min_tension_n'),
         max_tension_n=recovery.get('max_tension_n'),
+        ticks_under_tension_min_undetected=under.get('undetected'),
         ticks_under_tension_min_jolt=under.get('jolt'),
         ticks_under_tension_min_after_jolt=under.get('after_jolt'),
         min_height_m=recovery.get('min_height_m'),

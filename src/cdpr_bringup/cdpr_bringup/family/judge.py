@@ -73,11 +73,20 @@ def judged(row: dict, member) -> dict:
 
 def beyond_allowance(row: dict) -> bool:
     """Whether a recovered failure run's cables left were under τ_min for longer than the
-    allowance (a FAULT brakes the motors: what the cables carry then is no recovery's)."""
-    if row['mode'] == FAULT:
+    allowance from the detection on (a FAULT brakes the motors: what the cables carry then
+    is no recovery's; where they cannot hold the pose the cable broke at, no tensions in
+    [τ_min, τ_max] hold it there: `unavoidably_under`)."""
+    if row['mode'] == FAULT or not row['cables_could_hold']:
         return False
     jolt, after = row.get('ticks_under_tension_min_jolt'), row.get('ticks_under_tension_min_after_jolt')
     return (jolt or 0) > ALLOWED_TICKS_IN_JOLT or (after or 0) > ALLOWED_TICKS_AFTER_JOLT
+
+
+def unavoidably_under(row: dict) -> bool:
+    """Whether a recovered failure run's cables left, which cannot hold the end-effector at
+    rest where the cable broke, were under τ_min for longer than the allowance."""
+    return (row['mode'] != FAULT and row['cables_could_hold'] is False
+            and beyond_allowance({**row, 'cables_could_hold': True}))
 
 
 def figures(rows: list[dict]) -> dict:
@@ -107,6 +116,7 @@ def figures(rows: list[dict]) -> dict:
         'least_margin_n': min(margins) if margins else None,
         'under_tension_min': sum(margin < -UNDER_TOLERANCE_N for margin in margins),
         'beyond_allowance': sum(beyond_allowance(row) for row in done),
+        'unavoidably_under': sum(unavoidably_under(row) for row in done),
         'failure_free_runs': len(free),
         'false_alarms': sum(bool(row['false_alarm']) for row in free if row['error'] is None),
         'failure_free_not_completed': sum(row['error'] is not None for row in free),
@@ -124,7 +134,7 @@ def cases(rows: list[dict]) -> list[dict]:
 
 TABLE_HEAD = ('| {} | plant | failure runs | right | wrong | missed | not completed | FAULT: cannot hold / could '
               '| SP reached (where the cables hold) | delay median / p95 / max (ms) | least tension / τ_min (N) '
-              '| under τ_min beyond the allowance | failure-free runs, false alarms |')
+              '| under τ_min beyond the allowance: could hold / cannot | failure-free runs, false alarms |')
 TABLE_RULE = '|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|'
 
 
@@ -134,7 +144,7 @@ def table_line(label: str, plant: str, found: dict, tension_min_n: float | None)
             f'| {found["not_completed"]} | {found["fault_cannot_hold"]} / {found["fault_could_hold"]} '
             f'| {found["reached"]} ({found["reached_where_held"]} of {found["could_hold"]}) '
             f'| {_fmt(found["delay_median_ms"], 2)} / {_fmt(found["delay_p95_ms"], 2)} / {_fmt(found["delay_max_ms"], 2)} '
-            f'| {_fmt(found["least_tension_n"], 2)} / {bound} | {found["beyond_allowance"]} '
+            f'| {_fmt(found["least_tension_n"], 2)} / {bound} | {found["beyond_allowance"]} / {found["unavoidably_under"]} '
             f'| {found["failure_free_runs"]}, {found["false_alarms"]}'
             + (f' ({found["failure_free_not_completed"]} not completed)' if found['failure_free_not_completed'] else '')
             + ' |')
@@ -166,9 +176,9 @@ def case_line(row: dict) -> str:
     return (f'- `{row["robot_file"]}`: cable {row["cable"]} on {row["motion"]} at {row["fail_at_fraction"]:.3f} of '
             f'the move (t = {_fmt(row["failure_time_s"], 4)} s), {row["fidelity"]} plant: {row["outcome"]}, named '
             f'{row["identified_cables"] or "none"}{fault}, SP {"reached" if row["reached_safe_point"] else "not reached"}'
-            + (f'; a cable left under τ_min for {row["ticks_under_tension_min_jolt"]} periods in the jolt and '
-               f'{row["ticks_under_tension_min_after_jolt"]} after (least {_fmt(row["min_tension_n"], 2)} N)'
-               if beyond_allowance(row) else '')
+            + (f'; a cable left under τ_min for {row["ticks_under_tension_min_jolt"]} periods within the jolt of '
+               f'the detection and {row["ticks_under_tension_min_after_jolt"]} after (least '
+               f'{_fmt(row["min_tension_n"], 2)} N)' if beyond_allowance(row) else '')
             + (f'; {row["error"]}' if row['error'] else ''))
 
 
@@ -182,10 +192,12 @@ def summary_markdown(rows: list[dict], members, drawing: dict, heading: str) -> 
         '"cannot hold" where no tensions within [τ_min, τ_max] of the cables left hold the end-effector at rest at '
         'the pose the cable broke at, "could" where they do. SP reached: all runs, and of those where the cables '
         'could hold the pose. Least tension: of a remaining cable after the break, in the runs not in FAULT (a FAULT '
-        'brakes the motors). Beyond the allowance: runs not in '
-        'FAULT whose '
-        f'cables left were under τ_min more than {ALLOWED_TICKS_IN_JOLT} control periods within the break\'s jolt '
-        f'({JOLT_S * 1000:g} ms) or more than {ALLOWED_TICKS_AFTER_JOLT} after (docs/recovery-tensions.md). '
+        'brakes the motors). Beyond the allowance: runs not in FAULT whose cables left were under τ_min, from the '
+        f'detection on, more than {ALLOWED_TICKS_IN_JOLT} control periods within {JOLT_S * 1000:g} ms (the break\'s '
+        f'jolt and the recovery\'s first step) or more than {ALLOWED_TICKS_AFTER_JOLT} later '
+        '(docs/recovery-tensions.md); "could hold" where the cables left hold the pose the cable broke at, '
+        '"cannot" where no tensions within the bounds do (a cable goes under τ_min until the recovery has moved '
+        'the end-effector to where they can). '
         'Failure-free runs: those the '
         'calibration ran, run again with the supervisor on the calibrated thresholds.', '',
         *table(rows, members), '',

@@ -6,6 +6,14 @@ fitted to the calibration runs' maxima (each run a block: one whole motion, from
 to rest, so the blocks are alike), it gives the level a run exceeds with probability
 rate · W, i.e. once per 1 / rate hours of such motion. A threshold the calibration data
 itself crosses is never returned: the largest value seen bounds it from below.
+
+The tension-collapse test (tension_collapse.py) alarms where a motor reads free while the
+reference asks at least its floor of it. Most failure-free runs never read a loaded motor
+as free; on a robot with more cables than degrees of freedom some do, where the joints'
+position control, not the plan, shares the load (a drawn 7-cable point mass: 0.5 N on a
+cable planned at 3.5 N). The floor is set as ε is, on the runs that did, their τ̂ taken with
+the friction fitted first (the robot file's break-away friction, 0.1 N·m on the tall
+frame's 15 mm drums against 0.049 fitted, would put τ̂ 3.4 N off).
 """
 from __future__ import annotations
 
@@ -46,6 +54,20 @@ def gumbel_threshold(maxima: np.ndarray, block_s: float, false_alarms_per_hour: 
     exceedance = min(false_alarms_per_hour * block_s / 3600.0, 1.0 - 1e-12)
     level = location - scale * np.log(-np.log1p(-exceedance))
     return float(max(level, np.max(maxima)))
+
+
+def collapse_reference_level(seen: list[float | None], block_s: float, false_alarms_per_hour: float) -> float | None:
+    """The reference tension (N) a run's motors read free at with probability rate · W: a
+    run either never reads a loaded motor as free (None) or does at a largest reference
+    tension that follows a Gumbel law fitted to the runs that did, and which they bound
+    from below (one such run: its value). None where no run did."""
+    found = np.array([value for value in seen if value is not None], dtype=float)
+    if found.size == 0:
+        return None
+    if found.size < 2:
+        return float(found[0])
+    # given that a run reads a motor free, it may exceed the level this much more often
+    return gumbel_threshold(found, block_s, false_alarms_per_hour * len(seen) / found.size)
 
 
 def cusum_trace(normalised: np.ndarray, drift: float) -> np.ndarray:

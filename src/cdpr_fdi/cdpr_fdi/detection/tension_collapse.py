@@ -39,6 +39,9 @@ class TensionCollapse:
         self.recent: np.ndarray | None = None
         self.total: np.ndarray | None = None
         self.periods = 0
+        # the largest window-average reference tension (N) at which a motor's τ̂ read
+        # within the band (-inf: none did): what cdpr-calibrate sets reference_min_n above
+        self.largest_free_reference_n = -np.inf
 
     def update(self, tension_low_n: np.ndarray, tension_high_n: np.ndarray,
                reference_tension_n: np.ndarray) -> list[int]:
@@ -51,6 +54,9 @@ class TensionCollapse:
         count = self.arithmetic.collapse_window(self.recent, self.total, self.periods % self.window, low, high,
                                                 reference, self.band_n, self.reference_min_n, collapsed)
         self.periods += 1
-        if self.periods < self.window or not count:
+        if self.periods < self.window:
             return []
-        return [int(cable) for cable in np.flatnonzero(collapsed)]
+        self.largest_free_reference_n = max(self.largest_free_reference_n, float(collapsed.max()))
+        if not count:
+            return []
+        return [int(cable) for cable in np.flatnonzero(collapsed >= self.reference_min_n)]

@@ -99,6 +99,11 @@ class FdiConfig:
             twin_friction=twin_friction,
         )
 
+    def watching(self) -> 'FdiConfig':
+        """The same settings with every alarm out of reach: a supervisor on them watches a
+        failure-free run and says what its tests saw (cdpr-calibrate), acting on nothing."""
+        return dataclasses.replace(self, detector='threshold', epsilon_nm=np.inf, collapse_reference_n=np.inf)
+
     def with_overrides(self, detector: str | None = None, epsilon_nm: float | None = None,
                        coulomb_friction_nm: float | None = None) -> 'FdiConfig':
         """The same settings with the given ones replaced (CLI and ROS parameters)."""

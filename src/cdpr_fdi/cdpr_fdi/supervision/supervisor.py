@@ -552,5 +552,8 @@ class Supervisor:
             'late_commands': self.late_commands,
             'unjudged_ticks': self.unjudged_ticks,
             'disturbances': self.disturbances,
+            # the most a reference asked of a motor whose τ̂ read free (N; None: none did)
+            'collapse_free_reference_n': (None if self.collapse.largest_free_reference_n == -np.inf
+                                          else self.collapse.largest_free_reference_n),
             **({} if recovery is None else recovery.summary()),
         }

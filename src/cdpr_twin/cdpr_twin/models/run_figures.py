@@ -10,9 +10,11 @@ cable's parting (`failure_at`) or, in a run where none parts, the first naming o
 broken cable (`detection_at`) — the largest tracking error (position, and a platform's
 orientation) on the ticks before it, and the least and greatest tension of the cables
 left (all but those that parted) on the ticks from it on, and the ticks on which one of
-them carried less than τ_min: within JOLT_S of the event (the break's jolt, which
-docs/recovery-tensions.md allows) and after. A tick is before an event when its time
-(tick × period) is before the event's instant, as metrics.ticks_before counts.
+them carried less than τ_min: before the detection (`undetected`: nothing acts on the
+break yet), within JOLT_S of the later of the event and the detection (the break's jolt and
+the recovery's first step, which docs/recovery-tensions.md allows) and after. A tick is
+before an event when its time (tick × period) is before the event's instant, as
+metrics.ticks_before counts.
 
 A naming is learnt a few ticks after the tick it judged: rows are kept HOLD_S before they
 are counted, so that a tick is judged against the events of its own time.
@@ -56,9 +58,11 @@ class _Window:
         self.low_n = np.full(cable_count, math.inf)
         self.high_n = np.full(cable_count, -math.inf)
         self.after = 0
-        self.under = {'jolt': 0, 'after_jolt': 0}
+        self.under = {'undetected': 0, 'jolt': 0, 'after_jolt': 0}
 
-    def fold(self, ticks, event, error_m, turn_rad, tension_n, remaining, tension_min_n, jolt_ticks) -> None:
+    def fold(self, ticks, event, detected, error_m, turn_rad, tension_n, remaining, tension_min_n,
+             jolt_ticks) -> None:
+        """`detected`: the tick of the first naming, None where none was learnt yet."""
         before = ticks < event if event is not None else np.ones(ticks.size, dtype=bool)
         tracked = before & np.isfinite(error_m)
         if tracked.any():
@@ -72,9 +76,12 @@ class _Window:
             self.after += int(np.count_nonzero(after))
             if tension_min_n is not None and remaining.any():
                 under = (tension_n[after][:, remaining] < tension_min_n - UNDER_TOLERANCE_N).any(axis=1)
-                in_jolt = ticks[after] < event + jolt_ticks
+                undetected = (ticks[after] < detected if detected is not None
+                              else np.ones(under.size, dtype=bool))
+                in_jolt = ~undetected & (ticks[after] < max(event, detected or 0) + jolt_ticks)
+                self.under['undetected'] += int(np.count_nonzero(under & undetected))
                 self.under['jolt'] += int(np.count_nonzero(under & in_jolt))
-                self.under['after_jolt'] += int(np.count_nonzero(under & ~in_jolt))
+                self.under['after_jolt'] += int(np.count_nonzero(under & ~undetected & ~in_jolt))
 
     def copy(self) -> '_Window':
         other = _Window(self.low_n.size)
@@ -206,8 +213,8 @@ class RunFigures:
         remaining = np.ones(self.cable_count, dtype=bool)
         remaining[list(self.broken)] = False
         for event, window in into.windows.items():
-            window.fold(ticks, self.events[event], error, turn, tension, remaining, self.tension_min_n,
-                        self.jolt_ticks)
+            window.fold(ticks, self.events[event], self.events['detection'], error, turn, tension, remaining,
+                        self.tension_min_n, self.jolt_ticks)
 
     def summary(self) -> dict:
         """The figures so far, in plain types (cables 1-based); the rows still held are
