@@ -11,7 +11,7 @@ The tension-collapse test (tension_collapse.py) alarms where a motor reads free 
 reference asks at least its floor of it. Most failure-free runs never read a loaded motor
 as free; on a robot with more cables than degrees of freedom some do, where the joints'
 position control, not the plan, shares the load (a drawn 7-cable point mass: 0.5 N on a
-cable planned at 3.5 N). The floor is set as ε is, on the runs that did, their τ̂ taken with
+cable planned at 1.95 N). The floor is set as ε is, on the runs that did, their τ̂ taken with
 the friction fitted first (the robot file's break-away friction, 0.1 N·m on the tall
 frame's 15 mm drums against 0.049 fitted, would put τ̂ 3.4 N off).
 """
