@@ -75,6 +75,32 @@ def test_a_small_family_is_judged_by_the_rules(tmp_path):
     assert '| **all** | all |' in (tmp_path / 'summary.md').read_text()
 
 
+def test_the_tension_allowance_is_judged_from_the_naming_on_and_apart_where_the_cables_cannot_hold():
+    """Periods under τ_min before the naming are the detection's; from it, more than the
+    allowance counts against the recovery where the cables left could hold the pose of the
+    break, apart where they cannot, and not at all in a FAULT (the brakes hold then)."""
+    from cdpr_bringup.family.judge import (ALLOWED_TICKS_AFTER_JOLT, ALLOWED_TICKS_IN_JOLT, beyond_allowance,
+                                           figures, unavoidably_under)
+
+    def row(undetected, jolt, after, could_hold, mode='SAFE_HOLD'):
+        return {'cable': 1, 'error': None, 'mode': mode, 'cables_could_hold': could_hold,
+                'ticks_under_tension_min_undetected': undetected, 'ticks_under_tension_min_jolt': jolt,
+                'ticks_under_tension_min_after_jolt': after}
+    late = row(5000, ALLOWED_TICKS_IN_JOLT, ALLOWED_TICKS_AFTER_JOLT, True)
+    ringing = row(0, ALLOWED_TICKS_IN_JOLT + 1, 0, True)
+    lingering = row(0, 0, ALLOWED_TICKS_AFTER_JOLT + 1, True)
+    cannot = row(0, 0, 400, False)
+    braked = row(0, 40, 400, True, FAULT)
+    assert [beyond_allowance(r) for r in (late, ringing, lingering, cannot, braked)] == [False, True, True, False,
+                                                                                        False]
+    assert [unavoidably_under(r) for r in (late, ringing, lingering, cannot, braked)] == [False, False, False, True,
+                                                                                         False]
+    found = figures([{**r, 'outcome': 'right', 'detection_delay_ms': 3.0, 'reached_safe_point': True,
+                      'min_tension_n': 0.5, 'tension_min_bound_n': 1.0, 'false_alarm': False}
+                     for r in (late, ringing, lingering, cannot, braked)])
+    assert (found['beyond_allowance'], found['unavoidably_under']) == (2, 1)
+
+
 @pytest.mark.parametrize('options, named', [
     (['--count', '0'], '--count 0'), (['--instants', '-1'], '--instants -1'), (['--cables', '0'], '--cables 0'),
     (['--fidelities', 'field'], '--fidelities field'), (['--seed', '-2'], '--seed -2')])
