@@ -401,6 +401,9 @@ def test_of_candidates_held_too_long_to_place_the_one_that_lost_its_pull_first_i
     # the residual of the cable a break slackens rose a tick before the break's, but the
     # broken one freed first: that one
     assert named([-1, -1, 98, 99], freed=[-1, -1, 110, 100]) == (hold - 1, [3])
+    # a residual above δ long before the break (a model's mismatch, δ small) orders nothing:
+    # its loss starts when its motor looked free, a period after the broken one's
+    assert named([-1, -1, 40, 98], freed=[-1, -1, 101, 100]) == (hold - 1, [3])
 
 
 def test_of_motors_that_look_free_the_one_freed_periods_before_the_others_is_the_break(paper_robot,

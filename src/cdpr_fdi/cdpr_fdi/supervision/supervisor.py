@@ -439,11 +439,17 @@ class Supervisor:
         on the same tick (two parted at once) or one never lost it while watched (its
         first tick then: candidate_onsets). Where one freed first (freed_first), that one:
         a residual can rise above δ a tick before the break's on the cable it is to
-        slacken (a drawn 6 kg point mass on four cables, its diagonal)."""
+        slacken (a drawn 6 kg point mass on four cables, its diagonal). A motor's loss
+        starts no sooner than it first looked free (freed_since): a residual above δ long
+        before, a model's mismatch where δ is small, tells no order (a drawn 5-cable point
+        mass: above δ for 3 s before the break, freed a period after the broken motor)."""
         freed = self.freed_first(self.candidates)
         if freed is not None:
             return freed
-        first = self.lost_first(self.candidates, [self.candidate_onsets.get(cable, -1) for cable in self.candidates], 1)
+        watched = [self.candidate_onsets.get(cable, -1) for cable in self.candidates]
+        onsets = [onset if onset < 0 else max(onset, int(self.freed_since[cable]))
+                  for cable, onset in zip(self.candidates, watched)]
+        first = self.lost_first(self.candidates, onsets, 1)
         return None if first is None else first[0]
 
     def losing(self, found: list[int]) -> list[int]:
