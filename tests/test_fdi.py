@@ -385,6 +385,7 @@ def test_of_candidates_held_too_long_to_place_the_one_that_lost_its_pull_first_i
         supervisor = Supervisor(paper_robot, fdi, recovery_config, distribution, PERIOD_S)
         supervisor.unloaded_since = np.array(onsets)
         supervisor.freed_since = np.array(freed)
+        supervisor.alarm_tick = 100
         for k in range(hold):
             if k == resets_at:   # a freed motor's residual dips under δ: its run starts again
                 supervisor.unloaded_since[2] = 100 + k
@@ -401,9 +402,11 @@ def test_of_candidates_held_too_long_to_place_the_one_that_lost_its_pull_first_i
     # the residual of the cable a break slackens rose a tick before the break's, but the
     # broken one freed first: that one
     assert named([-1, -1, 98, 99], freed=[-1, -1, 110, 100]) == (hold - 1, [3])
-    # a residual above δ long before the break (a model's mismatch, δ small) orders nothing:
-    # its loss starts when its motor looked free, a period after the broken one's
+    # a residual above δ long before the alarm (a model's mismatch, δ small) orders nothing:
+    # its loss starts when its motor looked free, a period after the broken one's; runs
+    # begun with the alarm keep their order
     assert named([-1, -1, 40, 98], freed=[-1, -1, 101, 100]) == (hold - 1, [3])
+    assert named([-1, -1, 100, 101], freed=[-1, -1, 103, 102]) == (hold - 1, [2])
 
 
 def test_of_motors_that_look_free_the_one_freed_periods_before_the_others_is_the_break(paper_robot,

@@ -439,15 +439,17 @@ class Supervisor:
         on the same tick (two parted at once) or one never lost it while watched (its
         first tick then: candidate_onsets). Where one freed first (freed_first), that one:
         a residual can rise above δ a tick before the break's on the cable it is to
-        slacken (a drawn 6 kg point mass on four cables, its diagonal). A motor's loss
-        starts no sooner than it first looked free (freed_since): a residual above δ long
-        before, a model's mismatch where δ is small, tells no order (a drawn 5-cable point
-        mass: above δ for 3 s before the break, freed a period after the broken motor)."""
+        slacken (a drawn 6 kg point mass on four cables, its diagonal). A residual whose run
+        above δ began before the alarm, a model's mismatch where δ is small, tells no
+        order: that motor's loss starts when it first looked free (freed_since; a drawn
+        5-cable point mass: above δ for 3 s before the break, freed a period after the
+        broken motor)."""
         freed = self.freed_first(self.candidates)
         if freed is not None:
             return freed
         watched = [self.candidate_onsets.get(cable, -1) for cable in self.candidates]
-        onsets = [onset if onset < 0 else max(onset, int(self.freed_since[cable]))
+        alarm = self.alarm_tick if self.alarm_tick is not None else -1
+        onsets = [max(onset, int(self.freed_since[cable])) if 0 <= onset < alarm else onset
                   for cable, onset in zip(self.candidates, watched)]
         first = self.lost_first(self.candidates, onsets, 1)
         return None if first is None else first[0]
