@@ -113,7 +113,8 @@ def test_the_per_tick_kernels_give_the_same_numbers_with_both():
         both(tick_arithmetic, 'reference_tensions', motor, 0.002, *rows[:3], outputs=1),
     ]
     recent, total = rng.normal(0.0, 1.0, (5, 3, MOTORS)), rng.normal(0.0, 5.0, (3, MOTORS))
-    checks.append(both(tick_arithmetic, 'collapse_window', recent, total, 2, *rows[:3], 0.5, 1.0, outputs=1))
+    checks.append(both(tick_arithmetic, 'collapse_window', recent, total, 2, *rows[:3], 0.5, 1.0, np.full(1, -np.inf),
+                       outputs=1))
     for (python_in, python_out, python_result), (compiled_in, compiled_out, compiled_result) in checks:
         assert python_result == compiled_result
         for python, compiled in zip(python_in + python_out, compiled_in + compiled_out):

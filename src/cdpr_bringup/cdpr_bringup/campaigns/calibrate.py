@@ -180,7 +180,8 @@ def calibrate_robot(config: Path, motions: Path, fidelity: str, seeds: list[int]
                     motion_set: list[str] | None = None) -> Calibrated:
     """The core of cdpr-calibrate: every motion of `motions` (or those of `motion_set`), both
     directions, each seed, run failure-free on the `fidelity` plant in `jobs` processes, and
-    the thresholds fitted to them; every run settled first, so that a refused robot or
+    the thresholds fitted to them, then run again watched for the tension-collapse floor
+    (free_reference); every run settled first, so that a refused robot or
     motion is said (ConfigError, UsageError) before a worker starts, and a robot the
     controller does not hold on the plant after them (check_held)."""
     work = [(str(config), str(motions), motion, reverse, fidelity, seed)

@@ -71,22 +71,23 @@ def judged(row: dict, member) -> dict:
     return row
 
 
-def beyond_allowance(row: dict) -> bool:
-    """Whether a recovered failure run's cables left were under τ_min for longer than the
-    allowance from the detection on (a FAULT brakes the motors: what the cables carry then
-    is no recovery's; where they cannot hold the pose the cable broke at, no tensions in
-    [τ_min, τ_max] hold it there: `unavoidably_under`)."""
-    if row['mode'] == FAULT or not row['cables_could_hold']:
+def over_allowance(row: dict) -> bool:
+    """Whether a run's cables left were under τ_min for longer than the allowance from the
+    detection on (a FAULT brakes the motors: what the cables carry then is no recovery's)."""
+    if row['mode'] == FAULT:
         return False
     jolt, after = row.get('ticks_under_tension_min_jolt'), row.get('ticks_under_tension_min_after_jolt')
     return (jolt or 0) > ALLOWED_TICKS_IN_JOLT or (after or 0) > ALLOWED_TICKS_AFTER_JOLT
 
 
+def beyond_allowance(row: dict) -> bool:
+    """over_allowance where the cables left could hold the pose the cable broke at."""
+    return bool(row['cables_could_hold']) and over_allowance(row)
+
+
 def unavoidably_under(row: dict) -> bool:
-    """Whether a recovered failure run's cables left, which cannot hold the end-effector at
-    rest where the cable broke, were under τ_min for longer than the allowance."""
-    return (row['mode'] != FAULT and row['cables_could_hold'] is False
-            and beyond_allowance({**row, 'cables_could_hold': True}))
+    """over_allowance where they cannot: no tensions in [τ_min, τ_max] hold it there."""
+    return row['cables_could_hold'] is False and over_allowance(row)
 
 
 def figures(rows: list[dict]) -> dict:

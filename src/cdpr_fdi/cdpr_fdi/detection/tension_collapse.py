@@ -40,8 +40,10 @@ class TensionCollapse:
         self.total: np.ndarray | None = None
         self.periods = 0
         # the largest window-average reference tension (N) at which a motor's τ̂ read
-        # within the band (-inf: none did): what cdpr-calibrate sets reference_min_n above
-        self.largest_free_reference_n = -np.inf
+        # within the band (-inf: none did): what cdpr-calibrate sets reference_min_n above.
+        # Kept by the kernel; the periods that fill the window write into `filling`.
+        self.largest = np.full(1, -np.inf)
+        self.filling = np.full(1, -np.inf)
 
     def update(self, tension_low_n: np.ndarray, tension_high_n: np.ndarray,
                reference_tension_n: np.ndarray) -> list[int]:
@@ -51,12 +53,17 @@ class TensionCollapse:
         if self.recent is None:
             self.recent, self.total = np.zeros((self.window, 3, low.size)), np.zeros((3, low.size))
         collapsed = np.empty(low.size)
-        count = self.arithmetic.collapse_window(self.recent, self.total, self.periods % self.window, low, high,
-                                                reference, self.band_n, self.reference_min_n, collapsed)
         self.periods += 1
-        if self.periods < self.window:
+        filled = self.periods >= self.window
+        count = self.arithmetic.collapse_window(self.recent, self.total, (self.periods - 1) % self.window, low, high,
+                                                reference, self.band_n, self.reference_min_n,
+                                                self.largest if filled else self.filling, collapsed)
+        if not filled or not count:
             return []
-        self.largest_free_reference_n = max(self.largest_free_reference_n, float(collapsed.max()))
-        if not count:
-            return []
-        return [int(cable) for cable in np.flatnonzero(collapsed >= self.reference_min_n)]
+        return [int(cable) for cable in np.flatnonzero(collapsed)]
+
+    @property
+    def largest_free_reference_n(self) -> float:
+        """The largest window-average reference tension (N) at which a motor's τ̂ read
+        within the band; -inf where none did."""
+        return float(self.largest[0])

@@ -12,7 +12,7 @@ per-motor arrays hold one entry per motor.
 from __future__ import annotations
 
 from functools import cache
-from math import inf, tanh
+from math import tanh
 
 import numpy as np
 
@@ -63,12 +63,13 @@ def reference_tensions(motor, period_s, angular_velocity_rad_s, previous_angular
 
 
 def collapse_window(recent, total, slot, low_n, high_n, reference_n, band_n, reference_min_n,
-                    collapsed) -> int:
+                    largest_n, collapsed) -> int:
     """A period's τ̂ bounds and reference tension into a window of periods (rows 0–2 of
     `recent[slot]`, the oldest, replaced; `total` their sum over the window, kept); then
-    per motor (into `collapsed`) the window's average reference tension where its averages
-    put τ̂ within `band_n` of zero, −inf where not. Returns how many of those the reference
-    asked at least `reference_min_n` of."""
+    per motor (into `collapsed`, 1.0 or 0.0) whether the window's averages put τ̂ within
+    `band_n` of zero while the reference asked for at least `reference_min_n`, and the
+    largest such average reference at any level into `largest_n[0]` (kept: the most seen).
+    Returns how many did."""
     window = recent.shape[0]
     count = 0
     for i in range(low_n.shape[0]):
@@ -80,8 +81,11 @@ def collapse_window(recent, total, slot, low_n, high_n, reference_n, band_n, ref
         recent[slot, 0, i], recent[slot, 1, i], recent[slot, 2, i] = low_n[i], high_n[i], reference_n[i]
         low, high, reference = total[0, i] / window, total[1, i] / window, total[2, i] / window
         distance = max(max(low, -high), 0.0)
-        collapsed[i] = reference if distance < band_n else -inf
-        count += collapsed[i] >= reference_min_n
+        free = distance < band_n
+        if free and reference > largest_n[0]:
+            largest_n[0] = reference
+        collapsed[i] = 1.0 if free and reference >= reference_min_n else 0.0
+        count += collapsed[i] != 0.0
     return count
 
 
@@ -97,7 +101,7 @@ def signatures(types) -> dict:
     return {sensorless_tensions: types.void(*(given,) * 4, floats, row, row, row),
             reference_tensions: types.void(given, floats, given, given, given, row),
             collapse_window: types.intp(types.float64[:, :, ::1], rows, types.intp, given, given, given, floats,
-                                        floats, row)}
+                                        floats, row, row)}
 
 
 @cache
