@@ -202,9 +202,21 @@ def test_safe_point_moves_where_the_cables_left_cannot_hold_the_barycentre(paper
     assert sp[2] == recovery_config.safe_height_m and np.linalg.norm(sp - paper) > 0.05
     held = holding_tensions_each(weak, sp, attached)[0, attached]
     assert np.all(held >= weak.tension_min_n - 1e-9) and np.all(held <= 14.0 + 1e-9)
-    # where the cables hold it nowhere at that height within the bounds, no SP
-    with pytest.raises(RecoveryInfeasible, match='nowhere'):
-        safe_point_for(dataclasses.replace(paper_robot, tension_max_n=13.0), recovery_config, attached)
+    # where they hold it nowhere at that height within the bounds (τ_max 13 N), SP is at the
+    # nearest height above the table where they do: none at 1.1–1.4 m, some at 1.0 m
+    weaker = dataclasses.replace(paper_robot, tension_max_n=13.0)
+    sp = safe_point_for(weaker, recovery_config, attached)
+    assert sp[2] == pytest.approx(1.0) and sp[2] > recovery_config.table_height_m
+    held = holding_tensions_each(weaker, sp, attached)[0, attached]
+    assert np.all(held >= weaker.tension_min_n - 1e-9) and np.all(held <= 13.0 + 1e-9)
+    xy = np.stack(np.meshgrid(*(np.linspace(low, high, 40) for low, high in zip(
+        weaker.workspace_min_m[:2], weaker.workspace_max_m[:2]))), axis=-1).reshape(-1, 2)
+    for height_m in (1.1, 1.2, 1.3, 1.4):
+        on_it = np.column_stack([xy, np.full(len(xy), height_m)])
+        assert np.isnan(holding_tensions_each(weaker, on_it, attached)).any(axis=1).all()
+    # where they hold it at no height above the table, no SP
+    with pytest.raises(RecoveryInfeasible, match='nowhere at z = 1.2 m.*nor at any height'):
+        safe_point_for(dataclasses.replace(paper_robot, tension_max_n=12.0), recovery_config, attached)
 
 
 def test_initial_tensions_keep_the_force_when_the_remaining_cables_can(paper_robot):

@@ -11,6 +11,8 @@ from cdpr_control.tension_distribution import make_tension_distribution
 # Held safe points already found (a grid of the workspace box's section where the paper's
 # SP is not held: ~0.1 s, more than a tick), or why there is none (model.searches)
 _found: dict[tuple, 'np.ndarray | str'] = {}
+# Points a side of the coarse grid a height is first looked at on (held_safe_point)
+COARSE_SIDE = 17
 
 
 def sew_cross_section(robot: Robot, attached, height_m: float) -> np.ndarray:
@@ -88,7 +90,7 @@ def holding_tensions_each(robot: Robot, positions_m, attached) -> np.ndarray:
                             nan_where_infeasible=True).tension_n
 
 
-def held_safe_point(robot: Robot, attached, height_m: float, spacing_m: float) -> np.ndarray:
+def held_safe_point(robot: Robot, attached, height_m: float, spacing_m: float, lowest_m: float) -> np.ndarray:
     """SP (m) where the `attached` cables hold the end-effector within [tension_min_n,
     tension_max_n]: the paper's (`safe_point`) where they do there, else the barycentre
     of the residual wrench-feasible workspace's section at `height_m` — the mean of the
@@ -97,23 +99,53 @@ def held_safe_point(robot: Robot, attached, height_m: float, spacing_m: float) -
     that are not negative: with a heavy end-effector under cables far from vertical its
     barycentre can need more than τ_max of a cable, and no move ends there. The bounds,
     not the plan's margin above τ_min: a light end-effector on many cables is held
-    nowhere with it (the recovery lowers it where a pose needs, LoweredFloor). ValueError
-    where there is no such section, or its barycentre is not held (a section that is not
-    convex). Found once per robot, cables and settings (model.searches)."""
+    nowhere with it (the recovery lowers it where a pose needs, LoweredFloor). Where
+    there is no such section at `height_m`, or its barycentre is not held (a section
+    that is not convex), the same at the nearest height of the workspace box above
+    `lowest_m` (the table), `spacing_m` apart, where there is (a drawn 5-cable robot's
+    four cables held it where it broke but nowhere at 1.2 m): each height first looked at
+    on a grid of COARSE_SIDE² points, the fine grid's ~0.2 ms a point being spent only
+    where that one holds it somewhere. ValueError where there is none. Found once per
+    robot, cables and settings (model.searches)."""
     attached = np.asarray(attached, dtype=bool)
-    return found_once(_found, robot, (attached.tobytes(), float(height_m), float(spacing_m)),
-                      lambda: _held_safe_point(robot, attached, height_m, spacing_m)).copy()
+    key = (attached.tobytes(), float(height_m), float(spacing_m), float(lowest_m))
+    return found_once(_found, robot, key, lambda: _held_at_a_height(robot, attached, height_m, spacing_m,
+                                                                      lowest_m)).copy()
+
+
+def _held_at_a_height(robot: Robot, attached: np.ndarray, height_m: float, spacing_m: float,
+                      lowest_m: float) -> 'np.ndarray | str':
+    """`held_safe_point`'s search over the heights, or why it found none."""
+    found = _held_safe_point(robot, attached, height_m, spacing_m)
+    if not isinstance(found, str):
+        return found
+    heights = np.arange(robot.workspace_max_m[2], max(lowest_m, robot.workspace_min_m[2]), -spacing_m)
+    heights = heights[(heights > lowest_m) & ~np.isclose(heights, height_m)]
+    for other in heights[np.argsort(np.abs(heights - height_m), kind='stable')]:
+        coarse = _grid(robot, other, None)
+        if np.isnan(holding_tensions_each(robot, coarse, attached)).any(axis=1).all():
+            continue
+        point = _held_safe_point(robot, attached, other, spacing_m)
+        if not isinstance(point, str):
+            return point
+    return f'{found}; nor at any height of the workspace above {lowest_m:g} m'
+
+
+def _grid(robot: Robot, height_m: float, spacing_m: float | None) -> np.ndarray:
+    """Positions (n × 3, m) at `height_m` on a grid over the workspace box's x-y extent,
+    `spacing_m` apart (None: COARSE_SIDE points a side)."""
+    axes = [np.linspace(low, high, COARSE_SIDE if spacing_m is None else max(2, int(round((high - low) / spacing_m)) + 1))
+            for low, high in zip(robot.workspace_min_m[:2], robot.workspace_max_m[:2])]
+    grid = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 2)
+    return np.column_stack([grid, np.full(len(grid), height_m)])
 
 
 def _held_safe_point(robot: Robot, attached: np.ndarray, height_m: float, spacing_m: float) -> 'np.ndarray | str':
-    """`held_safe_point`'s search, or why it found none."""
+    """`held_safe_point`'s search at `height_m`, or why it found none."""
     paper = safe_point(robot, attached, height_m)
     if not np.isnan(holding_tensions_each(robot, paper, attached)).any():
         return paper
-    axes = [np.linspace(low, high, max(2, int(round((high - low) / spacing_m)) + 1))
-            for low, high in zip(robot.workspace_min_m[:2], robot.workspace_max_m[:2])]
-    grid = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 2)
-    positions = np.column_stack([grid, np.full(len(grid), height_m)])
+    positions = _grid(robot, height_m, spacing_m)
     held = ~np.isnan(holding_tensions_each(robot, positions, attached)).any(axis=1)
     bounds = f'[{robot.tension_min_n:g}, {robot.tension_max_n:g}] N'
     if not held.any():

@@ -32,6 +32,12 @@ import numpy as np
 
 from cdpr_control.model.robot import Robot
 
+# The twist the taut cables' speeds give has no part along a direction whose singular
+# value of their structure matrix is under this share of the largest: their speeds do not
+# see it (a drawn suspended platform's six cables left, at home orientation, had one of
+# 4e-9 against 1.75, and its speeds' noise made a twist of 3 km/s and 8e4 rad/s).
+TWIST_RCOND = 1e-3
+
 
 class WrenchBalance:
     """The unexplained force on the end-effector over the last `window` periods (N)."""
@@ -89,13 +95,14 @@ def placement(robot: Robot, angle_rad, angular_velocity_rad_s, taut: np.ndarray,
     matrix at the pose). The pose by forward kinematics of their angles (`pose` where the
     caller found it: a recovery's, model.pose_tracking), the twist from
     their speeds, ρ θ̇_j = −w_jᵀ twist, in the least-squares sense (as sharp as the speeds,
-    where differentiating poses would amplify their quantisation)."""
+    where differentiating poses would amplify their quantisation), none along a direction
+    they barely see (TWIST_RCOND)."""
     position, orientation = (robot.body.pose_of_angles(robot, np.asarray(angle_rad, float), taut)
                              if pose is None else pose)
     structure = robot.body.structure_matrix(robot, position, orientation)
     twist, *_ = np.linalg.lstsq(structure[:, taut].T,
                                 -robot.motor.drum_radius_m * np.asarray(angular_velocity_rad_s, float)[taut],
-                                rcond=None)
+                                rcond=TWIST_RCOND)
     return position, orientation, twist, structure
 
 

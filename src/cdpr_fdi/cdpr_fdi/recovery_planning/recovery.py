@@ -5,7 +5,8 @@ the run reports share.
 The safe target of a point mass is SP, the barycentre of the residual static-equilibrium
 workspace's cross-section at recovery.safe_height_m (or recovery.safe_points_m per
 cable), or where the remaining cables cannot hold it within their bounds, the barycentre
-of the section where they can (held_safe_point); a platform's is
+of the section where they can (held_safe_point), at the nearest height where there is
+one; a platform's is
 its safe pose (cdpr_control.platform.safe_pose). Both are found ahead of time for every
 single break by the strategies (find_safe_targets).
 """
@@ -75,9 +76,11 @@ def residual_barycentre(robot: Robot, config, attached: np.ndarray) -> np.ndarra
     """A point mass's SP: the barycentre of the residual SEW's section at the safe height,
     or where the remaining cables cannot hold the end-effector there within [τ_min,
     τ_max], of the section where they can, sampled on a platform's grid
-    (`safe_pose_grid_m`; held_safe_point): no move ends at a point no tensions hold."""
+    (`safe_pose_grid_m`; held_safe_point): no move ends at a point no tensions hold; where
+    they hold it nowhere at the safe height, the same at the nearest height above
+    table_height_m where they do."""
     try:
-        return held_safe_point(robot, attached, config.safe_height_m, config.safe_pose_grid_m)
+        return held_safe_point(robot, attached, config.safe_height_m, config.safe_pose_grid_m, config.table_height_m)
     except ValueError as err:
         raise RecoveryInfeasible(f'no residual workspace at z = {config.safe_height_m} m: {err}') from None
 
