@@ -27,7 +27,7 @@ import numpy as np
 
 from cdpr_control.platform.statics import static_tensions_each
 from cdpr_control.model.robot import Robot
-from cdpr_control.model.searches import found_once
+from cdpr_control.model.searches import found_once, section_grid
 from cdpr_control.geometry.rotation import from_axis_angle, normalised, product
 
 AXES = np.eye(3)
@@ -78,11 +78,8 @@ def candidate_orientations(home_orientation, turns_deg) -> list[np.ndarray]:
 def residual_section(robot: Robot, attached, orientation, height_m: float, spacing_m: float) -> np.ndarray:
     """The points (n × 2, m) of a grid `spacing_m` apart over the workspace box's x-y extent
     where the `attached` cables hold the platform at `orientation` and `height_m`."""
-    axes = [np.linspace(low, high, max(2, int(round((high - low) / spacing_m)) + 1))
-            for low, high in zip(robot.workspace_min_m[:2], robot.workspace_max_m[:2])]
-    grid = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 2)
-    positions = np.column_stack([grid, np.full(len(grid), height_m)])
-    return grid[tension_margins_n(robot, positions, orientation, attached) >= 0.0]
+    positions = section_grid(robot, height_m, spacing_m)
+    return positions[tension_margins_n(robot, positions, orientation, attached) >= 0.0, :2]
 
 
 def safe_pose(robot: Robot, attached, height_m: float, turns_deg, spacing_m: float) -> SafePose:

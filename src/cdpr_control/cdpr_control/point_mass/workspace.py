@@ -5,7 +5,7 @@ import numpy as np
 
 from cdpr_control.model.dynamics import inverse_dynamics
 from cdpr_control.model.robot import Robot
-from cdpr_control.model.searches import found_once
+from cdpr_control.model.searches import found_once, section_grid
 from cdpr_control.tension_distribution import make_tension_distribution
 
 # Held safe points already found (a grid of the workspace box's section where the paper's
@@ -122,7 +122,7 @@ def _held_at_a_height(robot: Robot, attached: np.ndarray, height_m: float, spaci
     heights = np.arange(robot.workspace_max_m[2], max(lowest_m, robot.workspace_min_m[2]), -spacing_m)
     heights = heights[(heights > lowest_m) & ~np.isclose(heights, height_m)]
     for other in heights[np.argsort(np.abs(heights - height_m), kind='stable')]:
-        coarse = _grid(robot, other, None)
+        coarse = section_grid(robot, other, points_per_side=COARSE_SIDE)
         if np.isnan(holding_tensions_each(robot, coarse, attached)).any(axis=1).all():
             continue
         point = _held_safe_point(robot, attached, other, spacing_m)
@@ -131,21 +131,12 @@ def _held_at_a_height(robot: Robot, attached: np.ndarray, height_m: float, spaci
     return f'{found}; nor at any height of the workspace above {lowest_m:g} m'
 
 
-def _grid(robot: Robot, height_m: float, spacing_m: float | None) -> np.ndarray:
-    """Positions (n × 3, m) at `height_m` on a grid over the workspace box's x-y extent,
-    `spacing_m` apart (None: COARSE_SIDE points a side)."""
-    axes = [np.linspace(low, high, COARSE_SIDE if spacing_m is None else max(2, int(round((high - low) / spacing_m)) + 1))
-            for low, high in zip(robot.workspace_min_m[:2], robot.workspace_max_m[:2])]
-    grid = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 2)
-    return np.column_stack([grid, np.full(len(grid), height_m)])
-
-
 def _held_safe_point(robot: Robot, attached: np.ndarray, height_m: float, spacing_m: float) -> 'np.ndarray | str':
     """`held_safe_point`'s search at `height_m`, or why it found none."""
     paper = safe_point(robot, attached, height_m)
     if not np.isnan(holding_tensions_each(robot, paper, attached)).any():
         return paper
-    positions = _grid(robot, height_m, spacing_m)
+    positions = section_grid(robot, height_m, spacing_m)
     held = ~np.isnan(holding_tensions_each(robot, positions, attached)).any(axis=1)
     bounds = f'[{robot.tension_min_n:g}, {robot.tension_max_n:g}] N'
     if not held.any():
