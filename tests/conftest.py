@@ -497,6 +497,29 @@ DRAWN_EIGHT_CABLE_FDI = {
     'cusum': {'sigma_nm': [0.009258, 0.014561, 0.008603, 0.016626, 0.010082, 0.015917, 0.009088, 0.009348],
               'drift': 5.0, 'threshold': 1.491, 'limit': 6.491, 'epsilon_nm': 0.08849}}
 
+# A point mass of 2.2 kg on eight cables (3.5–4.2 m high) over a 3.4 × 5.9 m frame, τ_min
+# 2.7 N, 22 mm drums: drawn by `cdpr-bench robots --seed 6` (family6_090), its line and
+# elastic-plant thresholds as that bench made them (2026-12-07). Two of its cables carry
+# 1–2 N on the line with a residual above δ all along (the twin's mismatch).
+DRAWN_HIDDEN_BREAK_ROBOT = {'robot': {
+    'name': 'family6_090', 'gravity_m_s2': [0.0, 0.0, -9.81],
+    'end_effector': {'mass_kg': 2.219, 'radius_m': 0.05},
+    'exit_points_m': [[3.406, 2.77, 4.017], [3.406, 4.174, 3.606], [1.499, 5.858, 3.479], [0.0, 4.14, 4.039],
+                      [0.0, 2.807, 3.953], [0.0, 0.379, 3.553], [1.094, 0.0, 4.023], [3.406, 0.91, 4.203]],
+    'workspace_m': {'min': [0.511, 0.879, 0.0], 'max': [2.895, 4.979, 2.637]},
+    'home_position_m': [1.703, 2.929, 1.319],
+    'motor': {'inertia_kg_m2': 0.000753, 'drum_radius_m': 0.0217, 'viscous_friction_nm_s_rad': 0.0013,
+              'static_friction_nm': 0.136, 'nominal_torque_nm': 2.152, 'nominal_speed_rpm': 2700,
+              'torque_limit_nm': 6.687},
+    'cables': {'tension_min_n': 2.7, 'tension_max_n': 229.0}}}
+DRAWN_HIDDEN_BREAK_MOTIONS = {
+    'motion_defaults': {'peak_speed_m_s': 0.4, 'rest_before_s': 0.5, 'rest_after_s': 1.0},
+    'motions': {'090-line-3': {'type': 'line', 'start': [1.5812, 2.4484, 1.384], 'goal': [1.8248, 3.4096, 1.254]}}}
+DRAWN_HIDDEN_BREAK_FDI = {
+    'coulomb_friction_nm': 0.06575, 'epsilon_nm': 0.13253, 'collapse_reference_share': 1.5,
+    'cusum': {'sigma_nm': [0.017479, 0.01192, 0.010326, 0.015978, 0.019619, 0.011735, 0.010777, 0.010258],
+              'drift': 5.0, 'threshold': 1.31, 'limit': 6.31, 'epsilon_nm': 0.13769}}
+
 
 def written_robot(tmp_path, robot: dict, motions: dict, fdi: dict | None = None) -> tuple:
     """(robot file, motions file, elastic calibration file or None) of a robot of the tests,

@@ -458,16 +458,27 @@ def test_a_motor_that_carried_less_than_delta_all_along_is_not_named_beside_one_
     episode: a cable carrying less than δ/ρ before the break looked as free then (a drawn
     7-cable platform's cable 7 at 1.4 N, δ/ρ 1.7 N, named in cable 4's place in cdpr-bench
     robots --seed 3, rigid plant); one whose residual dipped back under δ still counts, and
-    where none rose yet, every free-looking motor stays a candidate."""
+    where none rose yet, every free-looking motor stays a candidate. So does one whose
+    residual was above δ within identification_confirm_cycles before the alarm: a lightly
+    loaded cable's freed motor takes it above δ every other period (a drawn crossed
+    8-cable platform's cable 1, parted at 2.9 N: cdpr-bench robots --seed 6), and the alarm
+    can fall on a period between."""
     fdi = load_fdi_config(PAPER_ROBOT, paper_robot)
     distribution = make_tension_distribution('pseudo_inverse', paper_robot.tension_min_n,
                                              paper_robot.tension_max_n)
     supervisor = Supervisor(paper_robot, fdi, recovery_config, distribution, PERIOD_S)
-    assert supervisor.losing([1]) == [1]
+    assert supervisor.losing(550, [1]) == [1]
     supervisor.unloaded_since = np.array([-1, -1, 547, -1])
-    assert supervisor.losing([1, 2]) == [2]
+    assert supervisor.losing(550, [1, 2]) == [2]
     supervisor.unloaded_since = np.array([-1, -1, -1, -1])   # its residual swings under δ
-    assert supervisor.losing([1]) == [] and supervisor.losing([2, 1]) == [2]
+    assert supervisor.losing(550, [1]) == [] and supervisor.losing(550, [2, 1]) == [2]
+    # before the alarm's episode: above δ a period ago counts, not longer than the window ago
+    fresh = Supervisor(paper_robot, fdi, recovery_config, distribution, PERIOD_S)
+    window = fdi.identification_confirm_cycles
+    fresh.last_unloaded = np.array([549 - window, 549, -10 ** 9, -10 ** 9])
+    assert fresh.losing(550, [0, 1, 2]) == [1]
+    assert fresh.losing(549 + window, [0, 1, 2]) == [1]
+    assert fresh.losing(550 + window, [0, 1, 2]) == [0, 1, 2]   # none lost: all stay
 
 
 def test_phase_1_damps_the_swing_with_a_force_against_the_velocity(paper_robot, recovery_config):

@@ -33,7 +33,8 @@ from cdpr_msgs_py.contract import RECOVERY_MOVE, SAFE_HOLD, VERDICT_DELAY_TICKS
 from cdpr_twin.nodes.run_length import RunLength
 
 from conftest import (CONFIG_DIR, DRAWN_EIGHT_CABLE_FDI, DRAWN_SEVEN_CABLE_PLATFORM, DRAWN_SEVEN_CABLE_PLATFORM_MOTIONS,
-                      DRAWN_EIGHT_CABLE_MOTIONS, DRAWN_EIGHT_CABLE_ROBOT, DRAWN_SUSPENDED_PLATFORM,
+                      DRAWN_EIGHT_CABLE_MOTIONS, DRAWN_EIGHT_CABLE_ROBOT, DRAWN_HIDDEN_BREAK_FDI,
+                      DRAWN_HIDDEN_BREAK_MOTIONS, DRAWN_HIDDEN_BREAK_ROBOT, DRAWN_SUSPENDED_PLATFORM,
                       DRAWN_SUSPENDED_PLATFORM_MOTIONS,
                       LIGHT_SIX_CABLE_MOTIONS, LIGHT_SIX_CABLE_ROBOT, LIGHT_TALL_FDI, LIGHT_TALL_MOTIONS,
                       LIGHT_TALL_ROBOT, MOTIONS,
@@ -607,4 +608,24 @@ def test_a_lightly_loaded_break_is_named_alone_beside_an_attached_cable_that_car
     metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
     assert metrics['break']['late_detection_expected']
     assert metrics['identified_cables'] == [1] and not metrics['false_alarm']
+    assert metrics['mode'] == 'SAFE_HOLD' and metrics['recovery']['reached_safe_point']
+
+
+def test_a_break_its_residual_never_shows_is_named_by_the_motor_that_dropped_first(tmp_path):
+    """The drawn 2.2 kg point mass on eight cables (conftest), elastic plant, its own
+    thresholds: cable 3 parts carrying 3.3 N, under ε/ρ (6.1 N) and under the tension
+    collapse's reference, and its residual stays under δ. Its motor's τ̂ drops from 4.2 N
+    to under δ/ρ within a period; cables 6 and 7, whose residuals were above δ all along
+    (the twin's mismatch), look free only 5 and 9 periods later as the load shifts, and the
+    alarm comes 0.9 s after the break. Cable 6 was named (FAULT); cable 3 is named alone
+    and the end-effector recovered on the seven left."""
+    robot, motions, calibration = written_robot(tmp_path, DRAWN_HIDDEN_BREAK_ROBOT, DRAWN_HIDDEN_BREAK_MOTIONS,
+                                                DRAWN_HIDDEN_BREAK_FDI)
+    scenario = every_tick_scenario(ScenarioOptions(
+        config=str(robot), motions=str(motions), motion='090-line-3', fail_cables=[3],
+        fail_at_s=2.389371270966436, fidelity='elastic', seed=0, detector='threshold',
+        calibration=str(calibration)))
+    metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
+    assert metrics['break']['late_detection_expected']
+    assert metrics['identified_cables'] == [3] and not metrics['false_alarm']
     assert metrics['mode'] == 'SAFE_HOLD' and metrics['recovery']['reached_safe_point']

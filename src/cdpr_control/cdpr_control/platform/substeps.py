@@ -30,6 +30,10 @@ from cdpr_control.geometry.rotation import SMALL_ANGLE_RAD
 MASS, CENTRE, INERTIA, GRAVITY = 0, 1, 4, 13
 MOTOR_INERTIA, VISCOUS, RADIUS, SMOOTHING, STIFFNESS, DAMPING, RETAUT = range(16, 23)
 CONSTANT_COUNT = 23
+# A cable at its length whose end draws away from its exit point faster than its motor
+# pays out by more than this (m/s) is caught: an inelastic jerk (catch_slack). A taut
+# cable's rate is rounding (its motor is put on its constraint every sub-step).
+CATCH_RATE_M_S = 1e-9
 # the rows of the elastic model's `motors`, a column per motor
 MOTOR_ROW_INERTIA, MOTOR_ROW_VISCOUS, MOTOR_ROW_COULOMB = range(3)
 # Forward kinematics' Levenberg–Marquardt damping where W Wᵀ is singular, a share of its
@@ -596,12 +600,69 @@ def steered_rows(constants, exits, attachments, attached, origin, aim, target, g
     return 0
 
 
+def catch_slack(constants, rotation, columns, twist, speed, candidates, caught) -> None:
+    """Where a `candidates` cable's end draws away from its exit point faster than its
+    motor pays out (ḋ_i = −w_iᵀ (v, ω) > ρ θ̇_i: a slack cable pulled straight by the
+    platform's swing), the inelastic jerk that ends it, in place: the twist ξ and the
+    `caught` cables' θ̇ (a mask, written) projected onto their constraint ρ θ̇_i = ḋ_i in
+    the kinetic energy's metric, (M + (J/ρ²) Σ w_i w_iᵀ) ξ⁺ = M ξ − (J/ρ) Σ w_i θ̇_i, at
+    the rotation R and W's columns as rows `columns` of the pose. A cable whose jerk
+    J (θ̇_i⁺ − θ̇_i) / ρ would push lets go, the most negative first. As the point mass's
+    (point_mass.substeps.catch_slack); nothing changes where no cable is drawn so."""
+    m = columns.shape[0]
+    inertia, radius = constants[MOTOR_INERTIA], constants[RADIUS]
+    coupling = inertia / (radius * radius)
+    drawn = False
+    for i in range(m):
+        caught[i] = 0.0
+        if candidates[i] != 0.0:
+            rate = length_rate(columns, i, twist) - radius * speed[i]
+            if rate > -CATCH_RATE_M_S:
+                caught[i] = 1.0
+                drawn = drawn or rate > CATCH_RATE_M_S
+    if not drawn:
+        return
+    mass_matrix, free = np.empty((6, 6)), np.empty(6)
+    rigid_body(constants, rotation, twist, mass_matrix, free)
+    system, rhs, caught_twist = np.empty((6, 6)), np.empty(6), np.empty(6)
+    while True:
+        for a in range(6):
+            total = 0.0
+            for b in range(6):
+                system[a, b] = mass_matrix[a, b]
+                total += mass_matrix[a, b] * twist[b]
+            rhs[a] = total
+        for i in range(m):
+            if caught[i] != 0.0:
+                pay = inertia / radius * speed[i]
+                for a in range(6):
+                    rhs[a] -= columns[i, a] * pay
+                    for b in range(6):
+                        system[a, b] += coupling * columns[i, a] * columns[i, b]
+        solve_symmetric(system, rhs, caught_twist)
+        most_negative, pushing = 0.0, -1
+        for i in range(m):
+            if caught[i] != 0.0:
+                jerk = inertia * (length_rate(columns, i, caught_twist) / radius - speed[i]) / radius
+                if jerk < most_negative:
+                    most_negative, pushing = jerk, i
+        if pushing < 0:
+            break
+        caught[pushing] = 0.0
+    for k in range(6):
+        twist[k] = caught_twist[k]
+    for i in range(m):
+        if caught[i] != 0.0:
+            speed[i] = length_rate(columns, i, twist) / radius
+
+
 def rigid_substeps(substeps, h, constants, exits, attachments, offsets, attached, torque, external_wrench,
                    pose, twist, angle, speed, tension, taut) -> None:
     """`substeps` sub-steps of `h` s of the rigid model (cdpr_twin.models.rigid_model), the
     state updated in place: each solves the direct dynamics with the attached cables not
     paid out beyond their straight-line length, moves, and puts the taut motors back on
-    the kinematic constraint l = d, θ̇ = ḋ / ρ."""
+    the kinematic constraint l = d, θ̇ = ḋ / ρ; those drawn straight are caught first
+    (catch_slack)."""
     m = exits.shape[0]
     radius, tolerance = constants[RADIUS], constants[RETAUT]
     rotation = np.empty((3, 3))
@@ -613,6 +674,7 @@ def rigid_substeps(substeps, h, constants, exits, attachments, offsets, attached
         for i in range(m):
             candidates[i] = 1.0 if attached[i] != 0.0 and offsets[i] + radius * angle[i] <= lengths[i] + tolerance \
                 else 0.0
+        catch_slack(constants, rotation, columns, twist, speed, candidates, taut)
         direct_dynamics(constants, exits, attachments, pose, twist, torque, speed, candidates, external_wrench,
                         acceleration, joint_acceleration, tension, taut)
         move(pose, twist, acceleration, h)
@@ -682,7 +744,7 @@ def elastic_substeps(substeps, h, constants, exits, attachments, offsets, motors
 
 
 HELPERS = (rotation_of, cables_at, length_rate, rigid_body, solve_symmetric, velocity_product, direct_dynamics,
-           unit_product, turn, move, spring_tensions, rotation_towards, nearest_wrench)
+           catch_slack, unit_product, turn, move, spring_tensions, rotation_towards, nearest_wrench)
 
 
 PYTHON = python_kernel(forward_kinematics, velocity_product, rigid_body, direct_dynamics, motion_rows, rigid_substeps,

@@ -26,6 +26,10 @@ from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
 # the slots of `constants`
 MASS, WEIGHT, MOTOR_INERTIA, VISCOUS, RADIUS, RETAUT = 0, 1, 4, 5, 6, 7
 CONSTANT_COUNT = 8
+# A cable at its length whose end draws away from its exit point faster than its motor
+# pays out by more than this (m/s) is caught: an inelastic jerk (catch_slack). A taut
+# cable's rate is rounding (its motor is put on its constraint every sub-step).
+CATCH_RATE_M_S = 1e-9
 
 
 def constants_of(robot, retaut_tolerance_m: float = 0.0) -> np.ndarray:
@@ -111,6 +115,64 @@ def direct_dynamics(constants, directions, velocity, torque, speed, candidates, 
         taut[slack] = 0.0
 
 
+def catch_slack(constants, directions, velocity, speed, candidates, caught) -> None:
+    """Where a `candidates` cable's end draws away from its exit point faster than its
+    motor pays out (−u_iᵀ ṗ > ρ θ̇_i: a slack cable pulled straight by the end-effector's
+    swing), the inelastic jerk that ends it, in place: ṗ and the `caught` cables' θ̇ (a
+    mask, written) projected onto their constraint ρ θ̇_i = −u_iᵀ ṗ in the kinetic energy's
+    metric, (m_e I + (J/ρ²) Σ u_i u_iᵀ) ṗ⁺ = m_e ṗ − (J/ρ) Σ u_i θ̇_i. A cable whose jerk
+    J (θ̇_i⁺ − θ̇_i) / ρ would push lets go, the most negative first. Without the jerk an
+    acceleration's balance alone judged such a cable, and could keep it slack while the
+    end-effector swung 0.23 m beyond its length (a drawn 4-cable point mass hanging on
+    two). Nothing changes where no cable is drawn so."""
+    m = directions.shape[0]
+    mass, inertia, radius = constants[MASS], constants[MOTOR_INERTIA], constants[RADIUS]
+    reflected = inertia / (radius * radius)
+    vx, vy, vz = velocity[0], velocity[1], velocity[2]
+    drawn = False
+    for i in range(m):
+        caught[i] = 0.0
+        if candidates[i] != 0.0:
+            rate = -(directions[i, 0] * vx + directions[i, 1] * vy + directions[i, 2] * vz) - radius * speed[i]
+            if rate > -CATCH_RATE_M_S:
+                caught[i] = 1.0
+                drawn = drawn or rate > CATCH_RATE_M_S
+    if not drawn:
+        return
+    while True:
+        sxx = sxy = sxz = syy = syz = szz = 0.0
+        bx, by, bz = mass * vx, mass * vy, mass * vz
+        for i in range(m):
+            if caught[i] != 0.0:
+                ux, uy, uz, pay = directions[i, 0], directions[i, 1], directions[i, 2], inertia / radius * speed[i]
+                sxx += ux * ux
+                sxy += ux * uy
+                sxz += ux * uz
+                syy += uy * uy
+                syz += uy * uz
+                szz += uz * uz
+                bx -= ux * pay
+                by -= uy * pay
+                bz -= uz * pay
+        ax, ay, az = solve_positive_definite3(mass + reflected * sxx, reflected * sxy, reflected * sxz,
+                                              mass + reflected * syy, reflected * syz, mass + reflected * szz,
+                                              bx, by, bz)
+        most_negative, pushing = 0.0, -1
+        for i in range(m):
+            if caught[i] != 0.0:
+                jerk = inertia * (-(directions[i, 0] * ax + directions[i, 1] * ay + directions[i, 2] * az) / radius
+                                  - speed[i]) / radius
+                if jerk < most_negative:
+                    most_negative, pushing = jerk, i
+        if pushing < 0:
+            break
+        caught[pushing] = 0.0
+    velocity[0], velocity[1], velocity[2] = ax, ay, az
+    for i in range(m):
+        if caught[i] != 0.0:
+            speed[i] = -(directions[i, 0] * ax + directions[i, 1] * ay + directions[i, 2] * az) / radius
+
+
 def solve_positive_definite3(a, b, c, d, e, f, x, y, z):
     """(p, q, r) with [[a, b, c], [b, d, e], [c, e, f]] (p, q, r) = (x, y, z), the matrix
     symmetric positive definite (m_e I + (J/ρ²) S Sᵀ: never singular), by cofactors."""
@@ -125,9 +187,9 @@ def rigid_substeps(substeps, h, constants, exits, offsets, attached, torque, ext
                    position, velocity, angle, speed, tension, taut, directions) -> None:
     """`substeps` semi-implicit Euler sub-steps of `h` s, the state updated in place: each
     solves the direct dynamics with the attached cables not paid out beyond their
-    straight-line length, moves, and puts the taut motors back on the kinematic
-    constraint l = d, θ̇ = −uᵀ ṗ / ρ. `directions` are those at `position` on the way in,
-    and on the way out."""
+    straight-line length (those drawn straight caught first: catch_slack), moves, and
+    puts the taut motors back on the kinematic constraint l = d, θ̇ = −uᵀ ṗ / ρ.
+    `directions` are those at `position` on the way in, and on the way out."""
     m = exits.shape[0]
     radius, tolerance = constants[RADIUS], constants[RETAUT]
     candidates, joint_acceleration, acceleration = np.empty(m), np.empty(m), np.empty(3)
@@ -135,6 +197,7 @@ def rigid_substeps(substeps, h, constants, exits, offsets, attached, torque, ext
         for i in range(m):
             length = offsets[i] + radius * angle[i]    # l_i = l_i0 + ρ θ_i, paid out
             candidates[i] = 1.0 if attached[i] != 0.0 and length <= directions[i, 3] + tolerance else 0.0
+        catch_slack(constants, directions, velocity, speed, candidates, taut)
         direct_dynamics(constants, directions, velocity, torque, speed, candidates, external_force,
                         acceleration, joint_acceleration, tension, taut)
         for k in range(3):
@@ -151,7 +214,7 @@ def rigid_substeps(substeps, h, constants, exits, offsets, attached, torque, ext
                 angle[i] += h * speed[i]
 
 
-HELPERS = (cable_directions, direct_dynamics, solve_positive_definite3)
+HELPERS = (cable_directions, direct_dynamics, catch_slack, solve_positive_definite3)
 
 
 PYTHON = python_kernel(cable_directions, direct_dynamics, rigid_substeps)

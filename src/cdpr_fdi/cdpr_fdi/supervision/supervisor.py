@@ -141,15 +141,24 @@ class Supervisor:
         # per motor, the first tick of its residual's run above δ, on every tick (alarm or
         # not; -1: not above now): the order in which motors lost their cables' pull
         self.unloaded_since = np.full(robot.cable_count, -1)
+        # per motor, the last tick its residual was above δ (long before the run: none yet)
+        self.last_unloaded = np.full(robot.cable_count, np.iinfo(np.int64).min // 2)
         # per motor, whether its residual rose above δ in the alarm's episode: of the motors
         # that look free, those that lost their pull; one that merely carries less than
         # δ/ρ all along (a drawn 7-cable platform's cable at 1.4 N, δ/ρ 1.7 N) looked as
         # free before the break
         self.lost_in_episode = np.zeros(robot.cable_count, dtype=bool)
         # per motor, the first tick it looked free (its sensorless tension's lower bound
-        # under δ/ρ, as identify_broken_cables judges) with its residual above δ, until it
-        # does neither (its pull back); -1: not so
+        # under δ/ρ, as identify_broken_cables judges) with its residual above δ or on
+        # the period it dropped there, until it does neither (its pull back); -1: not so
         self.freed_since = np.full(robot.cable_count, -1)
+        # per motor, the tick it dropped to looking free from carrying more, while it has
+        # looked free since; -1: not so. A cable parting under δ/ρ·… of load its residual
+        # cannot show (ρ τ under ε) still drops its motor's τ̂ from its load to about zero
+        # in a period (a drawn 8-cable point mass's cable 3, 4.2 N to 0.8 N, its residual
+        # under δ throughout); a cable that carries less than δ/ρ all along never drops.
+        self.dropped_since = np.full(robot.cable_count, -1)
+        self.looked_free = np.zeros(robot.cable_count, dtype=bool)
         # of the candidates watched now, the first such tick seen while watched: a freed
         # motor's residual swings back under δ now and then, and its run starts again
         self.candidate_onsets: dict[int, int] = {}
@@ -168,6 +177,7 @@ class Supervisor:
         residual = np.asarray(command_nm, float) - np.asarray(twin_torque_nm, float)
         unloaded = residual > self.fdi.delta_nm
         self.unloaded_since = np.where(unloaded, np.where(self.unloaded_since < 0, tick, self.unloaded_since), -1)
+        self.last_unloaded = np.where(unloaded, tick, self.last_unloaded)
         applied = np.ascontiguousarray(applied_torque_nm, float)
         speed = np.ascontiguousarray(angular_velocity_rad_s, float)
         collapsed: list[int] = []
@@ -179,8 +189,10 @@ class Supervisor:
             # kept while the motor looks free or its residual stays above δ: a slack
             # cable's residual swings about δ period by period, its pull does not return
             free = low * self.robot.motor.drum_radius_m < self.fdi.delta_nm
+            self.dropped_since = np.where(free, np.where(~self.looked_free, tick, self.dropped_since), -1)
+            self.looked_free = free
             lost = self.unloaded_since >= 0
-            self.freed_since = np.where((self.freed_since < 0) & free & lost, tick,
+            self.freed_since = np.where((self.freed_since < 0) & free & (lost | (self.dropped_since == tick)), tick,
                                         np.where(~free & ~lost, -1, self.freed_since))
             self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
             if not self.broken:   # once a cable is named, nothing more is looked for
@@ -217,7 +229,7 @@ class Supervisor:
             # break unloads goes slack and leaves two motors free (a push's signature).
             episode = alarm or self.evidence.ticks > 0
             if episode and self.previous_speed is not None:
-                found = self.losing(identify_broken_cables(self.evidence.tension_low_n(),
+                found = self.losing(tick, identify_broken_cables(self.evidence.tension_low_n(),
                                                            self.evidence.residual_nm(),
                                                            self.robot.motor.drum_radius_m, self.fdi.delta_nm))
                 # a collapsed cable is free whatever the sign of a residual too small to judge
@@ -454,14 +466,22 @@ class Supervisor:
         first = self.lost_first(self.candidates, onsets, 1)
         return None if first is None else first[0]
 
-    def losing(self, found: list[int]) -> list[int]:
+    def losing(self, tick: int, found: list[int]) -> list[int]:
         """Of the motors that look free, those whose residual rose above δ in the alarm's
-        episode (lost_in_episode), where any did: a motor that merely carries less than δ/ρ
-        all along looked as free before the break. All of them where none did yet."""
+        episode (lost_in_episode) or within identification_confirm_cycles before it, where
+        any did: a motor that merely carries less than δ/ρ all along looked as free before
+        the break. All of them where none did yet. Before it too: a lightly loaded cable's
+        freed motor, swinging under its controller, takes its residual above δ every
+        other period, and the alarm can fall on a period between (a drawn crossed 8-cable
+        platform: cable 1 parted at 2.9 N, its residual 0.13 / 0.03 N·m by turns, δ 0.1;
+        the alarm 7 periods later, on cable 5's residual, a model's mismatch above δ for
+        3 s)."""
         self.lost_in_episode |= self.unloaded_since >= 0
-        if not self.lost_in_episode.any():
+        lost = (self.lost_in_episode | (tick - self.last_unloaded <= self.fdi.identification_confirm_cycles)
+                | (self.dropped_since >= 0))
+        if not lost.any():
             return found
-        return [cable for cable in found if self.lost_in_episode[cable]]
+        return [cable for cable in found if lost[cable]]
 
     def freed_first(self, found: list[int]) -> int | None:
         """Of several motors that look free, the one that looked so
