@@ -497,6 +497,20 @@ DRAWN_EIGHT_CABLE_FDI = {
     'cusum': {'sigma_nm': [0.009258, 0.014561, 0.008603, 0.016626, 0.010082, 0.015917, 0.009088, 0.009348],
               'drift': 5.0, 'threshold': 1.491, 'limit': 6.491, 'epsilon_nm': 0.08849}}
 
+# A point mass of 1.5 kg on four cables (1.9–2.2 m high) over a 5.0 × 7.0 m frame: drawn
+# by `cdpr-bench robots --seed 6` (family6_006). Its motors' inertia seen at the cable,
+# J/ρ² = 2.2 kg, outweighs the end-effector.
+DRAWN_FOUR_CABLE_ROBOT = {'robot': {
+    'name': 'family6_006', 'gravity_m_s2': [0.0, 0.0, -9.81],
+    'end_effector': {'mass_kg': 1.518, 'radius_m': 0.05},
+    'exit_points_m': [[5.012, 2.81, 2.166], [2.122, 7.028, 1.922], [0.0, 2.803, 1.955], [2.818, 0.0, 1.896]],
+    'workspace_m': {'min': [0.752, 1.054, 0.0], 'max': [4.26, 5.974, 1.44]},
+    'home_position_m': [2.506, 3.514, 0.72],
+    'motor': {'inertia_kg_m2': 0.00125, 'drum_radius_m': 0.0237, 'viscous_friction_nm_s_rad': 0.0017,
+              'static_friction_nm': 0.112, 'nominal_torque_nm': 1.929, 'nominal_speed_rpm': 3972,
+              'torque_limit_nm': 5.653},
+    'cables': {'tension_min_n': 2.89, 'tension_max_n': 164.8}}}
+
 # A point mass of 2.2 kg on eight cables (3.5–4.2 m high) over a 3.4 × 5.9 m frame, τ_min
 # 2.7 N, 22 mm drums: drawn by `cdpr-bench robots --seed 6` (family6_090), its line and
 # elastic-plant thresholds as that bench made them (2026-12-07). Two of its cables carry

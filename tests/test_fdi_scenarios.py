@@ -592,40 +592,35 @@ def test_a_break_at_rest_whose_end_effector_falls_off_a_second_cable_names_the_f
     assert metrics['mode'] == 'SAFE_HOLD' and metrics['recovery']['reached_safe_point']
 
 
-def test_a_lightly_loaded_break_is_named_alone_beside_an_attached_cable_that_carries_little(tmp_path):
-    """The drawn 1.6 kg point mass on eight cables (conftest), elastic plant, its own
-    thresholds: cable 1 parts carrying 2.8 N, under ε/ρ (4.1 N), and the residual sees it
-    only 24 periods later, when cable 4's motor looks free too: it carries little, but
-    its cable lies within the resolvers' noise of its length (±0.03 mm) where cable 1's
-    spans 0.28 mm beyond its own, still falling away. Both were named; cable 1 is named
-    alone, and the end-effector recovered."""
-    robot, motions, calibration = written_robot(tmp_path, DRAWN_EIGHT_CABLE_ROBOT, DRAWN_EIGHT_CABLE_MOTIONS,
-                                                DRAWN_EIGHT_CABLE_FDI)
-    scenario = every_tick_scenario(ScenarioOptions(
-        config=str(robot), motions=str(motions), motion='007-line-2', fail_cables=[1],
-        fail_at_s=2.792868325392236, fidelity='elastic', seed=0, detector='threshold',
-        calibration=str(calibration)))
-    metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
-    assert metrics['break']['late_detection_expected']
-    assert metrics['identified_cables'] == [1] and not metrics['false_alarm']
-    assert metrics['mode'] == 'SAFE_HOLD' and metrics['recovery']['reached_safe_point']
+# Breaks under ε/ρ on two drawn 8-cable point masses (conftest), elastic plant, their own
+# thresholds: (robot, motions, thresholds, motion, cable, instant of the break in s).
+LIGHT_BREAKS = {
+    # cable 1 parts carrying 2.8 N, under ε/ρ (4.1 N), and the residual sees it only 24
+    # periods later, when cable 4's motor looks free too: it carries little, but its cable
+    # lies within the resolvers' noise of its length (±0.03 mm) where cable 1's spans
+    # 0.28 mm beyond its own, still falling away. Both were named.
+    'beside_a_cable_that_carries_little': (DRAWN_EIGHT_CABLE_ROBOT, DRAWN_EIGHT_CABLE_MOTIONS, DRAWN_EIGHT_CABLE_FDI,
+                                           '007-line-2', 1, 2.792868325392236),
+    # cable 3 parts carrying 3.3 N, under ε/ρ (6.1 N) and under the tension collapse's
+    # reference, its residual under δ throughout; its motor's τ̂ drops from 4.2 N to under
+    # δ/ρ within a period. Cables 6 and 7, whose residuals were above δ all along (the
+    # twin's mismatch), look free 5 and 9 periods later as the load shifts, and the alarm
+    # comes 0.9 s after the break. Cable 6 was named (FAULT).
+    'its_residual_never_shows': (DRAWN_HIDDEN_BREAK_ROBOT, DRAWN_HIDDEN_BREAK_MOTIONS, DRAWN_HIDDEN_BREAK_FDI,
+                                 '090-line-3', 3, 2.389371270966436),
+}
 
 
-def test_a_break_its_residual_never_shows_is_named_by_the_motor_that_dropped_first(tmp_path):
-    """The drawn 2.2 kg point mass on eight cables (conftest), elastic plant, its own
-    thresholds: cable 3 parts carrying 3.3 N, under ε/ρ (6.1 N) and under the tension
-    collapse's reference, and its residual stays under δ. Its motor's τ̂ drops from 4.2 N
-    to under δ/ρ within a period; cables 6 and 7, whose residuals were above δ all along
-    (the twin's mismatch), look free only 5 and 9 periods later as the load shifts, and the
-    alarm comes 0.9 s after the break. Cable 6 was named (FAULT); cable 3 is named alone
-    and the end-effector recovered on the seven left."""
-    robot, motions, calibration = written_robot(tmp_path, DRAWN_HIDDEN_BREAK_ROBOT, DRAWN_HIDDEN_BREAK_MOTIONS,
-                                                DRAWN_HIDDEN_BREAK_FDI)
+@pytest.mark.parametrize('case', LIGHT_BREAKS)
+def test_a_lightly_loaded_break_is_named_alone_and_recovered(tmp_path, case):
+    """A cable parting under ε/ρ, seen late: it alone is named, and the end-effector
+    recovered on the cables left (LIGHT_BREAKS says what was named before)."""
+    robot_dict, motions_dict, fdi, motion, cable, fail_at_s = LIGHT_BREAKS[case]
+    robot, motions, calibration = written_robot(tmp_path, robot_dict, motions_dict, fdi)
     scenario = every_tick_scenario(ScenarioOptions(
-        config=str(robot), motions=str(motions), motion='090-line-3', fail_cables=[3],
-        fail_at_s=2.389371270966436, fidelity='elastic', seed=0, detector='threshold',
-        calibration=str(calibration)))
+        config=str(robot), motions=str(motions), motion=motion, fail_cables=[cable], fail_at_s=fail_at_s,
+        fidelity='elastic', seed=0, detector='threshold', calibration=str(calibration)))
     metrics = scenario_cli.metrics_of(scenario, run_inprocess(scenario), wall_time_s=0.0)
     assert metrics['break']['late_detection_expected']
-    assert metrics['identified_cables'] == [3] and not metrics['false_alarm']
+    assert metrics['identified_cables'] == [cable] and not metrics['false_alarm']
     assert metrics['mode'] == 'SAFE_HOLD' and metrics['recovery']['reached_safe_point']

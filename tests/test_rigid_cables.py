@@ -16,7 +16,7 @@ from cdpr_control.point_mass import substeps as point_mass_substeps
 from cdpr_control.setup.robot_file import load_robot
 from cdpr_twin.models.rigid_model import RigidModel
 
-from conftest import CONFIG_DIR, PAPER_ROBOT
+from conftest import CONFIG_DIR, DRAWN_FOUR_CABLE_ROBOT, PAPER_ROBOT
 
 PERIOD_S = 0.002
 SLACK_M = 1e-3       # the cable caught starts this much longer than its straight line
@@ -45,21 +45,9 @@ def slackened(robot, model, cable: int) -> np.ndarray:
     return away
 
 
-# A drawn 4-cable point mass (cdpr-bench robots --seed 6, its robot 006) hanging on cables
-# 1 and 3 after cable 2 broke, swinging away from cable 4's exit point: that cable 8 mm
-# slack, its motor still and unpowered, as the bench's run had them 10 ms before the
-# swing drew it straight. Its motors' inertia seen at the cable, J/ρ² = 2.2 kg, outweighs
-# the end-effector (1.5 kg).
-DRAWN_FOUR_CABLE_ROBOT = {'robot': {
-    'name': 'family6_006', 'gravity_m_s2': [0.0, 0.0, -9.81],
-    'end_effector': {'mass_kg': 1.518, 'radius_m': 0.05},
-    'exit_points_m': [[5.012, 2.81, 2.166], [2.122, 7.028, 1.922], [0.0, 2.803, 1.955], [2.818, 0.0, 1.896]],
-    'workspace_m': {'min': [0.752, 1.054, 0.0], 'max': [4.26, 5.974, 1.44]},
-    'home_position_m': [2.506, 3.514, 0.72],
-    'motor': {'inertia_kg_m2': 0.00125, 'drum_radius_m': 0.0237, 'viscous_friction_nm_s_rad': 0.0017,
-              'static_friction_nm': 0.112, 'nominal_torque_nm': 1.929, 'nominal_speed_rpm': 3972,
-              'torque_limit_nm': 5.653},
-    'cables': {'tension_min_n': 2.89, 'tension_max_n': 164.8}}}
+# DRAWN_FOUR_CABLE_ROBOT hanging on cables 1 and 3 after cable 2 broke, swinging away
+# from cable 4's exit point: that cable 8 mm slack, its motor still and unpowered, as the
+# bench's run had them 10 ms before the swing drew it straight.
 SWING_POSITION_M, SWING_VELOCITY_M_S = [2.61414, 3.06647, 0.49578], [-0.0102, 1.2217, 0.2017]
 SWING_TORQUE_NM = [-0.3677, 0.0, -0.3466, 0.0]
 SWING_SLACK_M = 0.008

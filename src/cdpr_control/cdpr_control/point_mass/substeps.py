@@ -80,20 +80,7 @@ def direct_dynamics(constants, directions, velocity, torque, speed, candidates, 
     wx, wy, wz = (constants[WEIGHT] + external_force[0], constants[WEIGHT + 1] + external_force[1],
                   constants[WEIGHT + 2] + external_force[2])
     while True:
-        sxx = sxy = sxz = syy = syz = szz = 0.0
-        fx = fy = fz = 0.0
-        for i in range(m):
-            if taut[i] != 0.0:
-                ux, uy, uz, p = directions[i, 0], directions[i, 1], directions[i, 2], pull[i]
-                sxx += ux * ux
-                sxy += ux * uy
-                sxz += ux * uz
-                syy += uy * uy
-                syz += uy * uz
-                szz += uz * uz
-                fx += ux * p
-                fy += uy * p
-                fz += uz * p
+        sxx, sxy, sxz, syy, syz, szz, fx, fy, fz = taut_sums(directions, taut, pull)
         ax, ay, az = solve_positive_definite3(mass + reflected * sxx, reflected * sxy, reflected * sxz,
                                               mass + reflected * syy, reflected * syz, mass + reflected * szz,
                                               wx - fx, wy - fy, wz - fz)
@@ -139,24 +126,12 @@ def catch_slack(constants, directions, velocity, speed, candidates, caught) -> N
                 drawn = drawn or rate > CATCH_RATE_M_S
     if not drawn:
         return
+    pay = inertia / radius
     while True:
-        sxx = sxy = sxz = syy = syz = szz = 0.0
-        bx, by, bz = mass * vx, mass * vy, mass * vz
-        for i in range(m):
-            if caught[i] != 0.0:
-                ux, uy, uz, pay = directions[i, 0], directions[i, 1], directions[i, 2], inertia / radius * speed[i]
-                sxx += ux * ux
-                sxy += ux * uy
-                sxz += ux * uz
-                syy += uy * uy
-                syz += uy * uz
-                szz += uz * uz
-                bx -= ux * pay
-                by -= uy * pay
-                bz -= uz * pay
+        sxx, sxy, sxz, syy, syz, szz, fx, fy, fz = taut_sums(directions, caught, speed)
         ax, ay, az = solve_positive_definite3(mass + reflected * sxx, reflected * sxy, reflected * sxz,
                                               mass + reflected * syy, reflected * syz, mass + reflected * szz,
-                                              bx, by, bz)
+                                              mass * vx - pay * fx, mass * vy - pay * fy, mass * vz - pay * fz)
         most_negative, pushing = 0.0, -1
         for i in range(m):
             if caught[i] != 0.0:
@@ -171,6 +146,26 @@ def catch_slack(constants, directions, velocity, speed, candidates, caught) -> N
     for i in range(m):
         if caught[i] != 0.0:
             speed[i] = -(directions[i, 0] * ax + directions[i, 1] * ay + directions[i, 2] * az) / radius
+
+
+def taut_sums(directions, mask, weights):
+    """Over the cables of `mask`: the six entries of S Sᵀ = Σ u_i u_iᵀ (xx, xy, xz, yy,
+    yz, zz) and the three of Σ u_i w_i, `weights` w per cable."""
+    sxx = sxy = sxz = syy = syz = szz = 0.0
+    fx = fy = fz = 0.0
+    for i in range(directions.shape[0]):
+        if mask[i] != 0.0:
+            ux, uy, uz, w = directions[i, 0], directions[i, 1], directions[i, 2], weights[i]
+            sxx += ux * ux
+            sxy += ux * uy
+            sxz += ux * uz
+            syy += uy * uy
+            syz += uy * uz
+            szz += uz * uz
+            fx += ux * w
+            fy += uy * w
+            fz += uz * w
+    return sxx, sxy, sxz, syy, syz, szz, fx, fy, fz
 
 
 def solve_positive_definite3(a, b, c, d, e, f, x, y, z):
@@ -214,7 +209,7 @@ def rigid_substeps(substeps, h, constants, exits, offsets, attached, torque, ext
                 angle[i] += h * speed[i]
 
 
-HELPERS = (cable_directions, direct_dynamics, catch_slack, solve_positive_definite3)
+HELPERS = (cable_directions, taut_sums, direct_dynamics, catch_slack, solve_positive_definite3)
 
 
 PYTHON = python_kernel(cable_directions, direct_dynamics, rigid_substeps)
