@@ -413,12 +413,16 @@ class Supervisor:
     def weigh_unloaded_alone(self, tick: int, unloaded: np.ndarray) -> None:
         """Where one motor alone has lost its cable's pull for disturbance_window_cycles,
         whether the cables left explain the end-effector's balance without it (a break),
-        or leave a force above fdi.disturbance_force_n (a push): weighed once a run."""
+        or leave a force above fdi.disturbance_force_n (a push): weighed once a run. A
+        motor whose residual is above δ but that does not look free (freed_since) still
+        pulls: the twin's mismatch (a drawn 4-cable point mass's cable 2 carried 2 N with
+        its residual above δ for 1.9 s before another cable broke), not a loss."""
         if np.count_nonzero(unloaded) != 1:
             return
         cable = int(np.argmax(unloaded))
         since = int(self.unloaded_since[cable])
-        if tick - since != self.fdi.disturbance_window_cycles or not self.placed_by(self.robot.cable_mask([cable])):
+        if (tick - since != self.fdi.disturbance_window_cycles or self.freed_since[cable] < 0
+                or not self.placed_by(self.robot.cable_mask([cable]))):
             return
         try:
             force = self.balance.unexplained_force_n({cable: since})
@@ -455,14 +459,19 @@ class Supervisor:
         above δ began before the alarm, a model's mismatch where δ is small, tells no
         order: that motor's loss starts when it first looked free (freed_since; a drawn
         5-cable point mass: above δ for 3 s before the break, freed a period after the
-        broken motor)."""
+        broken motor). A motor that looked free before its residual rose, or whose
+        residual never rose while watched, lost its pull when it looked free: a cable
+        parting under ε/ρ (a drawn 4-cable point mass's cable 4 at 3.9 N dropped two
+        periods before its diagonal's motor, whose residual was above δ all along, looked
+        free; its own residual rose 0.9 s later)."""
         freed = self.freed_first(self.candidates)
         if freed is not None:
             return freed
         watched = [self.candidate_onsets.get(cable, -1) for cable in self.candidates]
         alarm = self.alarm_tick if self.alarm_tick is not None else -1
-        onsets = [max(onset, int(self.freed_since[cable])) if 0 <= onset < alarm else onset
-                  for cable, onset in zip(self.candidates, watched)]
+        freed_since = [int(self.freed_since[cable]) for cable in self.candidates]
+        onsets = [freed if onset < 0 else max(onset, freed) if onset < alarm else onset if freed < 0
+                  else min(onset, freed) for onset, freed in zip(watched, freed_since)]
         first = self.lost_first(self.candidates, onsets, 1)
         return None if first is None else first[0]
 
