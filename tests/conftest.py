@@ -511,6 +511,35 @@ DRAWN_FOUR_CABLE_ROBOT = {'robot': {
               'torque_limit_nm': 5.653},
     'cables': {'tension_min_n': 2.89, 'tension_max_n': 164.8}}}
 
+# A suspended 7.4 kg platform on seven cables (2.2–2.6 m high) over a 7.2 × 1.4 m frame,
+# τ_min 1.59 N, 48 mm drums (δ/ρ = 2.78 N): drawn by `cdpr-bench robots --seed 7`
+# (family7_079_suspended), its line and elastic-plant thresholds as that bench made them
+# (2026-12-07). Its cable 1 carries 2.3–2.9 N on the line, about δ/ρ.
+DRAWN_HOVERING_CABLE_PLATFORM = {'robot': {
+    'name': 'family7_079_suspended', 'gravity_m_s2': [0.0, 0.0, -9.81],
+    'end_effector': {'mass_kg': 7.393, 'radius_m': 0.181},
+    'platform': {'attachment_points_m': [[0.127, 0.0926, 0.0892], [0.127, 0.0651, 0.0892], [-0.0431, 0.0935, 0.0892],
+                                         [-0.0689, 0.0935, 0.0892], [-0.0854, -0.0935, 0.0892],
+                                         [-0.0402, -0.0935, 0.0892], [0.127, -0.0466, 0.0892]],
+                 'centre_of_mass_m': [0.0, 0.0, 0.0], 'home_orientation': [1.0, 0.0, 0.0, 0.0],
+                 'inertia_kg_m2': [[0.0411264, 0.0, 0.0], [0.0, 0.0593746, 0.0], [0.0, 0.0, 0.061297]]},
+    'exit_points_m': [[7.151, 1.335, 2.41], [4.09, 1.359, 2.388], [3.587, 1.359, 2.609], [2.291, 1.359, 2.241],
+                      [1.882, 0.0, 2.636], [3.604, 0.0, 2.556], [4.235, 0.0, 2.427]],
+    'workspace_m': {'min': [1.254, 0.385, 0.181], 'max': [5.897, 0.974, 1.513]},
+    'home_position_m': [3.575, 0.679, 0.847],
+    'motor': {'inertia_kg_m2': 0.00132, 'drum_radius_m': 0.0478, 'viscous_friction_nm_s_rad': 0.0024,
+              'static_friction_nm': 0.072, 'nominal_torque_nm': 3.434, 'nominal_speed_rpm': 3832,
+              'torque_limit_nm': 8.781},
+    'cables': {'tension_min_n': 1.59, 'tension_max_n': 149.8}}}
+DRAWN_HOVERING_CABLE_MOTIONS = {
+    'motion_defaults': {'peak_speed_m_s': 0.4, 'rest_before_s': 0.5, 'rest_after_s': 1.0},
+    'motions': {'079-line-2': {'type': 'line', 'start': [3.5565, 0.6782, 0.7406], 'goal': [3.5935, 0.6798, 0.9534],
+                               'turn': {'axis': [0.8834, -0.0759, 0.4624], 'angle_deg': 2.352}}}}
+DRAWN_HOVERING_CABLE_FDI = {
+    'coulomb_friction_nm': 0.03784, 'epsilon_nm': 0.22689,
+    'cusum': {'sigma_nm': [0.025166, 0.027148, 0.027651, 0.027658, 0.026989, 0.028091, 0.030116],
+              'drift': 5.0, 'threshold': 2.92, 'limit': 7.92, 'epsilon_nm': 0.23515}}
+
 # A point mass of 2.2 kg on eight cables (3.5–4.2 m high) over a 3.4 × 5.9 m frame, τ_min
 # 2.7 N, 22 mm drums: drawn by `cdpr-bench robots --seed 6` (family6_090), its line and
 # elastic-plant thresholds as that bench made them (2026-12-07). Two of its cables carry

@@ -152,13 +152,16 @@ class Supervisor:
         # under δ/ρ, as identify_broken_cables judges) with its residual above δ or on
         # the period it dropped there, until it does neither (its pull back); -1: not so
         self.freed_since = np.full(robot.cable_count, -1)
-        # per motor, the tick it dropped to looking free from carrying more, while it has
-        # looked free since; -1: not so. A cable parting under δ/ρ·… of load its residual
-        # cannot show (ρ τ under ε) still drops its motor's τ̂ from its load to about zero
-        # in a period (a drawn 8-cable point mass's cable 3, 4.2 N to 0.8 N, its residual
-        # under δ throughout); a cable that carries less than δ/ρ all along never drops.
+        # per motor, the tick it dropped to looking free, its τ̂ (lower bound) down by δ/ρ
+        # or more from the larger of the two periods before, while it has looked free
+        # since; -1: not so. A cable parting under a load its residual cannot show (ρ τ
+        # under ε) still drops its motor's τ̂ from that load to about zero in a period or
+        # two (a drawn 8-cable point mass's cable 3, 4.2 N to 0.8 N, its residual under δ
+        # throughout); a cable that carries about δ/ρ and dips under it (a drawn suspended
+        # platform's cable 1, 2.9 to 2.7 N under δ/ρ = 2.78 N) does not drop.
         self.dropped_since = np.full(robot.cable_count, -1)
-        self.looked_free = np.zeros(robot.cable_count, dtype=bool)
+        # τ̂'s lower bound (N) of the two periods before, per motor
+        self.recent_low_n = np.full((2, robot.cable_count), -np.inf)
         # of the candidates watched now, the first such tick seen while watched: a freed
         # motor's residual swings back under δ now and then, and its run starts again
         self.candidate_onsets: dict[int, int] = {}
@@ -189,8 +192,10 @@ class Supervisor:
             # kept while the motor looks free or its residual stays above δ: a slack
             # cable's residual swings about δ period by period, its pull does not return
             free = low * self.robot.motor.drum_radius_m < self.fdi.delta_nm
-            self.dropped_since = np.where(free, np.where(~self.looked_free, tick, self.dropped_since), -1)
-            self.looked_free = free
+            dropped = self.recent_low_n.max(axis=0) - low >= self.fdi.delta_nm / self.robot.motor.drum_radius_m
+            self.dropped_since = np.where(free, np.where((self.dropped_since < 0) & dropped, tick,
+                                                         self.dropped_since), -1)
+            self.recent_low_n = np.array([self.recent_low_n[1], low])
             lost = self.unloaded_since >= 0
             self.freed_since = np.where((self.freed_since < 0) & free & (lost | (self.dropped_since == tick)), tick,
                                         np.where(~free & ~lost, -1, self.freed_since))
