@@ -211,6 +211,25 @@ def velocity_product(units, lengths, arms, twist, kappa) -> None:
         kappa[i] = (sx * sx + sy * sy + sz * sz - along * along) / lengths[i] - inward
 
 
+def taut_system(mass_matrix, base, columns, mask, coupling, weights, scale, system, rhs) -> bool:
+    """M + coupling Σ w_i w_iᵀ (into `system`) and base + Σ w_i (scale · weights_i) (into
+    `rhs`) over the cables of `mask`, W's columns as rows `columns`; whether any is in it."""
+    for a in range(6):
+        rhs[a] = base[a]
+        for b in range(6):
+            system[a, b] = mass_matrix[a, b]
+    any_taut = False
+    for i in range(columns.shape[0]):
+        if mask[i] != 0.0:
+            any_taut = True
+            weight = scale * weights[i]
+            for a in range(6):
+                rhs[a] += columns[i, a] * weight
+                for b in range(6):
+                    system[a, b] += coupling * columns[i, a] * columns[i, b]
+    return any_taut
+
+
 def direct_dynamics(constants, exits, attachments, pose, twist, torque, joint_velocity, candidates, external_wrench,
                     acceleration, joint_acceleration, tension, taut) -> None:
     """(a, α) (into `acceleration`), θ̈, the tensions and which cables are taut, under
@@ -236,18 +255,7 @@ def direct_dynamics(constants, exits, attachments, pose, twist, torque, joint_ve
         taut[i] = candidates[i]
     system, rhs = np.empty((6, 6)), np.empty(6)
     while True:
-        any_taut = False
-        for a in range(6):
-            rhs[a] = free[a]
-            for b in range(6):
-                system[a, b] = mass_matrix[a, b]
-        for i in range(m):
-            if taut[i] != 0.0:
-                any_taut = True
-                for a in range(6):
-                    rhs[a] += columns[i, a] * pull[i]
-                    for b in range(6):
-                        system[a, b] += coupling * columns[i, a] * columns[i, b]
+        any_taut = taut_system(mass_matrix, free, columns, taut, coupling, pull, 1.0, system, rhs)
         solve_symmetric(system, rhs, acceleration)
         most_negative, worst = 0.0, -1
         for i in range(m):
@@ -624,21 +632,16 @@ def catch_slack(constants, rotation, columns, twist, speed, candidates, caught) 
         return
     mass_matrix, free = np.empty((6, 6)), np.empty(6)
     rigid_body(constants, rotation, twist, mass_matrix, free)
+    # the twist's momentum M ξ, the right-hand side before the caught motors' part
+    momentum = np.empty(6)
+    for a in range(6):
+        total = 0.0
+        for b in range(6):
+            total += mass_matrix[a, b] * twist[b]
+        momentum[a] = total
     system, rhs, caught_twist = np.empty((6, 6)), np.empty(6), np.empty(6)
     while True:
-        for a in range(6):
-            total = 0.0
-            for b in range(6):
-                system[a, b] = mass_matrix[a, b]
-                total += mass_matrix[a, b] * twist[b]
-            rhs[a] = total
-        for i in range(m):
-            if caught[i] != 0.0:
-                pay = inertia / radius * speed[i]
-                for a in range(6):
-                    rhs[a] -= columns[i, a] * pay
-                    for b in range(6):
-                        system[a, b] += coupling * columns[i, a] * columns[i, b]
+        taut_system(mass_matrix, momentum, columns, caught, coupling, speed, -(inertia / radius), system, rhs)
         solve_symmetric(system, rhs, caught_twist)
         most_negative, pushing = 0.0, -1
         for i in range(m):
@@ -743,8 +746,8 @@ def elastic_substeps(substeps, h, constants, exits, attachments, offsets, motors
                         wrench)
 
 
-HELPERS = (rotation_of, cables_at, length_rate, rigid_body, solve_symmetric, velocity_product, direct_dynamics,
-           catch_slack, unit_product, turn, move, spring_tensions, rotation_towards, nearest_wrench)
+HELPERS = (rotation_of, cables_at, length_rate, rigid_body, solve_symmetric, velocity_product, taut_system,
+           direct_dynamics, catch_slack, unit_product, turn, move, spring_tensions, rotation_towards, nearest_wrench)
 
 
 PYTHON = python_kernel(forward_kinematics, velocity_product, rigid_body, direct_dynamics, motion_rows, rigid_substeps,

@@ -29,6 +29,19 @@ from ..recovery_strategies import STRATEGIES, Naming, StartedRecovery
 from ..settings.config import FdiConfig, RecoveryConfig
 
 
+def loss_onset(onset: int, freed: int, alarm: int) -> int:
+    """The tick a watched motor lost its cable's pull (-1: not lost), from the first tick of
+    its residual's run above δ seen while watched (`onset`, -1: none), the tick it was
+    freed (`freed`, -1: not) and the alarm's tick: the freed tick where its residual never
+    rose, or rose before the alarm (a model's mismatch tells no order), the earlier of
+    the two where it rose after (it may have looked free first)."""
+    if onset < 0:
+        return freed
+    if onset < alarm:
+        return max(onset, freed)
+    return onset if freed < 0 else min(onset, freed)
+
+
 class AlarmEvidence:
     """The sensorless tensions' lower bounds (N) and residuals (N·m) of an alarm's ticks,
     the last `window` of them, averaged.
@@ -160,6 +173,7 @@ class Supervisor:
         # throughout); a cable that carries about δ/ρ and dips under it (a drawn suspended
         # platform's cable 1, 2.9 to 2.7 N under δ/ρ = 2.78 N) does not drop.
         self.dropped_since = np.full(robot.cable_count, -1)
+        self.delta_n = fdi.delta_nm / robot.motor.drum_radius_m   # δ/ρ (N)
         # τ̂'s lower bound (N) of the two periods before, per motor
         self.recent_low_n = np.full((2, robot.cable_count), -np.inf)
         # of the candidates watched now, the first such tick seen while watched: a freed
@@ -192,7 +206,7 @@ class Supervisor:
             # kept while the motor looks free or its residual stays above δ: a slack
             # cable's residual swings about δ period by period, its pull does not return
             free = low * self.robot.motor.drum_radius_m < self.fdi.delta_nm
-            dropped = self.recent_low_n.max(axis=0) - low >= self.fdi.delta_nm / self.robot.motor.drum_radius_m
+            dropped = self.recent_low_n.max(axis=0) - low >= self.delta_n
             self.dropped_since = np.where(free, np.where((self.dropped_since < 0) & dropped, tick,
                                                          self.dropped_since), -1)
             self.recent_low_n = np.array([self.recent_low_n[1], low])
@@ -474,9 +488,8 @@ class Supervisor:
             return freed
         watched = [self.candidate_onsets.get(cable, -1) for cable in self.candidates]
         alarm = self.alarm_tick if self.alarm_tick is not None else -1
-        freed_since = [int(self.freed_since[cable]) for cable in self.candidates]
-        onsets = [freed if onset < 0 else max(onset, freed) if onset < alarm else onset if freed < 0
-                  else min(onset, freed) for onset, freed in zip(watched, freed_since)]
+        onsets = [loss_onset(onset, int(self.freed_since[cable]), alarm)
+                  for cable, onset in zip(self.candidates, watched)]
         first = self.lost_first(self.candidates, onsets, 1)
         return None if first is None else first[0]
 
