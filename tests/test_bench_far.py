@@ -60,12 +60,12 @@ def test_a_push_the_supervisor_names_is_left_out_and_nothing_else():
 
 @pytest.fixture(scope='module')
 def far(tmp_path_factory):
-    """A few simulated minutes on the elastic plant: pushed failure-free runs and cables 1
+    """Half a simulated minute on the elastic plant: pushed failure-free runs and cables 1
     and 4 failing at random instants, judged at a tiny, the calibrated and a large ε."""
     out = tmp_path_factory.mktemp('far')
-    points = bench_far(str(PAPER_ROBOT), out, ['elastic'], hours=0.02, jobs=2,
+    points = bench_far(str(PAPER_ROBOT), out, ['elastic'], hours=0.01, jobs=2,
                        factors=(TINY, CALIBRATED, LARGE), motions_file=str(MOTIONS),
-                       motions=['along-1', 'orthogonal-2'], cables=[1, 4])
+                       motions=['along-1'], cables=[1, 4])
     return out, points, read_rows(out / 'far.csv')
 
 
@@ -87,7 +87,7 @@ def test_a_large_threshold_gives_no_false_alarm_and_a_tiny_one_many(far):
 def test_the_delays_come_from_the_failure_matrix_instants(far):
     _, points, rows = far
     failures = [r for r in rows if r['cable'] is not None and r['factor'] == CALIBRATED]
-    assert len(failures) == 2 * 2 * 2 * 2    # cables × motions × directions × detectors
+    assert len(failures) == 2 * 1 * 2 * 2    # cables × motions × directions × detectors
     fractions = set()
     for row in failures:
         fraction = random_fraction(10, row['motion'], row['direction'], row['cable'], 'elastic', 'threshold')

@@ -140,3 +140,42 @@ def test_the_per_tick_kernels_take_the_read_only_arrays_messages_give():
     tick_arithmetic.kernel('compiled').sensorless_tensions(read_only([1.2e-4, 1.5e-3, 0.036, 0.1, 0.1]), *motors,
                                                            0.002, tension, low, high)
     assert np.all(low <= high) and np.all((tension == low) | (tension == high))
+
+
+def test_the_motor_watch_keeps_the_runs_the_supervisor_defines():
+    """watch_unloaded and watch_freed, on both kernels, tick by tick against the
+    supervisor's definitions written as array expressions: a motor's run above δ, its
+    last tick above δ, its drop to looking free (δ/ρ or more down from the larger of the
+    two periods before) and its first tick looking free while losing its pull."""
+    rng = np.random.default_rng(5)
+    delta_nm, radius_m = 0.1, 0.036
+    delta_n = delta_nm / radius_m
+    # residuals about δ and τ̂ about δ/ρ, with jumps: every branch taken many times
+    residuals = rng.normal(delta_nm, 0.08, (400, MOTORS))
+    lows = rng.normal(delta_n, 2.0, (400, MOTORS)) + 6.0 * (rng.random((400, MOTORS)) < 0.1)
+    unloaded_since, last_unloaded = np.full(MOTORS, -1), np.full(MOTORS, -10**9)
+    dropped_since, freed_since, recent = np.full(MOTORS, -1), np.full(MOTORS, -1), np.full((2, MOTORS), -np.inf)
+    kernel_state = {name: [np.zeros(MOTORS), unloaded_since.copy(), last_unloaded.copy(), recent.copy(),
+                           dropped_since.copy(), freed_since.copy()] for name in ('python', 'compiled')}
+    counts = np.zeros(4, dtype=int)
+    for tick, (residual, low) in enumerate(zip(residuals, lows)):
+        unloaded = residual > delta_nm
+        unloaded_since = np.where(unloaded, np.where(unloaded_since < 0, tick, unloaded_since), -1)
+        last_unloaded = np.where(unloaded, tick, last_unloaded)
+        free = low * radius_m < delta_nm
+        dropped = recent.max(axis=0) - low >= delta_n
+        dropped_since = np.where(free, np.where((dropped_since < 0) & dropped, tick, dropped_since), -1)
+        recent = np.array([recent[1], low])
+        lost = unloaded_since >= 0
+        freed_since = np.where((freed_since < 0) & free & (lost | (dropped_since == tick)), tick,
+                               np.where(~free & ~lost, -1, freed_since))
+        counts += [unloaded.sum(), (dropped_since == tick).sum(), (freed_since == tick).sum(),
+                   ((freed_since >= 0) & ~free).sum()]
+        for name, (flags, since, last, window, drops, frees) in kernel_state.items():
+            arithmetic = tick_arithmetic.kernel(name)
+            arithmetic.watch_unloaded(residual, delta_nm, tick, flags, since, last)
+            arithmetic.watch_freed(low, radius_m, delta_nm, delta_n, tick, window, since, drops, frees)
+            assert np.array_equal(flags != 0.0, unloaded) and np.array_equal(since, unloaded_since), (name, tick)
+            assert np.array_equal(last, last_unloaded) and np.array_equal(window, recent), (name, tick)
+            assert np.array_equal(drops, dropped_since) and np.array_equal(frees, freed_since), (name, tick)
+    assert np.all(counts > 20), counts

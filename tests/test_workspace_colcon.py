@@ -80,11 +80,15 @@ def test_installed_executable_runs_from_the_workspace(colcon_install):
     assert str(colcon_install) in result.stdout, 'config must come from the installed share dir'
 
 
-# The slowest of the packages' tests (two thirds of their time; the compiled nearest
-# wrench's, numba compiling it in the workspace's install), left out here: make test
-# runs every one of them in its own session, where a failure is reported test by test.
-HEAVY_PACKAGE_TESTS = ('not a_recovery_that_cannot_be_planned and not equilibrium_agrees_with_cross_section'
-                       ' and not nearest_wrench_within_the_bounds_is_scipys_bounded_least_squares[compiled]')
+# A few fast tests of each package's list: enough to show that colcon finds each list,
+# runs it against the workspace's install and reports it; make test runs every one of
+# them in its own session, where a failure is reported test by test.
+PACKAGE_TESTS_SAMPLE = ' or '.join((
+    'core_imports_no_rclpy', 'cable_mask', 'flatten_gives_ros_names',                  # cdpr_bringup
+    'inverse_kinematics_zero_at_home', 'torque_limit_is_enforced', 'bad_names_and_bounds',  # cdpr_control
+    'motor_reading_a_push_is_free',                                                   # cdpr_fdi
+    'only_the_required_fields_are_checked',                                           # cdpr_msgs_py
+    'each_window_counts_its_own_intervals'))                                          # cdpr_twin
 
 
 @pytest.mark.workspace
@@ -92,7 +96,7 @@ def test_colcon_test_runs_each_packages_tests(colcon_workspace):
     # colcon takes an argument for pytest that looks like an option of its own with a space before it
     result = subprocess.run(
         [str(COLCON), '--log-base', 'log', 'test', '--base-paths', 'src/cdpr/src',
-         '--event-handlers', 'console_direct-', '--pytest-args', ' -k', HEAVY_PACKAGE_TESTS],
+         '--event-handlers', 'console_direct-', '--pytest-args', ' -k', PACKAGE_TESTS_SAMPLE],
         cwd=colcon_workspace, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr
     summary = subprocess.run([str(COLCON), 'test-result', '--test-result-base', 'build', '--all', '--verbose'],
@@ -100,7 +104,6 @@ def test_colcon_test_runs_each_packages_tests(colcon_workspace):
     assert summary.returncode == 0, summary.stdout + summary.stderr
     # one result file per package (--all lists those without failures too), each with tests
     for package in PACKAGES:
-        assert re.search(rf'build/{package}/pytest.xml: [1-9]\d* tests, 0 errors, 0 failures',
+        assert re.search(rf'build/{package}/pytest.xml: [1-9]\d* tests?, 0 errors, 0 failures',
                          summary.stdout), summary.stdout
-    total = re.search(r'Summary: (\d+) tests, 0 errors, 0 failures', summary.stdout)
-    assert total and int(total[1]) > 200, summary.stdout
+    assert re.search(r'Summary: [1-9]\d* tests, 0 errors, 0 failures', summary.stdout), summary.stdout

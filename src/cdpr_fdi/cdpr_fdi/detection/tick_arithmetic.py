@@ -4,7 +4,7 @@ or compiled by numba (cdpr_control.kernels).
 On a handful of motors each of these took 5–12 µs as numpy expressions, nearly all of
 it numpy's per-call cost, together half of the supervisor's tick; compiled, a call takes
 under 1 µs (docs/performance.md). The formulas are residual.py's, tension_collapse.py's
-and the supervisor's reference tension; their docstrings say why.
+and the supervisor's reference tension and motor watch; their docstrings say why.
 
 Arrays in, arrays written: `motor` is `motor_constants(robot.motor, friction)`; the
 per-motor arrays hold one entry per motor.
@@ -89,19 +89,61 @@ def collapse_window(recent, total, slot, low_n, high_n, reference_n, band_n, ref
     return count
 
 
+def watch_unloaded(residual_nm, delta_nm, tick, unloaded, unloaded_since, last_unloaded) -> None:
+    """Per motor, whether its residual is above δ (`delta_nm`) on `tick` (into `unloaded`,
+    1.0 or 0.0), the first tick of its run above δ (into `unloaded_since`, -1 where not
+    above now) and the last tick it was above δ (into `last_unloaded`, kept where not)."""
+    for i in range(residual_nm.shape[0]):
+        if residual_nm[i] > delta_nm:
+            unloaded[i] = 1.0
+            if unloaded_since[i] < 0:
+                unloaded_since[i] = tick
+            last_unloaded[i] = tick
+        else:
+            unloaded[i] = 0.0
+            unloaded_since[i] = -1
+
+
+def watch_freed(low_n, radius_m, delta_nm, delta_n, tick, recent_low_n, unloaded_since, dropped_since,
+                freed_since) -> None:
+    """Per motor, from its τ̂ lower bound of `tick` (`low_n`, N): whether it looks free
+    (ρ τ̂ under δ), the tick it dropped to that, down by δ/ρ (`delta_n`) or more from the
+    larger of the two periods before (rows of `recent_low_n`, shifted on by this one), while
+    it has looked free since (into `dropped_since`, -1 where not so), and the first tick it
+    looked free with its residual's run above δ (`unloaded_since`) or on the period it
+    dropped, until it does neither (into `freed_since`, -1 where not so)."""
+    for i in range(low_n.shape[0]):
+        free = low_n[i] * radius_m < delta_nm
+        dropped = max(recent_low_n[0, i], recent_low_n[1, i]) - low_n[i] >= delta_n
+        if not free:
+            dropped_since[i] = -1
+        elif dropped_since[i] < 0 and dropped:
+            dropped_since[i] = tick
+        recent_low_n[0, i] = recent_low_n[1, i]
+        recent_low_n[1, i] = low_n[i]
+        lost = unloaded_since[i] >= 0
+        if freed_since[i] < 0 and free and (lost or dropped_since[i] == tick):
+            freed_since[i] = tick
+        elif not free and not lost:
+            freed_since[i] = -1
+
+
 # what the compiled functions call: nothing but themselves
 HELPERS = ()
-PYTHON = python_kernel(sensorless_tensions, reference_tensions, collapse_window)
+PYTHON = python_kernel(sensorless_tensions, reference_tensions, collapse_window, watch_unloaded, watch_freed)
 
 
 def signatures(types) -> dict:
     # C-contiguous float64 arrays only, those only read also read-only ones (from messages)
     row, rows, floats = types.float64[::1], types.float64[:, ::1], types.float64
+    ticks, tick = types.int64[::1], types.int64
     given = types.Array(types.float64, 1, 'C', readonly=True)
     return {sensorless_tensions: types.void(*(given,) * 4, floats, row, row, row),
             reference_tensions: types.void(given, floats, given, given, given, row),
             collapse_window: types.intp(types.float64[:, :, ::1], rows, types.intp, given, given, given, floats,
-                                        floats, row, row)}
+                                        floats, row, row),
+            watch_unloaded: types.void(given, floats, tick, row, ticks, ticks),
+            watch_freed: types.void(given, floats, floats, floats, tick, rows, ticks, ticks, ticks)}
 
 
 @cache
@@ -112,6 +154,6 @@ def _compiled() -> Kernel | None:
 
 def kernel(name: str = 'compiled') -> Kernel:
     """The kernel called `name` (cdpr_control.kernels.KERNELS): `sensorless_tensions`,
-    `reference_tensions` and `collapse_window` of this module; 'compiled' is the Python
-    one where numba is not installed."""
+    `reference_tensions`, `collapse_window`, `watch_unloaded` and `watch_freed` of this
+    module; 'compiled' is the Python one where numba is not installed."""
     return choose(name, PYTHON, _compiled)

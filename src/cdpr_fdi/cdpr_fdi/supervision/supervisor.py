@@ -153,9 +153,11 @@ class Supervisor:
         self.free_since: dict[int, int] = {}
         # per motor, the first tick of its residual's run above δ, on every tick (alarm or
         # not; -1: not above now): the order in which motors lost their cables' pull
-        self.unloaded_since = np.full(robot.cable_count, -1)
+        self.unloaded_since = np.full(robot.cable_count, -1, dtype=np.int64)
+        # per motor, whether its residual is above δ now (1.0 or 0.0)
+        self.unloaded = np.zeros(robot.cable_count)
         # per motor, the last tick its residual was above δ (long before the run: none yet)
-        self.last_unloaded = np.full(robot.cable_count, np.iinfo(np.int64).min // 2)
+        self.last_unloaded = np.full(robot.cable_count, np.iinfo(np.int64).min // 2, dtype=np.int64)
         # per motor, whether its residual rose above δ in the alarm's episode: of the motors
         # that look free, those that lost their pull; one that merely carries less than
         # δ/ρ all along (a drawn 7-cable platform's cable at 1.4 N, δ/ρ 1.7 N) looked as
@@ -164,7 +166,7 @@ class Supervisor:
         # per motor, the first tick it looked free (its sensorless tension's lower bound
         # under δ/ρ, as identify_broken_cables judges) with its residual above δ or on
         # the period it dropped there, until it does neither (its pull back); -1: not so
-        self.freed_since = np.full(robot.cable_count, -1)
+        self.freed_since = np.full(robot.cable_count, -1, dtype=np.int64)
         # per motor, the tick it dropped to looking free, its τ̂ (lower bound) down by δ/ρ
         # or more from the larger of the two periods before, while it has looked free
         # since; -1: not so. A cable parting under a load its residual cannot show (ρ τ
@@ -172,7 +174,7 @@ class Supervisor:
         # two (a drawn 8-cable point mass's cable 3, 4.2 N to 0.8 N, its residual under δ
         # throughout); a cable that carries about δ/ρ and dips under it (a drawn suspended
         # platform's cable 1, 2.9 to 2.7 N under δ/ρ = 2.78 N) does not drop.
-        self.dropped_since = np.full(robot.cable_count, -1)
+        self.dropped_since = np.full(robot.cable_count, -1, dtype=np.int64)
         self.delta_n = fdi.delta_nm / robot.motor.drum_radius_m   # δ/ρ (N)
         # τ̂'s lower bound (N) of the two periods before, per motor
         self.recent_low_n = np.full((2, robot.cable_count), -np.inf)
@@ -192,9 +194,9 @@ class Supervisor:
                command_nm, twin_torque_nm, twin_angular_velocity_rad_s,
                reference: JointReference) -> Verdict:
         residual = np.asarray(command_nm, float) - np.asarray(twin_torque_nm, float)
-        unloaded = residual > self.fdi.delta_nm
-        self.unloaded_since = np.where(unloaded, np.where(self.unloaded_since < 0, tick, self.unloaded_since), -1)
-        self.last_unloaded = np.where(unloaded, tick, self.last_unloaded)
+        unloaded = self.unloaded
+        self.arithmetic.watch_unloaded(residual, self.fdi.delta_nm, tick, unloaded, self.unloaded_since,
+                                       self.last_unloaded)
         applied = np.ascontiguousarray(applied_torque_nm, float)
         speed = np.ascontiguousarray(angular_velocity_rad_s, float)
         collapsed: list[int] = []
@@ -205,14 +207,9 @@ class Supervisor:
             self.tension_bounds_n = low, high
             # kept while the motor looks free or its residual stays above δ: a slack
             # cable's residual swings about δ period by period, its pull does not return
-            free = low * self.robot.motor.drum_radius_m < self.fdi.delta_nm
-            dropped = self.recent_low_n.max(axis=0) - low >= self.delta_n
-            self.dropped_since = np.where(free, np.where((self.dropped_since < 0) & dropped, tick,
-                                                         self.dropped_since), -1)
-            self.recent_low_n = np.array([self.recent_low_n[1], low])
-            lost = self.unloaded_since >= 0
-            self.freed_since = np.where((self.freed_since < 0) & free & (lost | (self.dropped_since == tick)), tick,
-                                        np.where(~free & ~lost, -1, self.freed_since))
+            self.arithmetic.watch_freed(low, self.robot.motor.drum_radius_m, self.fdi.delta_nm, self.delta_n, tick,
+                                        self.recent_low_n, self.unloaded_since, self.dropped_since,
+                                        self.freed_since)
             self.balance.record(tick, angle_rad, angular_velocity_rad_s, (low + high) / 2)
             if not self.broken:   # once a cable is named, nothing more is looked for
                 self.weigh_unloaded_alone(tick, unloaded)
