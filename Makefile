@@ -9,6 +9,7 @@ PACKAGES := cdpr_msgs_py cdpr_control cdpr_twin cdpr_fdi cdpr_bringup
 PACKAGE_FILES := $(foreach p,$(PACKAGES),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
 # The modules whose per-tick functions are compiled (cdpr_control/kernels.py)
 KERNEL_MODULES := cdpr_twin.models.elastic_substeps cdpr_control.platform.substeps cdpr_control.point_mass.substeps \
+	cdpr_control.tension_distribution.active_set \
 	cdpr_control.control.tracking cdpr_fdi.detection.tick_arithmetic
 
 # What rclpy needs in a venv. The DDS set-up (loopback only, no shared memory) is applied

@@ -14,12 +14,14 @@ from cdpr_control import kernels
 from cdpr_control.platform import substeps as platform_substeps
 from cdpr_control.point_mass import substeps as point_mass_substeps
 from cdpr_control.control import tracking
+from cdpr_control.tension_distribution import active_set
+from cdpr_control.tension_distribution.bounded_minimum_norm import BoundedMinimumNorm
 from cdpr_fdi.detection import tick_arithmetic
 from cdpr_twin.models import elastic_substeps
 
 pytest.importorskip('numba')
 
-MODULES = (elastic_substeps, platform_substeps, point_mass_substeps, tracking, tick_arithmetic)
+MODULES = (elastic_substeps, platform_substeps, point_mass_substeps, tracking, tick_arithmetic, active_set)
 MOTORS = 8
 
 
@@ -179,3 +181,45 @@ def test_the_motor_watch_keeps_the_runs_the_supervisor_defines():
             assert np.array_equal(last, last_unloaded) and np.array_equal(window, recent), (name, tick)
             assert np.array_equal(drops, dropped_since) and np.array_equal(frees, freed_since), (name, tick)
     assert np.all(counts > 20), counts
+
+
+def test_the_active_set_search_gives_the_same_projection_with_both():
+    """bounded_minimum_norm's dual active-set search on random cables and wrenches, both
+    kernels: the same point, to the bit, or the same constraint out of reach; and the point
+    is the projection (its bounds hold, and no feasible z is nearer z_ref)."""
+    rng = np.random.default_rng(11)
+    statuses = set()
+    for _ in range(200):
+        rows = int(rng.choice([3, 6]))
+        cables = rows + int(rng.integers(1, 6))
+        structure = rng.normal(size=(rows, cables))
+        particular = np.linalg.pinv(structure) @ (rng.normal(size=rows) * rng.uniform(1.0, 30.0))
+        null_basis = np.linalg.svd(structure)[2][rows:].T
+        low, high = rng.uniform(0.0, 5.0), rng.uniform(20.0, 60.0)
+        normals = np.ascontiguousarray(np.vstack([null_basis, -null_basis]))
+        bounds = np.concatenate([low - particular, particular - high])
+        start = null_basis.T @ (np.full(cables, rng.uniform(low, high)) - particular)
+        found = []
+        for name in ('python', 'compiled'):
+            z, failed = start.copy(), np.zeros(1, dtype=np.intp)
+            status = active_set.kernel(name).project(normals, bounds, z, 1e-9, 1e-12, 10 * cables + 10, failed)
+            found.append((status, z, int(failed[0]) if status == active_set.UNREACHABLE else None))
+        (status, z, failed), (compiled_status, compiled_z, compiled_failed) = found
+        assert status == compiled_status and failed == compiled_failed and np.array_equal(z, compiled_z)
+        statuses.add(status)
+        if status == active_set.SETTLED:
+            assert np.all(normals @ z - bounds >= -1e-9)
+            # nearer points along any feasible direction from z break a bound: z is the projection
+            for _ in range(20):
+                nearer = z + 1e-3 * rng.normal(size=z.size)
+                if np.linalg.norm(nearer - start) < np.linalg.norm(z - start) - 1e-9:
+                    assert np.any(normals @ nearer - bounds < 0.0)
+    assert statuses == {active_set.SETTLED, active_set.UNREACHABLE}, statuses
+
+
+def test_a_bounded_minimum_norm_with_no_tensions_names_the_cable_it_cannot_bring_in():
+    # three cables pulling one way along x with at least 5 N each cannot give 1 N along x
+    structure = np.array([[1.0, 1.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0], [0.0, 1.0, -1.0, 0.0]])
+    with pytest.raises(Exception, match='cannot be brought to') as raised:
+        BoundedMinimumNorm(5.0, 50.0, 20.0)._projection(structure, np.array([1.0, 10.0, 0.0]), np.full(4, 20.0))
+    assert raised.value.cable in range(4)

@@ -1,6 +1,6 @@
 """Kernels: functions written once on floats and small arrays, element by element, that
 CPython runs as they are or numba compiles (elastic_substeps, platform_substeps,
-point_mass_substeps, cdpr_fdi.detection.tick_arithmetic).
+point_mass_substeps, tension_distribution.active_set, cdpr_fdi.detection.tick_arithmetic).
 
 On a handful of cables numpy's per-call cost is most of a computation; numba compiles
 such loops to a few µs or less. The `python` kernel runs the same functions, for a

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from cdpr_control.tension_distribution import active_set
 from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N, FreeDirection, InfeasibleTensionError, TensionDistribution, minimum_norm
 
 DIRECTION_TOLERANCE = 1e-12
@@ -97,55 +98,19 @@ class BoundedMinimumNorm(TensionDistribution):
         particular = minimum_norm(structure, wrench_n)
         null_basis = np.linalg.svd(structure)[2][structure.shape[0]:].T
         # Constraints normal · z ≥ bound: τ₀ + N z ≥ τ_min, then −(τ₀ + N z) ≥ −τ_max.
-        normals = np.vstack([null_basis, -null_basis])
+        normals = np.ascontiguousarray(np.vstack([null_basis, -null_basis]))
         bounds = np.concatenate([self.tension_min_n - particular, particular - self.tension_max_n])
         z = null_basis.T @ (reference - particular)
-        active: list[int] = []
-        multipliers = np.zeros(0)
-        for _ in range(10 * count + 10):
-            slack = normals @ z - bounds
-            violated = int(np.argmin(slack))
-            if slack[violated] >= -BOUND_TOLERANCE_N:
-                return particular + null_basis @ z
-            z, active, multipliers = self._add_constraint(normals, bounds, z, active, multipliers,
-                                                          violated)
+        failed = np.zeros(1, dtype=np.intp)
+        status = active_set.kernel().project(normals, bounds, z, BOUND_TOLERANCE_N, DIRECTION_TOLERANCE,
+                                             10 * count + 10, failed)
+        if status == active_set.SETTLED:
+            return particular + null_basis @ z
+        if status == active_set.UNREACHABLE:
+            bound = self.tension_min_n if failed[0] < count else self.tension_max_n
+            raise InfeasibleTensionError(
+                f'cannot be brought to {bound} N while the others keep within their bounds',
+                cable=int(failed[0]) % count)
+        if status == active_set.SINGULAR:
+            raise np.linalg.LinAlgError('the active bounds of the dual active-set search are dependent')
         raise InfeasibleTensionError('the dual active-set search did not settle')
-
-    def _add_constraint(self, normals, bounds, z, active, multipliers, added):
-        """One Goldfarb–Idnani step: make constraint `added` active, dropping others as needed."""
-        normal = normals[added]
-        trial = np.append(multipliers, 0.0)
-        while True:
-            if active:
-                active_normals = normals[active].T
-                dual_direction = np.linalg.solve(active_normals.T @ active_normals,
-                                                 active_normals.T @ normal)
-                primal_direction = normal - active_normals @ dual_direction
-            else:
-                dual_direction = np.zeros(0)
-                primal_direction = normal
-            # largest dual step keeping the active multipliers non-negative
-            blocking = np.flatnonzero(dual_direction > DIRECTION_TOLERANCE)
-            partial_step, dropped = np.inf, None
-            if blocking.size:
-                ratios = trial[blocking] / dual_direction[blocking]
-                dropped = int(blocking[np.argmin(ratios)])
-                partial_step = float(np.min(ratios))
-            curvature = primal_direction @ primal_direction
-            full_step = (-(normal @ z - bounds[added]) / curvature
-                         if curvature > DIRECTION_TOLERANCE else np.inf)
-            if not np.isfinite(min(full_step, partial_step)):
-                count = normals.shape[0] // 2
-                bound = self.tension_min_n if added < count else self.tension_max_n
-                raise InfeasibleTensionError(
-                    f'cannot be brought to {bound} N while the others keep within their bounds',
-                    cable=added % count)
-            step = min(full_step, partial_step)
-            if np.isfinite(full_step):
-                z = z + step * primal_direction
-            trial[:-1] -= step * dual_direction
-            trial[-1] += step
-            if full_step <= partial_step:
-                return z, active + [added], trial
-            del active[dropped]
-            trial = np.delete(trial, dropped)
