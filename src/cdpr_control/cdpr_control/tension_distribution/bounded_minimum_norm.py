@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdpr_control.tension_distribution import active_set
+from cdpr_control.tension_distribution.active_set import SETTLED, SINGULAR, UNREACHABLE, kernel as active_set_kernel
 from cdpr_control.tension_distribution.base import BOUND_TOLERANCE_N, FreeDirection, InfeasibleTensionError, TensionDistribution, minimum_norm
 
 DIRECTION_TOLERANCE = 1e-12
@@ -102,15 +102,15 @@ class BoundedMinimumNorm(TensionDistribution):
         bounds = np.concatenate([self.tension_min_n - particular, particular - self.tension_max_n])
         z = null_basis.T @ (reference - particular)
         failed = np.zeros(1, dtype=np.intp)
-        status = active_set.kernel().project(normals, bounds, z, BOUND_TOLERANCE_N, DIRECTION_TOLERANCE,
+        status = active_set_kernel().project(normals, bounds, z, BOUND_TOLERANCE_N, DIRECTION_TOLERANCE,
                                              10 * count + 10, failed)
-        if status == active_set.SETTLED:
+        if status == SETTLED:
             return particular + null_basis @ z
-        if status == active_set.UNREACHABLE:
+        if status == UNREACHABLE:
             bound = self.tension_min_n if failed[0] < count else self.tension_max_n
             raise InfeasibleTensionError(
                 f'cannot be brought to {bound} N while the others keep within their bounds',
                 cable=int(failed[0]) % count)
-        if status == active_set.SINGULAR:
+        if status == SINGULAR:
             raise np.linalg.LinAlgError('the active bounds of the dual active-set search are dependent')
         raise InfeasibleTensionError('the dual active-set search did not settle')
