@@ -26,6 +26,7 @@ import hashlib
 import importlib
 import importlib.machinery
 import importlib.util
+import multiprocessing
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -171,7 +172,10 @@ def main(argv=None) -> int:
     from their current source yet (a C compiler is needed: where the build fails, numba
     compiles the kernels at first use instead)."""
     names = sys.argv[1:] if argv is None else argv
-    with ProcessPoolExecutor(2) as pool:
+    # fresh processes, not forks: a caller with threads of its own (a test session's, a
+    # node's) leaves a fork only the forking thread, and once a forked builder crashed in
+    # its garbage collector
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context('spawn')) as pool:
         for outcome in pool.map(_build_or_say, names):
             if outcome:
                 print(outcome)
