@@ -120,8 +120,10 @@ def project(normals, bounds, z, bound_tolerance, direction_tolerance, max_steps,
                 active[held] = violated
                 held += 1
                 break
+            # constraint `dropped` leaves; the new one's multiplier moves down with the rest
+            for a in range(dropped, held - 1):
+                active[a] = active[a + 1]
             for a in range(dropped, held):
-                active[a] = active[a + 1] if a + 1 < held else active[a]
                 multipliers[a] = multipliers[a + 1]
             held -= 1
     return UNSETTLED

@@ -98,6 +98,7 @@ class BoundedMinimumNorm(TensionDistribution):
         particular = minimum_norm(structure, wrench_n)
         null_basis = np.linalg.svd(structure)[2][structure.shape[0]:].T
         # Constraints normal · z ≥ bound: τ₀ + N z ≥ τ_min, then −(τ₀ + N z) ≥ −τ_max.
+        # C order, as the kernel reads it: stacked from the transposed basis, it is Fortran's
         normals = np.ascontiguousarray(np.vstack([null_basis, -null_basis]))
         bounds = np.concatenate([self.tension_min_n - particular, particular - self.tension_max_n])
         z = null_basis.T @ (reference - particular)
