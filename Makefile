@@ -49,8 +49,12 @@ demo-6dof: setup
 # cluster, spread over the machine's cores (pytest-xdist, a test file per worker; a
 # lockstep graph waits for nothing but its own messages); then those alone, one at a
 # time: the realtime tests judge a 500 Hz loop on this machine, and the Dask tests'
-# timeouts assume a machine they do not share. Both always run.
+# timeouts assume a machine they do not share. Both always run, writing bytecode caches
+# (gitignored) whatever the shell says: else both sessions, each xdist worker and every node
+# process of every graph compile every module again (the test modules' rewritten asserts
+# alone took 2-3 s of each session's start).
 test: setup
+	unset PYTHONDONTWRITEBYTECODE; \
 	$(PY) -m pytest -m 'not realtime and not cluster' -n auto --dist loadfile; first=$$?; \
 	$(PY) -m pytest -m 'realtime or cluster'; exit $$(( first || $$? ))
 

@@ -1,7 +1,7 @@
 """inject_failure breaks a cable only on a plant started with failure injection on, and
 only from the node it names (issue 26 item 3): in this process, on the middleware's GIDs.
 That a running graph's plant refuses an outside node's injection by default is asserted in
-test_command_writer's graph run."""
+test_outside_nodes.py's graph run."""
 from __future__ import annotations
 
 import time

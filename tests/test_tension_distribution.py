@@ -337,7 +337,7 @@ def test_floored_least_squares_keeps_the_method_where_it_fits_and_nears_the_wren
 def test_a_stack_is_distributed_row_by_row_as_alone_and_stops_at_its_first_infeasible_row(
         eight_cable_robot, rng, monkeypatch):
     """The floored method on a stack gives each row what that row alone gets; the bounded
-    one, asked for every row of a stack (a plan), projects none after the first row no
+    one, asked for every row of a stack (a plan), searches none after the first row no
     tensions pull: the plan is tried again, slower, and the rest is not needed."""
     robot = eight_cable_robot
     within = make_tension_distribution('bounded_minimum_norm', robot.tension_min_n, robot.tension_max_n)
@@ -349,15 +349,20 @@ def test_a_stack_is_distributed_row_by_row_as_alone_and_stops_at_its_first_infea
                                [floored.distribute(s, w) for s, w in zip(structures, wrenches)], rtol=0, atol=1e-9)
     alone = within.distribute_each(structures, wrenches)
     first = int(np.flatnonzero(np.isnan(alone).any(axis=1))[0])
-    projected = []
-    projection = type(within)._projection
-    monkeypatch.setattr(type(within), '_projection',
-                        lambda self, structure, *rest: projected.append(structure) or projection(self, structure, *rest))
+    searched = []   # the structures of the rows the active-set search took up
+    projections = type(within)._projections
+
+    def spied(self, structures, *rest, **options):
+        results = projections(self, structures, *rest, **options)
+        searched.extend(structures[:len(results)])
+        return results
+
+    monkeypatch.setattr(type(within), '_projections', spied)
     with pytest.raises(InfeasibleTensionError) as error:
         within.distribute_rows(structures, wrenches)
     assert error.value.row == first
     rows = [next(row for row, structure in enumerate(structures) if np.array_equal(structure, seen))
-            for seen in projected]
+            for seen in searched]
     assert max(rows) == first
 
 

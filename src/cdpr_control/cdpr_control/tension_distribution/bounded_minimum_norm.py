@@ -62,13 +62,13 @@ class BoundedMinimumNorm(TensionDistribution):
                 return tensions
             # the active-set search names why the first row has none (and settles a row
             # the interval left out by rounding alone)
-        for row in outside:
-            try:
-                tensions[row] = self._projection(structures[row], wrenches_n[row], reference[row])
-            except InfeasibleTensionError as err:
-                if first_infeasible_raises:
-                    raise err.in_row(int(row)) from None
-                tensions[row] = np.nan
+        if outside.size:
+            projected = self._projections(structures[outside], wrenches_n[outside], reference[outside],
+                                          stop_at_failure=first_infeasible_raises)
+            for row, (projection, failure) in zip(outside, projected):
+                if failure is not None and first_infeasible_raises:
+                    raise failure.in_row(int(row))
+                tensions[row] = np.nan if failure is not None else projection
         return tensions
 
     def distribute_along(self, free: FreeDirection, structures: np.ndarray, wrenches_n: np.ndarray) -> np.ndarray:
@@ -94,24 +94,44 @@ class BoundedMinimumNorm(TensionDistribution):
         return np.where(held[:, None], tensions, np.nan)
 
     def _projection(self, structure, wrench_n, reference):
-        count = structure.shape[1]
-        particular = minimum_norm(structure, wrench_n)
-        null_basis = np.linalg.svd(structure)[2][structure.shape[0]:].T
+        [(tensions, failure)] = self._projections(structure[None], wrench_n[None], reference[None],
+                                                  stop_at_failure=True)
+        if failure is not None:
+            raise failure
+        return tensions
+
+    def _projections(self, structures, wrenches_n, references, stop_at_failure: bool):
+        """Per row of a stack, (its tensions, None), or (None, the InfeasibleTensionError
+        saying why none); with `stop_at_failure`, no row after the first that has none. S⁺ w and
+        the null bases of the whole stack at once (numpy's per-call cost, not the
+        arithmetic, is most of a row's), then the compiled search row by row."""
+        count = structures.shape[-1]
+        particular = minimum_norm(structures, wrenches_n)
+        null_bases = np.swapaxes(np.linalg.svd(structures)[2][:, structures.shape[-2]:], -1, -2)
         # Constraints normal · z ≥ bound: τ₀ + N z ≥ τ_min, then −(τ₀ + N z) ≥ −τ_max.
-        # C order, as the kernel reads it: stacked from the transposed basis, it is Fortran's
-        normals = np.ascontiguousarray(np.vstack([null_basis, -null_basis]))
-        bounds = np.concatenate([self.tension_min_n - particular, particular - self.tension_max_n])
-        z = null_basis.T @ (reference - particular)
-        failed = np.zeros(1, dtype=np.intp)
-        status = active_set_kernel().project(normals, bounds, z, BOUND_TOLERANCE_N, DIRECTION_TOLERANCE,
-                                             10 * count + 10, failed)
-        if status == SETTLED:
-            return particular + null_basis @ z
-        if status == UNREACHABLE:
-            bound = self.tension_min_n if failed[0] < count else self.tension_max_n
-            raise InfeasibleTensionError(
-                f'cannot be brought to {bound} N while the others keep within their bounds',
-                cable=int(failed[0]) % count)
-        if status == SINGULAR:
-            raise np.linalg.LinAlgError('the active bounds of the dual active-set search are dependent')
-        raise InfeasibleTensionError('the dual active-set search did not settle')
+        # C order, as the kernel reads it: stacked from the transposed bases, it is Fortran's
+        normals = np.ascontiguousarray(np.concatenate([null_bases, -null_bases], axis=-2))
+        bounds = np.ascontiguousarray(np.concatenate([self.tension_min_n - particular,
+                                                      particular - self.tension_max_n], axis=-1))
+        z = np.ascontiguousarray((np.swapaxes(null_bases, -1, -2) @ (references - particular)[..., None])[..., 0])
+        search, failed = active_set_kernel(), np.zeros(1, dtype=np.intp)
+        results = []
+        for row in range(len(structures)):
+            status = search.project(normals[row], bounds[row], z[row], BOUND_TOLERANCE_N, DIRECTION_TOLERANCE,
+                                    10 * count + 10, failed)
+            if status == SETTLED:
+                results.append((particular[row] + null_bases[row] @ z[row], None))
+                continue
+            if status == UNREACHABLE:
+                bound = self.tension_min_n if failed[0] < count else self.tension_max_n
+                failure = InfeasibleTensionError(
+                    f'cannot be brought to {bound} N while the others keep within their bounds',
+                    cable=int(failed[0]) % count)
+            elif status == SINGULAR:
+                raise np.linalg.LinAlgError('the active bounds of the dual active-set search are dependent')
+            else:
+                failure = InfeasibleTensionError('the dual active-set search did not settle')
+            results.append((None, failure))
+            if stop_at_failure:
+                break
+        return results
