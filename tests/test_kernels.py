@@ -46,9 +46,7 @@ def test_compiled_is_built_from_this_source_and_python_is_cpython(module, monkey
 
 
 SMALL_KERNEL_MODULE = """
-from functools import cache
-
-from cdpr_control.kernels import choose, compiled_kernel, python_kernel
+from cdpr_control.kernels import chooser, python_kernel
 
 
 def scaled(values, factor, out):
@@ -65,13 +63,7 @@ def signatures(types):
     return {scaled: types.void(row, types.float64, row)}
 
 
-@cache
-def _compiled():
-    return compiled_kernel(__name__)
-
-
-def kernel(name='compiled'):
-    return choose(name, PYTHON, _compiled)
+kernel = chooser(__name__, PYTHON)
 """
 
 

@@ -17,11 +17,12 @@ The `compiled` kernel of a module is, in this order:
   source until the next `make setup`);
 - else, without numba, the Python one.
 A kernel module names the functions numba compiles and their types in
-`signatures(numba.types)` (function → signature) and the functions they call in
-`HELPERS`.
+`signatures(numba.types)` (function → signature), the functions they call in `HELPERS`,
+its Python kernel `PYTHON = python_kernel(...)`, and gets its `kernel` from `chooser`.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import importlib.machinery
@@ -193,9 +194,16 @@ if __name__ == '__main__':
     sys.exit(main())
 
 
-def choose(name: str, python: Kernel, compiled: Callable[[], Kernel | None]) -> Kernel:
-    """The kernel called `name` (KERNELS); 'compiled' is the Python one where numba is
-    not installed. `compiled` builds (or returns the cached) compiled kernel."""
-    if name not in KERNELS:
-        raise ValueError(f'kernel must be one of {", ".join(KERNELS)}, got {name!r}')
-    return (name == 'compiled' and compiled()) or python
+def chooser(module_name: str, python: Kernel, **attributes) -> Callable[..., Kernel]:
+    """A kernel module's `kernel(name='compiled')`: its kernel called `name` (KERNELS),
+    `python` its Python one. The compiled one (compiled_kernel, with `attributes`) is
+    built or loaded once per process, and only by a process that asks for it; where numba
+    is not installed, 'compiled' is the Python one."""
+    compiled = functools.cache(lambda: compiled_kernel(module_name, **attributes))
+
+    def kernel(name: str = 'compiled') -> Kernel:
+        if name not in KERNELS:
+            raise ValueError(f'kernel must be one of {", ".join(KERNELS)}, got {name!r}')
+        return (name == 'compiled' and compiled()) or python
+
+    return kernel

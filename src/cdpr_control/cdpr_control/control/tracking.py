@@ -8,9 +8,8 @@ robot's controller and the twin's); as numpy expressions on a handful of motors 
 """
 from __future__ import annotations
 
-from functools import cache
 
-from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
+from cdpr_control.kernels import chooser, python_kernel
 
 
 def tracking_torques(stiffness_nm_rad, damping_nm_s_rad, limit_nm, angle_rad, reference_angle_rad,
@@ -36,13 +35,5 @@ def signatures(types) -> dict:
     return {tracking_torques: types.void(floats, floats, floats, *(given,) * 6, row)}
 
 
-@cache
-def _compiled() -> Kernel | None:
-    # built or compiled once per process, only by one that asks for it
-    return compiled_kernel(__name__)
-
-
-def kernel(name: str = 'compiled') -> Kernel:
-    """The kernel called `name` (kernels.KERNELS): `tracking_torques` of this module;
-    'compiled' is the Python one where numba is not installed."""
-    return choose(name, PYTHON, _compiled)
+# kernel(name='compiled'): this module's functions as the kernel called `name` runs them
+kernel = chooser(__name__, PYTHON)

@@ -17,12 +17,11 @@ floats, world frame; a mask holds 1.0 for yes and 0.0 for no.
 """
 from __future__ import annotations
 
-from functools import cache
 from math import atan2, cos, sin, sqrt, tanh
 
 import numpy as np
 
-from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
+from cdpr_control.kernels import chooser, python_kernel
 
 from cdpr_control.geometry.rotation import SMALL_ANGLE_RAD
 
@@ -771,15 +770,5 @@ def signatures(types) -> dict:
             steered_rows: count(row, rows, rows, row, row, row, row, row, row, types.float64, count, row, row, rows)}
 
 
-@cache
-def _compiled() -> Kernel | None:
-    # built or compiled once per process, only by one that asks for it
-    return compiled_kernel(__name__)
-
-
-def kernel(name: str = 'compiled') -> Kernel:
-    """The kernel called `name` (KERNELS): `forward_kinematics`, `velocity_product`,
-    `rigid_body`, `direct_dynamics`, `motion_rows`, `rigid_substeps`, `elastic_substeps`,
-    `move`, `nearest_wrench` and `steered_rows` of this module; 'compiled' is the Python one where numba is not
-    installed."""
-    return choose(name, PYTHON, _compiled)
+# kernel(name='compiled'): this module's functions as the kernel called `name` runs them
+kernel = chooser(__name__, PYTHON)

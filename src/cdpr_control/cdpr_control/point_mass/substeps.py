@@ -16,12 +16,11 @@ mask holds 1.0 for yes and 0.0 for no.
 """
 from __future__ import annotations
 
-from functools import cache
 from math import sqrt
 
 import numpy as np
 
-from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
+from cdpr_control.kernels import chooser, python_kernel
 
 # the slots of `constants`
 MASS, WEIGHT, MOTOR_INERTIA, VISCOUS, RADIUS, RETAUT = 0, 1, 4, 5, 6, 7
@@ -226,14 +225,5 @@ def signatures(types) -> dict:
                                        rows)}
 
 
-@cache
-def _compiled() -> Kernel | None:
-    # built or compiled once per process, only by one that asks for it
-    return compiled_kernel(__name__)
-
-
-def kernel(name: str = 'compiled') -> Kernel:
-    """The kernel called `name` (KERNELS): `cable_directions`, `direct_dynamics` and
-    `rigid_substeps` of this module; 'compiled' is the Python one where numba is not
-    installed."""
-    return choose(name, PYTHON, _compiled)
+# kernel(name='compiled'): this module's functions as the kernel called `name` runs them
+kernel = chooser(__name__, PYTHON)

@@ -14,11 +14,10 @@ Statuses of `project`: SETTLED, or why not, with the constraint it concerns in
 """
 from __future__ import annotations
 
-from functools import cache
 
 import numpy as np
 
-from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
+from cdpr_control.kernels import chooser, python_kernel
 
 SETTLED, UNSETTLED, UNREACHABLE, SINGULAR = range(4)
 
@@ -139,13 +138,5 @@ def signatures(types) -> dict:
     return {project: types.intp(rows, row, row, floats, floats, types.intp, types.intp[::1])}
 
 
-@cache
-def _compiled() -> Kernel | None:
-    # built or compiled once per process, only by one that asks for it
-    return compiled_kernel(__name__)
-
-
-def kernel(name: str = 'compiled') -> Kernel:
-    """The kernel called `name` (cdpr_control.kernels.KERNELS): `project` of this module;
-    'compiled' is the Python one where numba is not installed."""
-    return choose(name, PYTHON, _compiled)
+# kernel(name='compiled'): this module's functions as the kernel called `name` runs them
+kernel = chooser(__name__, PYTHON)

@@ -17,7 +17,7 @@ from math import tanh
 import numpy as np
 
 from cdpr_control.model.friction import FrictionModel
-from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
+from cdpr_control.kernels import chooser, python_kernel
 from cdpr_control.model.robot import Motor
 
 # the slots of `motor`
@@ -146,14 +146,5 @@ def signatures(types) -> dict:
             watch_freed: types.void(given, floats, floats, floats, tick, rows, ticks, ticks, ticks)}
 
 
-@cache
-def _compiled() -> Kernel | None:
-    # built or compiled once per process, only by one that asks for it
-    return compiled_kernel(__name__)
-
-
-def kernel(name: str = 'compiled') -> Kernel:
-    """The kernel called `name` (cdpr_control.kernels.KERNELS): `sensorless_tensions`,
-    `reference_tensions`, `collapse_window`, `watch_unloaded` and `watch_freed` of this
-    module; 'compiled' is the Python one where numba is not installed."""
-    return choose(name, PYTHON, _compiled)
+# kernel(name='compiled'): this module's functions as the kernel called `name` runs them
+kernel = chooser(__name__, PYTHON)

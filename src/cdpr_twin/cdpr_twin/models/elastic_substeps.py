@@ -9,12 +9,11 @@ instead of ~65 µs (2-core EPYC), built ahead of time by `make setup`
 """
 from __future__ import annotations
 
-from functools import cache
 from math import exp, sqrt, tanh
 
 import numpy as np
 
-from cdpr_control.kernels import Kernel, choose, compiled_kernel, python_kernel
+from cdpr_control.kernels import chooser, python_kernel
 
 
 def integrate(substeps, h, constants, cables, inputs, motors, state):
@@ -104,13 +103,5 @@ def signatures(types) -> dict:
                              rows, state)}
 
 
-@cache
-def _compiled() -> Kernel | None:
-    # built or compiled once per process, only by one that asks for it
-    return compiled_kernel(__name__, view=lambda array: array)
-
-
-def kernel(name: str) -> Kernel:
-    """The kernel called `name` (KERNELS); 'compiled' is the Python one where numba is
-    not installed."""
-    return choose(name, PYTHON, _compiled)
+# kernel(name='compiled'): this module's functions as the kernel called `name` runs them
+kernel = chooser(__name__, PYTHON, view=lambda array: array)
