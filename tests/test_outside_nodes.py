@@ -22,6 +22,7 @@ writers' commands reach different nodes' different checks.
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -150,6 +151,16 @@ class OutsideRun:
     writes_s: tuple         # monotonic s of the writers' start and end
     ended_s: float          # monotonic s of the graph's stop
 
+    @property
+    def topics(self) -> list[str]:
+        """The bag's topics both tests judge: the failure verdicts, the joint states, the statuses."""
+        return [f'{self.namespace}/fdi/broken_cable', f'{self.namespace}/joint_states', '/diagnostics']
+
+    @functools.cached_property
+    def found(self) -> dict:
+        """The messages of `topics` in the bag, read once for both tests."""
+        return read_messages(self.bag, self.topics)
+
 
 @pytest.fixture(scope='module', params=['lockstep', pytest.param('realtime', marks=pytest.mark.realtime)])
 def outside_run(request, tmp_path_factory) -> OutsideRun:
@@ -207,8 +218,7 @@ def check_graph_unharmed_and_reader_reported(run: OutsideRun, reported_by_all: b
     did not read reported lagging, nothing failed to publish; if `reported_by_all`, every
     writer the reader read reported it (WARN). The joint states."""
     namespace, bag, log = run.namespace, run.bag, run.log
-    topics = [f'{namespace}/fdi/broken_cable', f'{namespace}/joint_states', '/diagnostics']
-    found = read_messages(bag, topics)
+    topics, found = run.topics, run.found
     assert found[topics[0]], 'no failure verdict in the bag'
     assert all(message.data == 0 for _, message in found[topics[0]]), 'a false failure alarm'
     states = found[topics[1]]
@@ -288,8 +298,7 @@ def test_a_second_writer_on_effort_command_is_rejected_named_and_obeyed_by_nothi
     with timing_check(log, writes_s, f'{clock_mode}: the outside writers answered states'):
         assert all(counts['copied_stamps'] > 0 and counts['commands'] > counts['copied_stamps']
                    for counts in sent.values()), sent
-    topics = [f'{namespace}/fdi/broken_cable', f'{namespace}/joint_states', '/diagnostics']
-    found = read_messages(bag, topics)
+    topics, found = run.topics, run.found
     applied = [message.effort for _, message in found[topics[1]]]
     assert applied, 'no joint state in the bag'
     assert not any(np.allclose(effort, 0.0) for effort in applied), \

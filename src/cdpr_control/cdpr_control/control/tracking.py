@@ -8,7 +8,6 @@ robot's controller and the twin's); as numpy expressions on a handful of motors 
 """
 from __future__ import annotations
 
-
 from cdpr_control.kernels import chooser, python_kernel
 
 

@@ -14,7 +14,6 @@ Statuses of `project`: SETTLED, or why not, with the constraint it concerns in
 """
 from __future__ import annotations
 
-
 import numpy as np
 
 from cdpr_control.kernels import chooser, python_kernel
